@@ -1,0 +1,143 @@
+// `dtflop predict`: cost counts of a workload and, given a machine profile, the DTFLOP
+// model's per-component time breakdown and the real-time check (eq. 3.1).
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "cli/command.hpp"
+#include "cli/table.hpp"
+#include "model/errors.hpp"
+#include "model/json_io.hpp"
+#include "model/predict.hpp"
+#include "model/units.hpp"
+
+namespace dtflop::cli {
+namespace {
+
+struct PredictOptions {
+  std::string machine;
+  std::string deadline;
+  std::string variant = "extended";
+  bool json = false;
+};
+
+std::string count_str(std::int64_t v) { return fmt::format("{}", v); }
+
+void print_counts(const CostCounts& c) {
+  Table t({"count", "value", "meaning"});
+  t.row({"P", count_str(c.P), fmt::format("bytes per value ({})", to_string(c.precision))});
+  t.row({"N_CG", count_str(c.N_CG), fmt::format("values host->device in {} copies", c.transfers_CG)});
+  t.row({"N_GC", count_str(c.N_GC), fmt::format("values device->host in {} copies", c.transfers_GC)});
+  t.row({"N_GG", count_str(c.N_GG), "values through device memory"});
+  t.row({"N_C", count_str(c.N_C), fmt::format("FLOPs on the CPU ({} thread{})", c.cpu_threads,
+                                              c.cpu_threads == 1 ? "" : "s")});
+  t.row({"N_CC", count_str(c.N_CC), "values through host memory (extended model)"});
+  t.row({"N_G", count_str(c.N_G), "FLOPs on the GPU"});
+  t.row({"launches", count_str(c.launches), "kernel launches"});
+  t.row({"host memory", std::string(to_string(c.host_memory)), ""});
+  fmt::print("{}", t.str());
+}
+
+void print_prediction(const Prediction& p) {
+  Table t({"component", "time", "share"});
+  auto share = [&p](double v) { return p.total > 0 ? fmt::format("{:.1f}%", 100 * v / p.total) : "-"; };
+  auto add = [&](const char* name, double v) { t.row({name, format_duration(v), share(v)}); };
+  add("dt_CG  host->device", p.dt_CG);
+  add("dt_GC  device->host", p.dt_GC);
+  add("dt_GG  device memory", p.dt_GG);
+  add("dt_C   CPU", p.dt_C);
+  add("dt_G   GPU arithmetic", p.dt_G);
+  if (p.variant != Variant::seed) {
+    add("latency host->device", p.lat_CG);
+    add("latency device->host", p.lat_GC);
+    add("kernel launches", p.lat_launch);
+  }
+  t.row({"total", format_duration(p.total), ""});
+  fmt::print("{}", t.str());
+  if (p.variant == Variant::extended)
+    fmt::print("(extended variant: device time is max(dt_GG, dt_G), so shares of the total may "
+               "add up to more than 100%)\n");
+}
+
+void run(const PredictOptions& o, const PredictTarget& target, const CountsFn& fn) {
+  const auto variant = variant_from_string(o.variant);
+  if (!variant)
+    throw InputError(fmt::format("--variant '{}' is unknown; use seed, latency or extended", o.variant));
+  std::optional<double> deadline;
+  if (!o.deadline.empty()) deadline = parse_duration(o.deadline, "--deadline");
+  if (deadline && o.machine.empty())
+    throw InputError("--deadline needs a machine profile to predict against; add --machine "
+                     "machine.json (try docs/examples/h200.json)");
+
+  const CountsResult r = fn();
+  nlohmann::json out = {{"workload", target.name},
+                        {"description", r.description},
+                        {"parameters", r.parameters},
+                        {"counts", to_json(r.counts)}};
+  std::optional<Prediction> pred;
+  MachineProfile profile;
+  if (!o.machine.empty()) {
+    profile = load_profile(o.machine);
+    pred = predict(profile, r.counts, *variant);
+    out["machine"] = {{"file", o.machine},
+                      {"cpu_model", profile.identity.cpu_model},
+                      {"gpu_name", profile.identity.gpu_name}};
+    out["prediction"] = to_json(*pred);
+    if (deadline) {
+      out["deadline"] = *deadline;
+      out["meets_deadline"] = meets_deadline(*pred, *deadline);
+      out["slack"] = *deadline - pred->total;
+    }
+  }
+  if (o.json) {
+    fmt::print("{}\n", out.dump(2));
+    return;
+  }
+  fmt::print("{}\n\nCost counts per step:\n", r.description);
+  print_counts(r.counts);
+  if (!pred) {
+    fmt::print("\n(no --machine given: counts only. Add --machine machine.json for the time "
+               "breakdown, e.g. --machine docs/examples/h200.json)\n");
+    return;
+  }
+  fmt::print("\nPredicted time per step on {}{} (model variant: {}):\n",
+             profile.identity.gpu_name.empty() ? profile.identity.cpu_model : profile.identity.gpu_name,
+             profile.identity.measured_at.empty() ? "" : ", profiled " + profile.identity.measured_at,
+             to_string(*variant));
+  print_prediction(*pred);
+  if (deadline) {
+    const bool ok = meets_deadline(*pred, *deadline);
+    fmt::print("\nDeadline dt_p = {}: {} (dt = {}, {} {})\n", format_duration(*deadline),
+               ok ? "MET" : "MISSED", format_duration(pred->total),
+               format_duration(std::abs(*deadline - pred->total)), ok ? "to spare" : "over");
+  }
+}
+
+Registrar reg(20, [](CLI::App& root) {
+  auto* app = root.add_subcommand(
+      "predict",
+      "Print a workload's cost counts and, with --machine, the DTFLOP model's predicted time "
+      "per step, component by component, and whether it meets a deadline.");
+  auto opts = std::make_shared<PredictOptions>();
+  app->add_option("--machine,-m", opts->machine, "Machine profile (JSON) written by `dtflop probe`")
+      ->check(CLI::ExistingFile);
+  app->add_option("--deadline", opts->deadline, "Real-time deadline dt_p, e.g. 1ms or 250us");
+  app->add_option("--variant", opts->variant, "Model variant: seed (eqs. 3.2-3.9), latency, extended")
+      ->capture_default_str();
+  app->add_flag("--json", opts->json, "Print JSON instead of tables");
+  app->require_subcommand(1);
+  app->fallthrough();
+  for (const auto& target : predict_targets()) {
+    auto* sub = app->add_subcommand(target.name, target.description);
+    sub->fallthrough();
+    auto fn = std::make_shared<CountsFn>(target.setup(*sub));
+    const PredictTarget* t = &target;
+    sub->callback([opts, fn, t] { run(*opts, *t, *fn); });
+  }
+});
+
+}  // namespace
+}  // namespace dtflop::cli

@@ -1,0 +1,34 @@
+#include "cli/table.hpp"
+
+#include <algorithm>
+
+#include <fmt/format.h>
+
+namespace dtflop::cli {
+
+std::string Table::str() const {
+  std::vector<size_t> w(header_.size(), 0);
+  auto measure = [&w](const std::vector<std::string>& r) {
+    for (size_t i = 0; i < r.size() && i < w.size(); ++i) w[i] = std::max(w[i], r[i].size());
+  };
+  measure(header_);
+  for (const auto& r : rows_) measure(r);
+  auto line = [&w](const std::vector<std::string>& r) {
+    std::string s;
+    for (size_t i = 0; i < w.size(); ++i) {
+      const std::string& c = i < r.size() ? r[i] : std::string();
+      if (i) s += "  ";
+      s += i == 0 ? fmt::format("{:<{}}", c, w[i]) : fmt::format("{:>{}}", c, w[i]);
+    }
+    while (!s.empty() && s.back() == ' ') s.pop_back();
+    return s + "\n";
+  };
+  std::string out = line(header_);
+  size_t total = 0;
+  for (auto x : w) total += x;
+  out += std::string(total + 2 * (w.size() - 1), '-') + "\n";
+  for (const auto& r : rows_) out += line(r);
+  return out;
+}
+
+}  // namespace dtflop::cli

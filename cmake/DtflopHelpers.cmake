@@ -1,0 +1,48 @@
+# Helpers shared by every folder of dtflop.
+
+# Warnings for our own targets.
+function(dtflop_warnings target)
+  target_compile_options(${target} PRIVATE
+    $<$<COMPILE_LANGUAGE:CXX>:-Wall -Wextra -Wpedantic -Wshadow -Wconversion -Wno-sign-conversion>)
+endfunction()
+
+# dtflop_library(name SOURCES a.cpp b.cu ... DEPS lib... [CUDA_SOURCES x.cu ...])
+# CUDA_SOURCES are compiled only when the CUDA language is enabled; the target then gets
+# DTFLOP_HAVE_CUDA=1 and links the CUDA runtime.
+function(dtflop_library name)
+  cmake_parse_arguments(A "" "" "SOURCES;CUDA_SOURCES;DEPS;PUBLIC_DEPS" ${ARGN})
+  set(srcs ${A_SOURCES})
+  if(DTFLOP_HAVE_CUDA)
+    list(APPEND srcs ${A_CUDA_SOURCES})
+  endif()
+  add_library(${name} STATIC ${srcs})
+  set_property(GLOBAL APPEND PROPERTY DTFLOP_LIBRARIES ${name})
+  target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR})
+  target_link_libraries(${name} PUBLIC ${A_PUBLIC_DEPS} PRIVATE ${A_DEPS})
+  dtflop_warnings(${name})
+  if(DTFLOP_HAVE_CUDA AND A_CUDA_SOURCES)
+    target_compile_definitions(${name} PUBLIC DTFLOP_HAVE_CUDA=1)
+    target_link_libraries(${name} PUBLIC CUDA::cudart)
+    set_target_properties(${name} PROPERTIES CUDA_SEPARABLE_COMPILATION OFF
+                                             POSITION_INDEPENDENT_CODE ON)
+    target_compile_options(${name} PRIVATE
+      $<$<COMPILE_LANGUAGE:CUDA>:--expt-relaxed-constexpr -lineinfo -Xptxas=-warn-spills>)
+  endif()
+endfunction()
+
+# dtflop_test(name SOURCES a.cpp ... DEPS lib... [GPU])
+# One line adds a GoogleTest executable, linked with our shared main (tests/support).
+# Tests are labelled `unit` or `gpu`; gpu tests skip themselves (GTEST_SKIP) without a device.
+include(GoogleTest)
+function(dtflop_test name)
+  cmake_parse_arguments(A "GPU" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${A_SOURCES})
+  target_link_libraries(${name} PRIVATE dtflop_test_main ${A_DEPS})
+  dtflop_warnings(${name})
+  if(A_GPU)
+    set(label gpu)
+  else()
+    set(label unit)
+  endif()
+  gtest_discover_tests(${name} PROPERTIES LABELS ${label} DISCOVERY_TIMEOUT 60)
+endfunction()

@@ -1,0 +1,38 @@
+#include "model/cost_counts.hpp"
+
+#include <algorithm>
+
+namespace dtflop {
+
+std::string_view to_string(HostMemory m) { return m == HostMemory::pinned ? "pinned" : "pageable"; }
+std::string_view to_string(Precision p) { return p == Precision::fp64 ? "fp64" : "fp32"; }
+
+CostCounts& CostCounts::operator+=(const CostCounts& o) {
+  N_CG += o.N_CG;
+  N_GC += o.N_GC;
+  N_GG += o.N_GG;
+  N_C += o.N_C;
+  N_G += o.N_G;
+  N_CC += o.N_CC;
+  transfers_CG += o.transfers_CG;
+  transfers_GC += o.transfers_GC;
+  launches += o.launches;
+  cpu_threads = std::max(cpu_threads, o.cpu_threads);
+  return *this;
+}
+
+CostCounts CostCounts::scaled(std::int64_t steps) const {
+  CostCounts c = *this;
+  c.N_CG *= steps;
+  c.N_GC *= steps;
+  c.N_GG *= steps;
+  c.N_C *= steps;
+  c.N_G *= steps;
+  c.N_CC *= steps;
+  c.transfers_CG *= steps;
+  c.transfers_GC *= steps;
+  c.launches *= steps;
+  return c;
+}
+
+}  // namespace dtflop

@@ -1,0 +1,38 @@
+// CostCounts: what one run of a computation moves and computes, in the terms of the DTFLOP
+// model (seed eqs. 3.3-3.9) plus the counts the extended model needs.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+namespace dtflop {
+
+enum class HostMemory { pageable, pinned };
+enum class Precision { fp32, fp64 };
+
+std::string_view to_string(HostMemory m);
+std::string_view to_string(Precision p);
+
+struct CostCounts {
+  int P = 4;                    // bytes per value
+  Precision precision = Precision::fp32;  // which FLOP rates apply
+  std::int64_t N_CG = 0;        // values host -> device
+  std::int64_t N_GC = 0;        // values device -> host
+  std::int64_t N_GG = 0;        // values moved through device memory (reads + writes)
+  std::int64_t N_C = 0;         // FLOPs on the CPU
+  std::int64_t N_G = 0;         // FLOPs on the GPU
+  std::int64_t N_CC = 0;        // values moved through host memory by CPU work (extended model)
+  std::int64_t transfers_CG = 0;  // number of host->device copies
+  std::int64_t transfers_GC = 0;  // number of device->host copies
+  std::int64_t launches = 0;      // kernel launches
+  HostMemory host_memory = HostMemory::pageable;
+  int cpu_threads = 1;          // threads doing the CPU work
+
+  CostCounts& operator+=(const CostCounts& o);
+  // Counts of `steps` repetitions.
+  CostCounts scaled(std::int64_t steps) const;
+  bool operator==(const CostCounts&) const = default;
+};
+
+}  // namespace dtflop

@@ -1,0 +1,250 @@
+#include "model/json_io.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <system_error>
+
+#include <fmt/format.h>
+
+#include "model/errors.hpp"
+
+namespace dtflop {
+
+using nlohmann::json;
+
+namespace {
+
+[[noreturn]] void bad(const std::string& field, const json& value, const std::string& expected) {
+  std::string shown = value.is_null() ? std::string("nothing") : value.dump();
+  if (shown.size() > 60) shown = shown.substr(0, 57) + "...";
+  throw InputError(fmt::format("field '{}' is {}, expected {}", field, shown, expected));
+}
+
+const json& need(const json& obj, const std::string& key, const std::string& path) {
+  auto it = obj.find(key);
+  if (it == obj.end()) bad(path + key, json(), "to be present");
+  return *it;
+}
+
+std::string get_string(const json& obj, const std::string& key, const std::string& path, bool required) {
+  auto it = obj.find(key);
+  if (it == obj.end()) {
+    if (required) bad(path + key, json(), "a string");
+    return {};
+  }
+  if (!it->is_string()) bad(path + key, *it, "a string");
+  return it->get<std::string>();
+}
+
+int get_count(const json& obj, const std::string& key, const std::string& path) {
+  auto it = obj.find(key);
+  if (it == obj.end()) return 0;
+  if (!it->is_number_integer() || it->get<long long>() < 0 || it->get<long long>() > 1'000'000)
+    bad(path + key, *it, "a non-negative integer");
+  return it->get<int>();
+}
+
+std::int64_t get_i64(const json& obj, const std::string& key, std::int64_t lo) {
+  auto it = obj.find(key);
+  if (it == obj.end()) return 0;
+  if (!it->is_number_integer() || it->get<long long>() < lo)
+    bad("counts." + key, *it, fmt::format("an integer >= {}", lo));
+  return it->get<std::int64_t>();
+}
+
+double positive_finite(const json& v, const std::string& field) {
+  if (!v.is_number()) bad(field, v, "a positive number");
+  const double d = v.get<double>();
+  if (!std::isfinite(d) || d <= 0) bad(field, v, "a positive finite number");
+  return d;
+}
+
+}  // namespace
+
+json to_json(const MachineProfile& p) {
+  json id = {{"hostname", p.identity.hostname},
+             {"cpu_model", p.identity.cpu_model},
+             {"cpu_cores", p.identity.cpu_cores},
+             {"cpu_threads", p.identity.cpu_threads},
+             {"gpu_name", p.identity.gpu_name},
+             {"gpu_driver", p.identity.gpu_driver},
+             {"cuda_version", p.identity.cuda_version},
+             {"measured_at", p.identity.measured_at}};
+  if (p.identity.cpu_clock_ghz) id["cpu_clock_ghz"] = *p.identity.cpu_clock_ghz;
+  json params = json::object();
+  for (const auto& [k, v] : p.params()) {
+    json e = {{"value", v.value}, {"unit", info(k).unit}, {"provenance", to_string(v.provenance)}};
+    if (v.uncertainty) e["uncertainty"] = *v.uncertainty;
+    if (v.spread) e["spread"] = *v.spread;
+    if (!v.note.empty()) e["note"] = v.note;
+    params[std::string(info(k).name)] = e;
+  }
+  json out = {{"schema", kProfileSchemaName},
+              {"schema_version", kProfileSchemaVersion},
+              {"identity", id},
+              {"parameters", params}};
+  if (!p.metadata.empty()) out["metadata"] = p.metadata;
+  return out;
+}
+
+MachineProfile profile_from_json(const json& j) {
+  if (!j.is_object()) bad("(top level)", j, "a JSON object holding a dtflop machine profile");
+  const std::string schema = get_string(j, "schema", "", true);
+  if (schema != kProfileSchemaName) bad("schema", schema, fmt::format("\"{}\"", kProfileSchemaName));
+  const auto& ver = need(j, "schema_version", "");
+  if (!ver.is_number_integer() || ver.get<int>() != kProfileSchemaVersion)
+    bad("schema_version", ver, fmt::format("{} (this dtflop reads version {} only)",
+                                           kProfileSchemaVersion, kProfileSchemaVersion));
+  MachineProfile p;
+  const auto& id = need(j, "identity", "");
+  if (!id.is_object()) bad("identity", id, "an object");
+  p.identity.hostname = get_string(id, "hostname", "identity.", false);
+  p.identity.cpu_model = get_string(id, "cpu_model", "identity.", false);
+  p.identity.cpu_cores = get_count(id, "cpu_cores", "identity.");
+  p.identity.cpu_threads = get_count(id, "cpu_threads", "identity.");
+  p.identity.gpu_name = get_string(id, "gpu_name", "identity.", false);
+  p.identity.gpu_driver = get_string(id, "gpu_driver", "identity.", false);
+  p.identity.cuda_version = get_string(id, "cuda_version", "identity.", false);
+  p.identity.measured_at = get_string(id, "measured_at", "identity.", false);
+  if (auto it = id.find("cpu_clock_ghz"); it != id.end())
+    p.identity.cpu_clock_ghz = positive_finite(*it, "identity.cpu_clock_ghz");
+
+  const auto& params = need(j, "parameters", "");
+  if (!params.is_object()) bad("parameters", params, "an object of named parameters");
+  for (const auto& [name, e] : params.items()) {
+    const std::string path = "parameters." + name;
+    auto id_ = param_from_name(name);
+    if (!id_) {
+      std::string known;
+      for (const auto& i : all_params()) known += (known.empty() ? "" : ", ") + std::string(i.name);
+      bad(path, name, "one of the known parameters (" + known + ")");
+    }
+    if (!e.is_object()) bad(path, e, "an object with value, unit and provenance");
+    Parameter par;
+    par.value = positive_finite(need(e, "value", path + "."), path + ".value");
+    const std::string unit = get_string(e, "unit", path + ".", true);
+    if (unit != info(*id_).unit) bad(path + ".unit", unit, fmt::format("\"{}\"", info(*id_).unit));
+    const std::string prov = get_string(e, "provenance", path + ".", true);
+    auto pv = provenance_from_string(prov);
+    if (!pv) bad(path + ".provenance", prov, "\"probed\", \"fitted\" or \"user\"");
+    par.provenance = *pv;
+    if (auto it = e.find("uncertainty"); it != e.end()) {
+      if (!it->is_number() || !std::isfinite(it->get<double>()) || it->get<double>() < 0)
+        bad(path + ".uncertainty", *it, "a non-negative number");
+      par.uncertainty = it->get<double>();
+    }
+    if (auto it = e.find("spread"); it != e.end()) {
+      if (!it->is_number() || !std::isfinite(it->get<double>()) || it->get<double>() < 0)
+        bad(path + ".spread", *it, "a non-negative number");
+      par.spread = it->get<double>();
+    }
+    par.note = get_string(e, "note", path + ".", false);
+    p.set(*id_, std::move(par));
+  }
+  if (auto it = j.find("metadata"); it != j.end()) {
+    if (!it->is_object()) bad("metadata", *it, "an object of strings");
+    for (const auto& [k, v] : it->items()) {
+      if (!v.is_string()) bad("metadata." + k, v, "a string");
+      p.metadata[k] = v.get<std::string>();
+    }
+  }
+  return p;
+}
+
+MachineProfile load_profile(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in)
+    throw InputError(fmt::format("cannot read machine profile '{}': {}; write one with "
+                                 "`dtflop probe -o {}`",
+                                 path.string(), std::error_code(errno, std::generic_category()).message(),
+                                 path.string()));
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::parse_error& e) {
+    throw InputError(fmt::format("machine profile '{}' is not valid JSON (byte {}): re-create it "
+                                 "with `dtflop probe`",
+                                 path.string(), e.byte));
+  }
+  try {
+    return profile_from_json(j);
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("machine profile '{}': {}", path.string(), e.what()));
+  }
+}
+
+void write_file_atomically(const std::filesystem::path& path, const std::string& text) {
+  auto tmp = path;
+  tmp += ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out)
+      throw InputError(fmt::format("cannot write '{}': {}", tmp.string(),
+                                   std::error_code(errno, std::generic_category()).message()));
+    out << text;
+    out.flush();
+    if (!out) throw InputError(fmt::format("writing '{}' failed (disk full?)", tmp.string()));
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw InputError(fmt::format("cannot move '{}' to '{}': {}", tmp.string(), path.string(), ec.message()));
+}
+
+void save_profile(const MachineProfile& p, const std::filesystem::path& path) {
+  write_file_atomically(path, to_json(p).dump(2) + "\n");
+}
+
+json to_json(const CostCounts& c) {
+  return {{"P", c.P},
+          {"precision", to_string(c.precision)},
+          {"N_CG", c.N_CG},
+          {"N_GC", c.N_GC},
+          {"N_GG", c.N_GG},
+          {"N_C", c.N_C},
+          {"N_G", c.N_G},
+          {"N_CC", c.N_CC},
+          {"transfers_CG", c.transfers_CG},
+          {"transfers_GC", c.transfers_GC},
+          {"launches", c.launches},
+          {"host_memory", to_string(c.host_memory)},
+          {"cpu_threads", c.cpu_threads}};
+}
+
+CostCounts counts_from_json(const json& j) {
+  if (!j.is_object()) bad("counts", j, "an object");
+  CostCounts c;
+  if (auto it = j.find("P"); it != j.end()) {
+    if (!it->is_number_integer() || (it->get<int>() != 4 && it->get<int>() != 8 && it->get<int>() != 2))
+      bad("counts.P", *it, "2, 4 or 8 bytes per value");
+    c.P = it->get<int>();
+  }
+  const std::string prec = get_string(j, "precision", "counts.", false);
+  if (prec == "fp64") c.precision = Precision::fp64;
+  else if (prec.empty() || prec == "fp32") c.precision = Precision::fp32;
+  else bad("counts.precision", prec, "\"fp32\" or \"fp64\"");
+  c.N_CG = get_i64(j, "N_CG", 0);
+  c.N_GC = get_i64(j, "N_GC", 0);
+  c.N_GG = get_i64(j, "N_GG", 0);
+  c.N_C = get_i64(j, "N_C", 0);
+  c.N_G = get_i64(j, "N_G", 0);
+  c.N_CC = get_i64(j, "N_CC", 0);
+  c.transfers_CG = get_i64(j, "transfers_CG", 0);
+  c.transfers_GC = get_i64(j, "transfers_GC", 0);
+  c.launches = get_i64(j, "launches", 0);
+  const std::string mem = get_string(j, "host_memory", "counts.", false);
+  if (mem == "pinned") c.host_memory = HostMemory::pinned;
+  else if (mem.empty() || mem == "pageable") c.host_memory = HostMemory::pageable;
+  else bad("counts.host_memory", mem, "\"pinned\" or \"pageable\"");
+  if (j.contains("cpu_threads")) c.cpu_threads = static_cast<int>(get_i64(j, "cpu_threads", 1));
+  return c;
+}
+
+json to_json(const Prediction& p) {
+  return {{"variant", to_string(p.variant)}, {"dt_CG", p.dt_CG},   {"dt_GC", p.dt_GC},
+          {"dt_GG", p.dt_GG},                {"dt_C", p.dt_C},     {"dt_G", p.dt_G},
+          {"lat_CG", p.lat_CG},              {"lat_GC", p.lat_GC}, {"lat_launch", p.lat_launch},
+          {"dt_trans", p.dt_trans()},        {"total", p.total}};
+}
+
+}  // namespace dtflop

@@ -1,0 +1,131 @@
+#include "model/predict.hpp"
+
+#include <algorithm>
+
+#include <fmt/format.h>
+
+#include "model/errors.hpp"
+
+namespace dtflop {
+
+std::string_view to_string(Variant v) {
+  switch (v) {
+    case Variant::seed: return "seed";
+    case Variant::latency: return "latency";
+    case Variant::extended: return "extended";
+  }
+  return "?";
+}
+
+const std::vector<Variant>& all_variants() {
+  static const std::vector<Variant> v = {Variant::seed, Variant::latency, Variant::extended};
+  return v;
+}
+
+std::optional<Variant> variant_from_string(std::string_view s) {
+  for (auto v : all_variants())
+    if (to_string(v) == s) return v;
+  return std::nullopt;
+}
+
+namespace {
+
+bool pinned(const CostCounts& c) { return c.host_memory == HostMemory::pinned; }
+Param b_cg(const CostCounts& c) { return pinned(c) ? Param::B_CG_pinned : Param::B_CG_pageable; }
+Param b_gc(const CostCounts& c) { return pinned(c) ? Param::B_GC_pinned : Param::B_GC_pageable; }
+Param l_cg(const CostCounts& c) { return pinned(c) ? Param::L_CG_pinned : Param::L_CG_pageable; }
+Param l_gc(const CostCounts& c) { return pinned(c) ? Param::L_GC_pinned : Param::L_GC_pageable; }
+bool fp64(Precision p) { return p == Precision::fp64; }
+Param v_c1(Precision p) { return fp64(p) ? Param::V_C1_fp64 : Param::V_C1_fp32; }
+Param v_c(Precision p) { return fp64(p) ? Param::V_C_fp64 : Param::V_C_fp32; }
+Param v_g(Precision p) { return fp64(p) ? Param::V_G_fp64 : Param::V_G_fp32; }
+
+// Picks the single-thread or all-thread figure: one thread uses the first, as many
+// threads as the machine has use the second, and in between threads x first, capped.
+double scaled_rate(const MachineProfile& m, Param one, Param all, int threads) {
+  if (threads <= 1) return m.get(one).value;
+  const int hw = std::max(1, m.identity.cpu_threads);
+  if (threads >= hw || !m.has(one)) return m.get(all).value;
+  return std::min(threads * m.get(one).value, m.get(all).value);
+}
+
+std::vector<Param> cpu_params(Param one, Param all, int threads) {
+  if (threads <= 1) return {one};
+  return {one, all};
+}
+
+}  // namespace
+
+double cpu_rate(const MachineProfile& m, Precision precision, int threads) {
+  return scaled_rate(m, v_c1(precision), v_c(precision), threads);
+}
+
+double host_bandwidth(const MachineProfile& m, int threads) {
+  return scaled_rate(m, Param::B_host_1, Param::B_host, threads);
+}
+
+std::vector<Param> required_params(const CostCounts& c, Variant variant) {
+  std::vector<Param> out;
+  auto add = [&out](Param p) {
+    if (std::find(out.begin(), out.end(), p) == out.end()) out.push_back(p);
+  };
+  const bool lat = variant != Variant::seed;
+  if (c.N_CG > 0) add(b_cg(c));
+  if (c.N_GC > 0) add(b_gc(c));
+  if (c.N_GG > 0) add(Param::B_GG);
+  if (c.N_C > 0)
+    for (auto p : cpu_params(v_c1(c.precision), v_c(c.precision), c.cpu_threads)) add(p);
+  if (c.N_G > 0) add(v_g(c.precision));
+  if (lat && c.transfers_CG > 0) add(l_cg(c));
+  if (lat && c.transfers_GC > 0) add(l_gc(c));
+  if (lat && c.launches > 0) add(Param::L_launch);
+  if (variant == Variant::extended && c.N_CC > 0)
+    for (auto p : cpu_params(Param::B_host_1, Param::B_host, c.cpu_threads)) add(p);
+  return out;
+}
+
+Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant) {
+  if (c.P <= 0) throw InputError(fmt::format("bytes per value P must be positive, got {}", c.P));
+  // Report every missing parameter at once.
+  std::string missing;
+  for (auto p : required_params(c, variant))
+    if (!m.has(p)) missing += fmt::format("{}{} ({})", missing.empty() ? "" : ", ", info(p).name, info(p).what);
+  if (!missing.empty())
+    throw MissingParameter(fmt::format(
+        "the machine profile lacks {} needed to predict this computation; probe a machine "
+        "that has it (`dtflop probe`), or use one of the profiles in docs/examples/",
+        missing));
+
+  const double P = c.P;
+  Prediction r;
+  r.variant = variant;
+  // Eqs. 3.5-3.9. A count of zero needs no parameter and costs nothing.
+  if (c.N_CG > 0) r.dt_CG = P * static_cast<double>(c.N_CG) / m.get(b_cg(c)).value;
+  if (c.N_GC > 0) r.dt_GC = P * static_cast<double>(c.N_GC) / m.get(b_gc(c)).value;
+  if (c.N_GG > 0) r.dt_GG = P * static_cast<double>(c.N_GG) / m.get(Param::B_GG).value;
+  if (c.N_C > 0) r.dt_C = static_cast<double>(c.N_C) / cpu_rate(m, c.precision, c.cpu_threads);
+  if (c.N_G > 0) r.dt_G = static_cast<double>(c.N_G) / m.get(v_g(c.precision)).value;
+
+  if (variant == Variant::seed) {
+    r.total = r.dt_CG + r.dt_GC + r.dt_GG + r.dt_C + r.dt_G;  // eqs. 3.2, 3.4
+    return r;
+  }
+  if (c.transfers_CG > 0) r.lat_CG = static_cast<double>(c.transfers_CG) * m.get(l_cg(c)).value;
+  if (c.transfers_GC > 0) r.lat_GC = static_cast<double>(c.transfers_GC) * m.get(l_gc(c)).value;
+  if (c.launches > 0) r.lat_launch = static_cast<double>(c.launches) * m.get(Param::L_launch).value;
+  const double latencies = r.lat_CG + r.lat_GC + r.lat_launch;
+  if (variant == Variant::latency) {
+    r.total = r.dt_CG + r.dt_GC + r.dt_GG + r.dt_C + r.dt_G + latencies;
+    return r;
+  }
+  // extended: a kernel streams memory while it computes, so device time is the larger of
+  // the two (roofline); CPU work likewise overlaps its memory traffic with arithmetic.
+  double host = r.dt_C;
+  if (c.N_CC > 0)
+    host = std::max(host, P * static_cast<double>(c.N_CC) / host_bandwidth(m, c.cpu_threads));
+  r.dt_C = host;
+  r.total = r.dt_CG + r.dt_GC + std::max(r.dt_GG, r.dt_G) + r.dt_C + latencies;
+  return r;
+}
+
+}  // namespace dtflop

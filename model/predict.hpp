@@ -1,0 +1,56 @@
+// The DTFLOP prediction: per-component times from a machine profile and cost counts.
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "model/cost_counts.hpp"
+#include "model/profile.hpp"
+
+namespace dtflop {
+
+// Model variants (docs/model.md derives each):
+//  seed     - eqs. 3.2-3.9 exactly: every component P*N/B or N/V, summed.
+//  latency  - seed + a latency per transfer and per kernel launch (alpha + bytes/B).
+//  extended - latency + overlap: inside the device, memory traffic and arithmetic overlap
+//             (max instead of sum), and on the host, arithmetic and memory traffic overlap.
+enum class Variant { seed, latency, extended };
+
+std::string_view to_string(Variant v);
+std::optional<Variant> variant_from_string(std::string_view s);
+const std::vector<Variant>& all_variants();
+
+struct Prediction {
+  Variant variant = Variant::seed;
+  double dt_CG = 0;      // bandwidth part of host->device  [s]
+  double dt_GC = 0;      // bandwidth part of device->host  [s]
+  double dt_GG = 0;      // device memory traffic           [s]
+  double dt_C = 0;       // CPU work                        [s]
+  double dt_G = 0;       // GPU arithmetic                  [s]
+  double lat_CG = 0;     // transfers_CG x per-transfer latency
+  double lat_GC = 0;     // transfers_GC x per-transfer latency
+  double lat_launch = 0; // launches x launch overhead
+  double total = 0;
+
+  double dt_trans() const { return dt_CG + dt_GC + dt_GG; }  // eq. 3.4
+};
+
+// Which parameters a prediction of `counts` with `variant` needs (only those whose counts
+// are non-zero). Useful to report everything missing at once.
+std::vector<Param> required_params(const CostCounts& counts, Variant variant);
+
+// Throws MissingParameter (naming the parameter and what to do) when the profile lacks one.
+Prediction predict(const MachineProfile& profile, const CostCounts& counts, Variant variant);
+
+// Real-time condition (eq. 3.1): dt <= dt_p.
+inline bool meets_deadline(const Prediction& p, double dt_p) { return p.total <= dt_p; }
+
+// The CPU rate that applies to work on `threads` threads at `precision`:
+// one thread -> V_C1; threads >= all hardware threads -> V_C (all threads);
+// otherwise threads x V_C1, capped at V_C.
+double cpu_rate(const MachineProfile& profile, Precision precision, int threads);
+// Host memory bandwidth for `threads` threads, same rule as cpu_rate.
+double host_bandwidth(const MachineProfile& profile, int threads);
+
+}  // namespace dtflop

@@ -1,0 +1,79 @@
+#include "model/profile.hpp"
+
+#include <algorithm>
+
+#include <fmt/format.h>
+
+#include "model/errors.hpp"
+
+namespace dtflop {
+
+std::string_view to_string(Provenance p) {
+  switch (p) {
+    case Provenance::probed: return "probed";
+    case Provenance::fitted: return "fitted";
+    case Provenance::user: return "user";
+  }
+  return "?";
+}
+
+std::optional<Provenance> provenance_from_string(std::string_view s) {
+  for (auto p : {Provenance::probed, Provenance::fitted, Provenance::user})
+    if (to_string(p) == s) return p;
+  return std::nullopt;
+}
+
+const std::vector<ParamInfo>& all_params() {
+  static const std::vector<ParamInfo> table = {
+      {Param::B_CG_pinned, "B_CG_pinned", "B/s", "host->device bandwidth, pinned host memory"},
+      {Param::B_GC_pinned, "B_GC_pinned", "B/s", "device->host bandwidth, pinned host memory"},
+      {Param::B_CG_pageable, "B_CG_pageable", "B/s", "host->device bandwidth, pageable host memory"},
+      {Param::B_GC_pageable, "B_GC_pageable", "B/s", "device->host bandwidth, pageable host memory"},
+      {Param::L_CG_pinned, "L_CG_pinned", "s", "latency per host->device copy, pinned"},
+      {Param::L_GC_pinned, "L_GC_pinned", "s", "latency per device->host copy, pinned"},
+      {Param::L_CG_pageable, "L_CG_pageable", "s", "latency per host->device copy, pageable"},
+      {Param::L_GC_pageable, "L_GC_pageable", "s", "latency per device->host copy, pageable"},
+      {Param::B_GG, "B_GG", "B/s", "device memory bandwidth seen by a kernel (read+write)"},
+      {Param::B_GG_copy, "B_GG_copy", "B/s", "device->device cudaMemcpy bandwidth (read+write)"},
+      {Param::B_host_1, "B_host_1", "B/s", "host memory bandwidth, one thread (read+write)"},
+      {Param::B_host, "B_host", "B/s", "host memory bandwidth, all threads (read+write)"},
+      {Param::V_C1_fp32, "V_C1_fp32", "FLOP/s", "CPU FP32 rate, one thread"},
+      {Param::V_C_fp32, "V_C_fp32", "FLOP/s", "CPU FP32 rate, all threads"},
+      {Param::V_C1_fp64, "V_C1_fp64", "FLOP/s", "CPU FP64 rate, one thread"},
+      {Param::V_C_fp64, "V_C_fp64", "FLOP/s", "CPU FP64 rate, all threads"},
+      {Param::V_G_fp32, "V_G_fp32", "FLOP/s", "GPU FP32 rate"},
+      {Param::V_G_fp64, "V_G_fp64", "FLOP/s", "GPU FP64 rate"},
+      {Param::L_launch, "L_launch", "s", "kernel launch overhead"},
+  };
+  return table;
+}
+
+const ParamInfo& info(Param p) {
+  const auto& t = all_params();
+  auto it = std::find_if(t.begin(), t.end(), [p](const ParamInfo& i) { return i.id == p; });
+  return *it;  // every enumerator is in the table (checked by a unit test)
+}
+
+std::optional<Param> param_from_name(std::string_view name) {
+  for (const auto& i : all_params())
+    if (i.name == name) return i.id;
+  return std::nullopt;
+}
+
+const Parameter* MachineProfile::find(Param p) const {
+  auto it = params_.find(p);
+  return it == params_.end() ? nullptr : &it->second;
+}
+
+const Parameter& MachineProfile::get(Param p) const {
+  if (const auto* v = find(p)) return *v;
+  const auto& i = info(p);
+  throw MissingParameter(fmt::format(
+      "the machine profile has no {} ({}); measure it with `dtflop probe` on a machine that "
+      "has it, or set it in the profile by hand",
+      i.name, i.what));
+}
+
+void MachineProfile::set(Param p, Parameter value) { params_[p] = std::move(value); }
+
+}  // namespace dtflop

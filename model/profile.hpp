@@ -1,0 +1,90 @@
+// MachineProfile: who the machine is and the DTFLOP parameters measured or fitted on it.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace dtflop {
+
+// Where a parameter's value came from.
+enum class Provenance { probed, fitted, user };
+
+std::string_view to_string(Provenance p);
+std::optional<Provenance> provenance_from_string(std::string_view s);
+
+// Every model parameter dtflop knows. A profile holds a subset: a parameter that was not
+// measured (e.g. no GPU) is absent, never zero.
+enum class Param {
+  B_CG_pinned,     // host->device bandwidth, pinned host memory            [B/s]
+  B_GC_pinned,     // device->host bandwidth, pinned host memory            [B/s]
+  B_CG_pageable,   // host->device bandwidth, pageable host memory          [B/s]
+  B_GC_pageable,   // device->host bandwidth, pageable host memory          [B/s]
+  L_CG_pinned,     // per-transfer latency host->device, pinned             [s]
+  L_GC_pinned,     // per-transfer latency device->host, pinned             [s]
+  L_CG_pageable,   // per-transfer latency host->device, pageable           [s]
+  L_GC_pageable,   // per-transfer latency device->host, pageable           [s]
+  B_GG,            // device memory bandwidth seen by a kernel, read+write  [B/s]
+  B_GG_copy,       // cudaMemcpy device->device, read+write counted         [B/s]
+  B_host_1,        // host memory bandwidth, one thread (triad, r+w)        [B/s]
+  B_host,          // host memory bandwidth, all threads (triad, r+w)       [B/s]
+  V_C1_fp32,       // CPU FP32 rate, one thread                             [FLOP/s]
+  V_C_fp32,        // CPU FP32 rate, all threads                            [FLOP/s]
+  V_C1_fp64,       // CPU FP64 rate, one thread                             [FLOP/s]
+  V_C_fp64,        // CPU FP64 rate, all threads                            [FLOP/s]
+  V_G_fp32,        // GPU FP32 rate                                         [FLOP/s]
+  V_G_fp64,        // GPU FP64 rate                                         [FLOP/s]
+  L_launch,        // kernel launch overhead                                [s]
+};
+
+struct ParamInfo {
+  Param id;
+  std::string_view name;   // JSON key, e.g. "B_CG_pinned"
+  std::string_view unit;   // "B/s", "s" or "FLOP/s"
+  std::string_view what;   // human description
+};
+
+const std::vector<ParamInfo>& all_params();
+const ParamInfo& info(Param p);
+std::optional<Param> param_from_name(std::string_view name);
+
+struct Parameter {
+  double value = 0;                    // in the unit of ParamInfo
+  Provenance provenance = Provenance::probed;
+  std::optional<double> uncertainty;   // half-width of a 95% interval, same unit
+  std::optional<double> spread;        // relative spread of repeated measurements (e.g. IQR/median)
+  std::string note;                    // how it was obtained (probe name, fit id...)
+};
+
+struct MachineIdentity {
+  std::string hostname;
+  std::string cpu_model;
+  int cpu_cores = 0;       // physical cores
+  int cpu_threads = 0;     // hardware threads
+  std::optional<double> cpu_clock_ghz;  // nominal clock when known
+  std::string gpu_name;                 // empty when no GPU
+  std::string gpu_driver;
+  std::string cuda_version;
+  std::string measured_at;              // ISO 8601 UTC
+};
+
+class MachineProfile {
+ public:
+  MachineIdentity identity;
+  std::map<std::string, std::string> metadata;  // free-form notes (e.g. chosen model variant)
+
+  bool has(Param p) const { return params_.count(p) != 0; }
+  const Parameter* find(Param p) const;
+  // Throws MissingParameter when absent.
+  const Parameter& get(Param p) const;
+  void set(Param p, Parameter value);
+  void erase(Param p) { params_.erase(p); }
+  const std::map<Param, Parameter>& params() const { return params_; }
+
+ private:
+  std::map<Param, Parameter> params_;
+};
+
+}  // namespace dtflop

@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Installs what dtflop needs from Debian 12 packages (only what is missing) and builds it
+# (Release) into build/. Idempotent: run it again and it only rebuilds what changed.
+#   scripts/setup.sh [--sanitize]   # --sanitize also builds build-asan/ (ASan + UBSan, host code)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(cmake ninja-build g++ pkg-config libeigen3-dev libfmt-dev nlohmann-json3-dev libcli11-dev
+          libopencv-dev libceres-dev libgtest-dev libgmock-dev libbenchmark-dev)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "setup: installing ${missing[*]}" >&2
+  sudo_cmd=()
+  [ "$(id -u)" -ne 0 ] && sudo_cmd=(sudo)
+  "${sudo_cmd[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
+fi
+
+if [ -x /usr/local/cuda/bin/nvcc ]; then
+  echo "setup: CUDA found at /usr/local/cuda: CUDA backends will be built" >&2
+else
+  echo "setup: no nvcc at /usr/local/cuda: building CPU-only" >&2
+fi
+
+jobs=$(nproc)
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >&2
+cmake --build build -j "$jobs" >&2
+
+if [ "${1:-}" = "--sanitize" ]; then
+  # Host code only: CUDA backends are left out of the sanitized build.
+  cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DDTFLOP_SANITIZE=ON \
+        -DDTFLOP_WITH_CUDA=OFF -DDTFLOP_BUILD_BENCHMARKS=OFF >&2
+  cmake --build build-asan -j "$jobs" >&2
+fi

@@ -1,0 +1,140 @@
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "model/errors.hpp"
+#include "model/json_io.hpp"
+#include "tests/model/fixtures.hpp"
+
+namespace dtflop {
+namespace {
+
+using nlohmann::json;
+
+std::string error_of(const json& j) {
+  try {
+    profile_from_json(j);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(ProfileJson, RoundTripKeepsEverything) {
+  auto m = test::round_profile();
+  m.identity.measured_at = "2026-11-21T10:00:00Z";
+  m.identity.cpu_clock_ghz = 2.45;
+  m.set(Param::B_GG, {4.1e12, Provenance::fitted, 0.05e12, 0.01, "ceres"});
+  m.metadata["variant"] = "extended";
+  const auto back = profile_from_json(json::parse(to_json(m).dump()));
+  EXPECT_EQ(back.identity.cpu_model, "Test CPU");
+  EXPECT_EQ(back.identity.cpu_threads, 8);
+  EXPECT_EQ(back.identity.cpu_clock_ghz, 2.45);
+  EXPECT_EQ(back.identity.measured_at, "2026-11-21T10:00:00Z");
+  ASSERT_EQ(back.params().size(), m.params().size());
+  const auto& g = back.get(Param::B_GG);
+  EXPECT_DOUBLE_EQ(g.value, 4.1e12);
+  EXPECT_EQ(g.provenance, Provenance::fitted);
+  EXPECT_DOUBLE_EQ(*g.uncertainty, 0.05e12);
+  EXPECT_DOUBLE_EQ(*g.spread, 0.01);
+  EXPECT_EQ(g.note, "ceres");
+  EXPECT_EQ(back.metadata.at("variant"), "extended");
+}
+
+TEST(ProfileJson, BadFilesNameFieldValueAndExpectation) {
+  const json good = to_json(test::round_profile());
+
+  auto j = good;
+  j["schema_version"] = 99;
+  EXPECT_NE(error_of(j).find("schema_version"), std::string::npos);
+  EXPECT_NE(error_of(j).find("99"), std::string::npos);
+
+  j = good;
+  j["schema"] = "something-else";
+  EXPECT_NE(error_of(j).find("'schema'"), std::string::npos);
+
+  j = good;
+  j["parameters"]["B_GG"]["value"] = -3;
+  std::string e = error_of(j);
+  EXPECT_NE(e.find("parameters.B_GG.value"), std::string::npos) << e;
+  EXPECT_NE(e.find("-3"), std::string::npos) << e;
+  EXPECT_NE(e.find("positive"), std::string::npos) << e;
+
+  j = good;
+  j["parameters"]["B_GG"]["value"] = 0;
+  EXPECT_NE(error_of(j).find("parameters.B_GG.value"), std::string::npos);
+
+  j = good;
+  j["parameters"]["B_GG"]["unit"] = "GB/s";
+  e = error_of(j);
+  EXPECT_NE(e.find("parameters.B_GG.unit"), std::string::npos) << e;
+  EXPECT_NE(e.find("\"B/s\""), std::string::npos) << e;
+
+  j = good;
+  j["parameters"]["B_GG"]["provenance"] = "guessed";
+  EXPECT_NE(error_of(j).find("parameters.B_GG.provenance"), std::string::npos);
+
+  j = good;
+  j["parameters"]["B_XX"] = {{"value", 1}, {"unit", "B/s"}, {"provenance", "user"}};
+  e = error_of(j);
+  EXPECT_NE(e.find("parameters.B_XX"), std::string::npos) << e;
+  EXPECT_NE(e.find("B_CG_pinned"), std::string::npos) << e;  // lists the known ones
+
+  j = good;
+  j["identity"]["cpu_threads"] = "eight";
+  EXPECT_NE(error_of(j).find("identity.cpu_threads"), std::string::npos);
+
+  j = good;
+  j.erase("parameters");
+  EXPECT_NE(error_of(j).find("'parameters'"), std::string::npos);
+
+  EXPECT_NE(error_of(json::array()).find("top level"), std::string::npos);
+}
+
+TEST(ProfileJson, SaveAndLoadFile) {
+  const auto dir = std::filesystem::temp_directory_path() / "dtflop_test_json";
+  std::filesystem::create_directories(dir);
+  const auto path = dir / "m.json";
+  save_profile(test::round_profile(), path);
+  EXPECT_FALSE(std::filesystem::exists(dir / "m.json.tmp"));
+  const auto back = load_profile(path);
+  EXPECT_DOUBLE_EQ(back.get(Param::V_G_fp32).value, 50e12);
+
+  std::ofstream(dir / "torn.json") << "{\"schema\": \"dtflop.machine-profile\", ";
+  try {
+    load_profile(dir / "torn.json");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("not valid JSON"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(load_profile(dir / "absent.json"), InputError);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(CountsJson, RoundTrip) {
+  CostCounts c;
+  c.P = 8;
+  c.precision = Precision::fp64;
+  c.N_CG = 1;
+  c.N_GC = 2;
+  c.N_GG = 3;
+  c.N_C = 4;
+  c.N_G = 5;
+  c.N_CC = 6;
+  c.transfers_CG = 7;
+  c.transfers_GC = 8;
+  c.launches = 9;
+  c.host_memory = HostMemory::pinned;
+  c.cpu_threads = 16;
+  EXPECT_EQ(counts_from_json(json::parse(to_json(c).dump())), c);
+  auto j = to_json(c);
+  j["N_G"] = -1;
+  EXPECT_THROW(counts_from_json(j), InputError);
+  j = to_json(c);
+  j["host_memory"] = "managed";
+  EXPECT_THROW(counts_from_json(j), InputError);
+}
+
+}  // namespace
+}  // namespace dtflop

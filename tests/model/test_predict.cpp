@@ -1,0 +1,156 @@
+#include <gtest/gtest.h>
+
+#include "model/errors.hpp"
+#include "model/predict.hpp"
+#include "tests/model/fixtures.hpp"
+
+namespace dtflop {
+namespace {
+
+CostCounts sample_counts() {
+  CostCounts c;
+  c.P = 4;
+  c.N_CG = 1'000'000;
+  c.N_GC = 500'000;
+  c.N_GG = 2'000'000;
+  c.N_C = 1'000'000;
+  c.N_G = 100'000'000;
+  c.transfers_CG = 3;
+  c.transfers_GC = 2;
+  c.launches = 4;
+  c.host_memory = HostMemory::pinned;
+  return c;
+}
+
+TEST(Predict, SeedVariantIsEquations3_2To3_9) {
+  const auto m = test::round_profile();
+  const auto p = predict(m, sample_counts(), Variant::seed);
+  // By hand: 4 B x 1e6 / 50e9 B/s = 80 us; 4 x 5e5 / 40e9 = 50 us; 4 x 2e6 / 4e12 = 2 us;
+  // 1e6 / 100e9 = 10 us (one thread); 1e8 / 50e12 = 2 us.
+  EXPECT_DOUBLE_EQ(p.dt_CG, 80e-6);
+  EXPECT_DOUBLE_EQ(p.dt_GC, 50e-6);
+  EXPECT_DOUBLE_EQ(p.dt_GG, 2e-6);
+  EXPECT_DOUBLE_EQ(p.dt_C, 10e-6);
+  EXPECT_DOUBLE_EQ(p.dt_G, 2e-6);
+  EXPECT_DOUBLE_EQ(p.dt_trans(), 132e-6);
+  EXPECT_EQ(p.lat_CG, 0.0);
+  EXPECT_EQ(p.lat_launch, 0.0);
+  EXPECT_NEAR(p.total, 144e-6, 1e-18);
+}
+
+TEST(Predict, LatencyVariantAddsPerTransferAndPerLaunchCosts) {
+  const auto m = test::round_profile();
+  const auto p = predict(m, sample_counts(), Variant::latency);
+  EXPECT_DOUBLE_EQ(p.lat_CG, 3 * 10e-6);
+  EXPECT_DOUBLE_EQ(p.lat_GC, 2 * 12e-6);
+  EXPECT_DOUBLE_EQ(p.lat_launch, 4 * 3e-6);
+  EXPECT_NEAR(p.total, 144e-6 + 30e-6 + 24e-6 + 12e-6, 1e-15);
+}
+
+TEST(Predict, ExtendedVariantOverlapsDeviceTrafficAndArithmetic) {
+  const auto m = test::round_profile();
+  auto c = sample_counts();
+  c.N_G = 1'000'000'000;  // 20 us of arithmetic against 2 us of memory traffic
+  const auto p = predict(m, c, Variant::extended);
+  EXPECT_DOUBLE_EQ(p.dt_G, 20e-6);
+  EXPECT_NEAR(p.total, 80e-6 + 50e-6 + 20e-6 + 10e-6 + 30e-6 + 24e-6 + 12e-6, 1e-15);
+  // The seed variant sums the two instead.
+  EXPECT_NEAR(predict(m, c, Variant::seed).total, 80e-6 + 50e-6 + 2e-6 + 10e-6 + 20e-6, 1e-15);
+}
+
+TEST(Predict, ExtendedVariantBoundsCpuWorkByHostMemory) {
+  const auto m = test::round_profile();
+  CostCounts c;
+  c.P = 4;
+  c.N_C = 1'000'000;   // 10 us at 100 GFLOP/s
+  c.N_CC = 1'000'000;  // 4 MB at 20 GB/s = 200 us
+  EXPECT_NEAR(predict(m, c, Variant::extended).dt_C, 200e-6, 1e-15);
+  EXPECT_NEAR(predict(m, c, Variant::seed).dt_C, 10e-6, 1e-15);
+}
+
+TEST(Predict, PageableMemoryUsesPageableFigures) {
+  const auto m = test::round_profile();
+  auto c = sample_counts();
+  c.host_memory = HostMemory::pageable;
+  const auto p = predict(m, c, Variant::latency);
+  EXPECT_DOUBLE_EQ(p.dt_CG, 4e6 / 10e9);
+  EXPECT_DOUBLE_EQ(p.dt_GC, 2e6 / 8e9);
+  EXPECT_DOUBLE_EQ(p.lat_CG, 3 * 20e-6);
+  EXPECT_DOUBLE_EQ(p.lat_GC, 2 * 25e-6);
+}
+
+TEST(Predict, CpuRateScalesWithThreadsAndCaps) {
+  const auto m = test::round_profile();  // 8 hardware threads, 100 GFLOP/s each, 600 all
+  EXPECT_DOUBLE_EQ(cpu_rate(m, Precision::fp32, 1), 100e9);
+  EXPECT_DOUBLE_EQ(cpu_rate(m, Precision::fp32, 4), 400e9);
+  EXPECT_DOUBLE_EQ(cpu_rate(m, Precision::fp32, 7), 600e9);  // capped
+  EXPECT_DOUBLE_EQ(cpu_rate(m, Precision::fp32, 8), 600e9);
+  EXPECT_DOUBLE_EQ(cpu_rate(m, Precision::fp64, 1), 50e9);
+  EXPECT_DOUBLE_EQ(host_bandwidth(m, 2), 40e9);
+}
+
+TEST(Predict, Fp64UsesFp64Rates) {
+  const auto m = test::round_profile();
+  CostCounts c;
+  c.P = 8;
+  c.precision = Precision::fp64;
+  c.N_G = 25'000'000;
+  c.N_C = 50'000'000;
+  const auto p = predict(m, c, Variant::seed);
+  EXPECT_DOUBLE_EQ(p.dt_G, 1e-6);
+  EXPECT_DOUBLE_EQ(p.dt_C, 1e-3);
+}
+
+TEST(Predict, MissingParametersAreNamedAllAtOnce) {
+  auto m = test::round_profile();
+  m.erase(Param::V_G_fp32);
+  m.erase(Param::B_GG);
+  try {
+    predict(m, sample_counts(), Variant::seed);
+    FAIL() << "expected MissingParameter";
+  } catch (const MissingParameter& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find("V_G_fp32"), std::string::npos) << w;
+    EXPECT_NE(w.find("B_GG"), std::string::npos) << w;
+  }
+  // A CPU-only computation needs no GPU figure.
+  CostCounts cpu;
+  cpu.N_C = 1000;
+  EXPECT_NO_THROW(predict(m, cpu, Variant::extended));
+}
+
+TEST(Predict, SeedVariantNeedsNoLatencies) {
+  auto m = test::round_profile();
+  m.erase(Param::L_CG_pinned);
+  m.erase(Param::L_launch);
+  EXPECT_NO_THROW(predict(m, sample_counts(), Variant::seed));
+  EXPECT_THROW(predict(m, sample_counts(), Variant::latency), MissingParameter);
+}
+
+TEST(Predict, DeadlineIsEquation3_1) {
+  const auto m = test::round_profile();
+  const auto p = predict(m, sample_counts(), Variant::seed);
+  EXPECT_TRUE(meets_deadline(p, 144e-6 + 1e-12));
+  EXPECT_TRUE(meets_deadline(p, p.total));
+  EXPECT_FALSE(meets_deadline(p, 143e-6));
+}
+
+TEST(Predict, VariantNamesRoundTrip) {
+  for (auto v : all_variants()) EXPECT_EQ(variant_from_string(to_string(v)), v);
+  EXPECT_FALSE(variant_from_string("magic").has_value());
+}
+
+TEST(CostCounts, ScaleAndAdd) {
+  auto c = sample_counts();
+  auto d = c.scaled(3);
+  EXPECT_EQ(d.N_CG, 3'000'000);
+  EXPECT_EQ(d.launches, 12);
+  EXPECT_EQ(d.P, 4);
+  auto e = c;
+  e += c;
+  e += c;
+  EXPECT_EQ(e, d);
+}
+
+}  // namespace
+}  // namespace dtflop
