@@ -1,0 +1,218 @@
+// Backends of the grid-based RBE and their registry.
+//
+// A backend runs RBE steps (prediction by convolution with the motion kernel, correction by the
+// likelihood, normalization by A_c times the sum, seed eqs. 4.10-4.12 / 5.3-5.7) on one kind of
+// hardware, declares the exact cost counts of a step beside its code, and reports the host-clock
+// time of each step's components. The registry is one explicit list (registry.cpp): adding a
+// backend is adding its files and one line there.
+//
+// What a caller (the CLI, calibrate/, tune/) does:
+//   auto b = rbe::make_backend("cuda-resident", options);  // throws InputError if unknown/invalid
+//                                                           // (no device needed to make one)
+//   b->init(problem);                                       // prior belief, kernel, likelihood
+//   rbe::RunResult r = b->run(1000);                        // steps, timed
+//   r.median().total, r.median().part(Component::predict), b->step_counts(shape, options) ...
+//   std::vector<double> belief = b->belief();               // normalized density, float64
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "model/cost_counts.hpp"
+#include "model/errors.hpp"
+#include "workloads/rbe/counts.hpp"
+#include "workloads/rbe/grid.hpp"
+#include "workloads/rbe/motion.hpp"
+
+namespace dtflop::rbe {
+
+// ---- Errors -----------------------------------------------------------------------------
+
+// A correction whose sum is zero or not finite: the likelihood is zero wherever the belief has
+// mass (or a value overflowed). The backend's belief is left in an error state: belief() and
+// run() throw until init() is called again. Never a silent NaN.
+class NumericalError : public std::runtime_error {
+ public:
+  NumericalError(std::int64_t step, const std::string& what)
+      : std::runtime_error(what), step_(step) {}
+  std::int64_t step() const { return step_; }  // zero-based step of the run that failed
+ private:
+  std::int64_t step_;
+};
+
+// A CUDA backend asked for where no CUDA device can be used (or dtflop was built without
+// CUDA). An InputError: the CLI prints it on one line and exits non-zero.
+class DeviceUnavailable : public InputError {
+ public:
+  using InputError::InputError;
+};
+
+// Empty when a CUDA device is usable; otherwise one line saying why not and what to do.
+std::string cuda_unavailable_reason();
+// Name of device 0 ("NVIDIA H200"), empty without a device.
+std::string cuda_device_name();
+
+// ---- Options ------------------------------------------------------------------------------
+
+// How cuda-resident lays out its work; the tuner searches this space. A block is
+// block_x x block_y threads; each thread computes cells_per_thread consecutive cells along y,
+// so one block covers a tile of block_x x (block_y * cells_per_thread) cells.
+// Invalid layouts are rejected by validate_layout() with a message, never by a crash.
+struct Layout {
+  int block_x = 32;
+  int block_y = 8;
+  int cells_per_thread = 4;
+  // fused: one kernel per step (x-pass and y-pass through a shared-memory tile with halo,
+  //        multiplied by the likelihood, block-reduced);
+  // split: two kernels (x-pass to device memory, then y-pass + correction), for kernels whose
+  //        tile would not fit in shared memory;
+  // automatic: fused when its tile fits, else split.
+  enum class Passes { automatic, fused, split } passes = Passes::automatic;
+  bool operator==(const Layout&) const = default;
+};
+// "32x8" or "32x8x4" (block_x x block_y [x cells_per_thread]), optionally followed by
+// ":fused" or ":split". Throws InputError naming the text.
+Layout parse_layout(std::string_view text);
+std::string to_string(const Layout& layout);
+
+// Which prediction a backend computes.
+enum class Prediction {
+  separable,  // two 1D passes (5.3-5.4); needs a separable kernel
+  full,       // the conventional 2D convolution (4.10), any kernel
+};
+
+struct BackendOptions {
+  HostMemory host_memory = HostMemory::pageable;  // cuda-seed: host buffers pageable or pinned
+  int threads = 0;                                // cpu-par: 0 = every hardware thread
+  Layout layout;                                  // cuda-resident
+  // The prediction to use; empty: separable when the kernel is separable, else full.
+  std::optional<Prediction> prediction;
+  // cuda-resident: capture the step loop in a CUDA graph (default) or launch kernel by kernel.
+  bool graph = true;
+};
+
+// ---- Problem ----------------------------------------------------------------------------
+
+// Everything a run needs. `prior` and `likelihood` are grid arrays (see grid.hpp); the prior is
+// a density (need not be normalized: init() normalizes it to integrate to one). The same
+// likelihood is applied at every step of run(); step(likelihood) applies a new one.
+struct Problem {
+  Grid grid;
+  MotionKernel kernel;
+  std::vector<double> prior;
+  std::vector<double> likelihood;
+  std::vector<std::uint8_t> mask;  // optional target-space mask (grid.hpp); empty = all cells
+  Shape shape() const { return {grid.nx(), grid.ny(), kernel.Ix(), kernel.Iy()}; }
+};
+// Throws InputError naming what is wrong: sizes that disagree, negative or non-finite values,
+// a prior with no mass (inside the mask), a kernel larger than the grid.
+void validate(const Problem& problem);
+
+// A reproducible synthetic problem for benchmarks and calibration: unit grid nx x ny, a
+// separable Gaussian kernel of size Ix x Iy (sigma = size / 6, slight drift), a random smooth
+// prior and a random positive likelihood drawn from `seed`.
+Problem synthetic_problem(const Shape& shape, std::uint64_t seed);
+
+// ---- Timing -------------------------------------------------------------------------------
+
+// The components a step's time is split into, each tied to a term of the DTFLOP model.
+enum class Component {
+  to_device,   // host -> device copies                       (dt_CG)
+  to_host,     // device -> host copies                       (dt_GC)
+  predict,     // prediction                                  (dt_G/dt_GG on device, dt_C on host)
+  correct,     // likelihood x prediction and the sum         (same)
+  normalize,   // division by A_c x sum                       (same)
+  host_sum,    // the sum taken on the CPU (cuda-seed only)   (dt_C)
+  device_step, // a fused device step that is not split further (cuda-resident)
+  kCount
+};
+inline constexpr int kComponentCount = static_cast<int>(Component::kCount);
+std::string_view to_string(Component c);
+
+// Times of one step (or the mean step of a chunk of steps), in seconds.
+struct StepTimes {
+  double total = 0;                                // wall time of the step
+  std::array<double, kComponentCount> parts{};     // components measured (0 when not present)
+  double part(Component c) const { return parts[static_cast<std::size_t>(c)]; }
+  double& part(Component c) { return parts[static_cast<std::size_t>(c)]; }
+};
+
+struct RunResult {
+  std::int64_t steps = 0;
+  // One sample per timed step; backends that time a chunk of steps at once (a CUDA graph)
+  // report one sample per chunk holding the mean step of that chunk.
+  std::vector<StepTimes> samples;
+  std::int64_t steps_per_sample = 1;
+  double wall_seconds = 0;          // the whole run, host clock, setup (graph capture) excluded
+  double setup_seconds = 0;         // one-time work of this run (graph capture and instantiation)
+  std::vector<double> sums;         // A_c x sum of q per step when the backend returns it
+  // Median of each field over the samples (component by component).
+  StepTimes median() const;
+  // Components that the backend measured (non-zero in some sample).
+  std::vector<Component> components() const;
+};
+
+// ---- Backend ----------------------------------------------------------------------------
+
+class Backend {
+ public:
+  virtual ~Backend() = default;
+
+  virtual std::string_view name() const = 0;
+  virtual std::string_view description() const = 0;
+  virtual bool needs_gpu() const = 0;
+
+  // Exact cost counts of one steady-state step of `shape` with `options`, declared beside the
+  // backend's code and checked by tests against formulas written out by hand.
+  virtual CostCounts step_counts(const Shape& shape, const BackendOptions& options) const = 0;
+  // Counts of run(steps): step_counts x steps plus what a run does once (graph launch, the
+  // final copy of the sums). The default is step_counts x steps.
+  virtual CostCounts run_counts(const Shape& shape, const BackendOptions& options,
+                                std::int64_t steps) const {
+    return step_counts(shape, options).scaled(steps);
+  }
+  // Stable names of the device kernels the backend launches (for CUPTI attribution); host
+  // backends return none. With CUDA, each step component is an NVTX range "rbe/<component>".
+  virtual std::vector<std::string_view> kernel_names() const { return {}; }
+
+  // Allocates, uploads and normalizes the prior. Throws InputError for an invalid problem or
+  // one this backend cannot run (e.g. a full kernel on a separable-only backend), and
+  // DeviceUnavailable without a device.
+  virtual void init(const Problem& problem) = 0;
+  // `steps` steps with the problem's likelihood, timed. Throws NumericalError on a zero sum.
+  virtual RunResult run(std::int64_t steps) = 0;
+  // One step with a new likelihood (a grid array; the mask is applied to it). Returns its times.
+  virtual StepTimes step(std::span<const double> likelihood) = 0;
+  // The normalized belief (density: sum x A_c = 1) as float64, n_x n_y values.
+  virtual std::vector<double> belief() = 0;
+  // The options the backend was made with.
+  virtual const BackendOptions& options() const = 0;
+};
+
+// ---- Registry ---------------------------------------------------------------------------
+
+struct BackendInfo {
+  std::string name;         // "cpu-seq", "cpu-par", "cuda-seed", "cuda-resident"
+  std::string description;
+  bool needs_gpu = false;
+  // Makes the backend (no device needed: init() needs it). Throws InputError for options the
+  // backend rejects (e.g. an invalid layout).
+  std::function<std::unique_ptr<Backend>(const BackendOptions&)> make;
+};
+// Every backend, sorted by name. CUDA backends are listed in every build; where dtflop was
+// built without CUDA their init() throws DeviceUnavailable saying so.
+const std::vector<BackendInfo>& backends();
+// Throws InputError naming the known backends when `name` is unknown.
+std::unique_ptr<Backend> make_backend(std::string_view name, const BackendOptions& options = {});
+// The exact counts of one step of a backend, without a device.
+CostCounts step_counts(std::string_view backend, const Shape& shape, const BackendOptions& options = {});
+
+}  // namespace dtflop::rbe
