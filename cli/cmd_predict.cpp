@@ -27,7 +27,7 @@ struct PredictOptions {
 std::string count_str(std::int64_t v) { return fmt::format("{}", v); }
 
 void print_counts(const CostCounts& c) {
-  Table t({"count", "value", "meaning"});
+  Table t({"count", "value", "meaning"}, "lrl");
   t.row({"P", count_str(c.P), fmt::format("bytes per value ({})", to_string(c.precision))});
   t.row({"N_CG", count_str(c.N_CG), fmt::format("values host->device in {} copies", c.transfers_CG)});
   t.row({"N_GC", count_str(c.N_GC), fmt::format("values device->host in {} copies", c.transfers_GC)});
@@ -128,8 +128,14 @@ Registrar reg(20, [](CLI::App& root) {
   app->add_option("--variant", opts->variant, "Model variant: seed (eqs. 3.2-3.9), latency, extended")
       ->capture_default_str();
   app->add_flag("--json", opts->json, "Print JSON instead of tables");
-  app->require_subcommand(1);
-  app->fallthrough();
+  // An unknown workload name is rejected by the parser as an unexpected argument, named in
+  // its one-line message; no name at all is caught here.
+  app->callback([app] {
+    if (!app->get_subcommands().empty()) return;
+    std::string known;
+    for (const auto& t : predict_targets()) known += (known.empty() ? "" : ", ") + t.name;
+    throw InputError(fmt::format("name the workload to predict: {}", known));
+  });
   for (const auto& target : predict_targets()) {
     auto* sub = app->add_subcommand(target.name, target.description);
     sub->fallthrough();

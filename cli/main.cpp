@@ -16,6 +16,13 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "dtflop 0.1.0");
   app.require_subcommand(1);
   app.fallthrough();
+  // Parse errors on one line, ending with what to do.
+  app.failure_message([](const CLI::App* failed, const CLI::Error& e) {
+    std::string path;
+    for (auto* a = failed; a != nullptr; a = a->get_parent())
+      path = a->get_name() + (path.empty() ? "" : " " + path);
+    return fmt::format("dtflop: error: {} (see `{} --help`)\n", e.what(), path);
+  });
   dtflop::cli::setup_all(app);
   try {
     app.parse(argc, argv);

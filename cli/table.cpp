@@ -13,12 +13,13 @@ std::string Table::str() const {
   };
   measure(header_);
   for (const auto& r : rows_) measure(r);
-  auto line = [&w](const std::vector<std::string>& r) {
+  auto left = [this](size_t i) { return i < align_.size() ? align_[i] == 'l' : i == 0; };
+  auto line = [&w, &left](const std::vector<std::string>& r) {
     std::string s;
     for (size_t i = 0; i < w.size(); ++i) {
       const std::string& c = i < r.size() ? r[i] : std::string();
       if (i) s += "  ";
-      s += i == 0 ? fmt::format("{:<{}}", c, w[i]) : fmt::format("{:>{}}", c, w[i]);
+      s += left(i) ? fmt::format("{:<{}}", c, w[i]) : fmt::format("{:>{}}", c, w[i]);
     }
     while (!s.empty() && s.back() == ' ') s.pop_back();
     return s + "\n";

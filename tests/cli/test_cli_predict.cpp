@@ -1,0 +1,102 @@
+// `dtflop predict` end to end: the real executable, good and bad input.
+#include <filesystem>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "model/json_io.hpp"
+#include "model/predict.hpp"
+#include "tests/cli/run_cli.hpp"
+#include "tests/model/fixtures.hpp"
+#include "workloads/rbe/counts.hpp"
+
+namespace dtflop {
+namespace {
+
+class PredictCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() / ("dtflop_predict_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir_);
+    profile_ = test::round_profile();
+    save_profile(profile_, dir_ / "m.json");
+    auto cpu_only = profile_;
+    for (auto p : {Param::V_G_fp32, Param::V_G_fp64, Param::B_GG, Param::B_CG_pageable})
+      cpu_only.erase(p);
+    save_profile(cpu_only, dir_ / "cpu.json");
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::string path(const char* f) const { return (dir_ / f).string(); }
+
+  // A bad invocation: non-zero exit, nothing on stdout, one line on stderr containing `needle`.
+  void expect_one_line_error(const std::string& args, const std::string& needle) {
+    const auto r = test::run_dtflop(args);
+    EXPECT_NE(r.status, 0) << args;
+    EXPECT_EQ(test::count_lines(r.err), 1) << args << "\n" << r.err;
+    EXPECT_NE(r.err.find(needle), std::string::npos) << args << "\n" << r.err;
+    EXPECT_TRUE(r.out.empty()) << r.out;
+  }
+
+  std::filesystem::path dir_;
+  MachineProfile profile_;
+};
+
+TEST_F(PredictCli, CountsOnlyWithoutMachine) {
+  const auto r = test::run_dtflop("predict rbe-seed --grid 100x80 --kernel 5x7 --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  const auto c = counts_from_json(j.at("counts"));
+  EXPECT_EQ(c, rbe::seed_gpu_counts({100, 80, 5, 7}));
+  EXPECT_FALSE(j.contains("prediction"));
+}
+
+TEST_F(PredictCli, PredictionMatchesModelAndDeadline) {
+  const auto r = test::run_dtflop("predict --machine " + path("m.json") +
+                                  " rbe-seed --grid 1000x1000 --kernel 33x33 --deadline 1ms --json --variant seed");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  const auto expected = predict(profile_, rbe::seed_gpu_counts({1000, 1000, 33, 33}), Variant::seed);
+  EXPECT_DOUBLE_EQ(j.at("prediction").at("total").get<double>(), expected.total);
+  EXPECT_DOUBLE_EQ(j.at("prediction").at("dt_CG").get<double>(), expected.dt_CG);
+  EXPECT_EQ(j.at("meets_deadline").get<bool>(), expected.total <= 1e-3);
+  EXPECT_EQ(j.at("prediction").at("variant"), "seed");
+}
+
+TEST_F(PredictCli, TableOutputSaysWhetherDeadlineIsMet) {
+  // The round profile predicts ~1.5 ms per step of the pageable seed pipeline at 1000x1000.
+  auto r = test::run_dtflop("predict --machine " + path("m.json") +
+                            " rbe-seed --grid 1000x1000 --kernel 33x33 --deadline 10ms");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("MET"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("dt_CG"), std::string::npos) << r.out;
+  r = test::run_dtflop("predict --machine " + path("m.json") +
+                       " rbe-seed --grid 1000x1000 --kernel 33x33 --deadline 10us");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("MISSED"), std::string::npos) << r.out;
+}
+
+TEST_F(PredictCli, BadInputGivesOneLineAndNonZeroExit) {
+  expect_one_line_error("predict nosuch-workload --grid 10x10", "nosuch-workload");
+  expect_one_line_error("predict", "rbe-seed");
+  expect_one_line_error("predict rbe-seed --grid 0x10", "--grid");
+  expect_one_line_error("predict rbe-seed --grid -5x10", "--grid");
+  expect_one_line_error("predict rbe-seed --grid 100000000x100000000", "larger than");
+  expect_one_line_error("predict rbe-seed --grid 10x10 --kernel 33x33", "larger than the grid");
+  expect_one_line_error("predict rbe-seed --grid banana", "not a size");
+  expect_one_line_error("predict rbe-seed --gird 10x10", "--gird");
+  expect_one_line_error("predict --machine " + path("cpu.json") + " rbe-seed", "V_G_fp32");
+  expect_one_line_error("predict --machine " + path("absent.json") + " rbe-seed", "absent.json");
+  expect_one_line_error("predict rbe-seed --deadline 1ms", "--machine");
+  expect_one_line_error("predict --machine " + path("m.json") + " rbe-seed --deadline soon", "--deadline");
+  expect_one_line_error("predict --machine " + path("m.json") + " rbe-seed --variant magic", "--variant");
+}
+
+TEST_F(PredictCli, HelpListsWorkloads) {
+  const auto r = test::run_dtflop("predict --help");
+  EXPECT_EQ(r.status, 0);
+  EXPECT_NE(r.out.find("rbe-seed"), std::string::npos);
+  EXPECT_NE(r.out.find("rbe-conventional"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace dtflop
