@@ -1,0 +1,397 @@
+#include "calibrate/fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <numeric>
+#include <random>
+
+#include <ceres/ceres.h>
+#include <fmt/format.h>
+
+#include "model/errors.hpp"
+
+namespace dtflop::calib {
+
+std::string_view to_string(Loss l) {
+  switch (l) {
+    case Loss::none: return "none";
+    case Loss::huber: return "huber";
+    case Loss::cauchy: return "cauchy";
+  }
+  return "?";
+}
+
+namespace {
+
+constexpr double kZ95 = 1.959963984540054;  // two-sided 95% normal quantile
+
+// Start value for a parameter the start profile lacks: an order of magnitude typical of
+// today's machines. Log-space steps make a factor of ten off harmless.
+double default_start(Param p) {
+  const auto unit = info(p).unit;
+  if (unit == "s") return 10e-6;
+  if (p == Param::V_G_fp32 || p == Param::V_G_fp64) return 10e12;
+  if (p == Param::B_GG || p == Param::B_GG_copy) return 1e12;
+  return 10e9;  // host bandwidths and CPU rates
+}
+
+// Does a sample's counts exercise component c (so that its prediction can be non-zero)?
+bool exercised(const CostCounts& k, Component c) {
+  switch (c) {
+    case Component::total: return true;
+    case Component::CG: return k.N_CG > 0 || k.transfers_CG > 0;
+    case Component::GC: return k.N_GC > 0 || k.transfers_GC > 0;
+    case Component::G: return k.N_GG > 0 || k.N_G > 0;
+    case Component::C: return k.N_C > 0 || k.N_CC > 0;
+  }
+  return false;
+}
+
+struct Residual {
+  const Sample* sample;
+  Component component;
+  double measured;
+  std::vector<int> params;  // indices into the fit's parameter list
+};
+
+// One relative residual: (predicted - measured) / measured for one sample's component.
+struct ResidualFunctor {
+  const MachineProfile* base;
+  const std::vector<Param>* ids;
+  const std::vector<double>* starts;
+  const CostCounts* counts;
+  std::vector<int> params;
+  Variant variant;
+  Component component;
+  double measured;
+
+  bool operator()(double const* const* theta, double* r) const {
+    MachineProfile m = *base;
+    for (std::size_t i = 0; i < params.size(); ++i) {
+      const int p = params[i];
+      const double v = (*starts)[p] * std::exp(theta[i][0]);
+      if (!std::isfinite(v) || v <= 0) return false;
+      m.set((*ids)[p], Parameter{v, Provenance::fitted, {}, {}, {}});
+    }
+    const Prediction pred = predict(m, *counts, variant);
+    r[0] = (predicted(pred, component) - measured) / measured;
+    return std::isfinite(r[0]);
+  }
+};
+
+ceres::LossFunction* make_loss(const FitOptions& o) {
+  switch (o.loss) {
+    case Loss::none: return nullptr;
+    case Loss::huber: return new ceres::HuberLoss(o.loss_scale);
+    case Loss::cauchy: return new ceres::CauchyLoss(o.loss_scale);
+  }
+  return nullptr;
+}
+
+std::string fmt_value(double v, Param p) { return fmt::format("{:.4g} {}", v, info(p).unit); }
+
+}  // namespace
+
+FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, const FitOptions& o) {
+  if (samples.empty()) throw InputError("no samples to fit; measure some with `dtflop sweep`");
+  if (!(o.loss_scale > 0)) throw InputError("the robust loss scale must be positive");
+
+  // The parameters the samples' counts exercise, in Param order.
+  std::vector<Param> ids;
+  for (const auto& s : samples)
+    for (Param p : required_params(s.counts, o.variant))
+      if (std::find(ids.begin(), ids.end(), p) == ids.end()) ids.push_back(p);
+  std::sort(ids.begin(), ids.end());
+  std::vector<double> starts(ids.size());
+  MachineProfile base = start;
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    const Parameter* p = start.find(ids[i]);
+    starts[i] = p ? p->value : default_start(ids[i]);
+    if (!p) base.set(ids[i], Parameter{starts[i], Provenance::user, {}, {}, "fit start guess"});
+  }
+  auto index_of = [&ids](Param p) {
+    return static_cast<int>(std::find(ids.begin(), ids.end(), p) - ids.begin());
+  };
+
+  // Residuals: total, plus each measured component the counts exercise.
+  std::vector<Residual> residuals;
+  for (const auto& s : samples) {
+    std::vector<int> params;
+    for (Param p : required_params(s.counts, o.variant)) params.push_back(index_of(p));
+    for (Component c : all_components()) {
+      if (c != Component::total &&
+          std::find(o.components.begin(), o.components.end(), c) == o.components.end())
+        continue;
+      const Stats* st = s.find(c);
+      if (!st || !(st->median > 0) || !exercised(s.counts, c)) continue;
+      residuals.push_back({&s, c, st->median, params});
+    }
+  }
+
+  std::vector<double> theta(ids.size(), 0.0);
+  ceres::Problem::Options popts;
+  ceres::Problem problem(popts);
+  for (auto& t : theta) problem.AddParameterBlock(&t, 1);
+  for (const auto& r : residuals) {
+    auto* fn = new ceres::DynamicNumericDiffCostFunction<ResidualFunctor, ceres::CENTRAL>(
+        new ResidualFunctor{&base, &ids, &starts, &r.sample->counts, r.params, o.variant, r.component,
+                            r.measured});
+    std::vector<double*> blocks;
+    for (int p : r.params) {
+      fn->AddParameterBlock(1);
+      blocks.push_back(&theta[p]);
+    }
+    fn->SetNumResiduals(1);
+    problem.AddResidualBlock(fn, make_loss(o), blocks);
+  }
+
+  // Parameters that move no prediction at the start point cannot be fitted (e.g. a one-thread
+  // rate when every sample runs on all threads, or a term a max() never picks): keep them.
+  std::vector<bool> identifiable(ids.size(), false);
+  {
+    ceres::Problem::EvaluateOptions eo;
+    eo.apply_loss_function = false;
+    for (auto& t : theta) eo.parameter_blocks.push_back(&t);  // column i is parameter i
+    double cost = 0;
+    ceres::CRSMatrix jac;
+    problem.Evaluate(eo, &cost, nullptr, nullptr, &jac);
+    for (int row = 0; row < jac.num_rows; ++row)
+      for (int k = jac.rows[row]; k < jac.rows[row + 1]; ++k)
+        if (std::abs(jac.values[k]) > 1e-6) identifiable[jac.cols[k]] = true;
+  }
+  int free = 0;
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    if (identifiable[i]) ++free;
+    else problem.SetParameterBlockConstant(&theta[i]);
+  }
+  const int n_samples = static_cast<int>(samples.size());
+  if (free == 0)
+    throw InputError("the samples exercise no parameter that can be fitted (no counts move any "
+                     "prediction); measure a workload with non-zero counts");
+  if (n_samples < free)
+    throw InputError(fmt::format(
+        "{} sample{} cannot determine {} parameters; measure at least {} configurations (e.g. "
+        "`dtflop sweep rbe --plan seed-test2`)",
+        n_samples, n_samples == 1 ? "" : "s", free, free));
+
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = o.max_iterations;
+  so.function_tolerance = 1e-10;
+  so.parameter_tolerance = 1e-10;
+  so.gradient_tolerance = 1e-12;
+  so.logging_type = ceres::SILENT;
+  so.num_threads = 1;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+
+  FitResult out;
+  out.variant = o.variant;
+  out.samples = n_samples;
+  out.residuals = static_cast<int>(residuals.size());
+  out.free_parameters = free;
+  out.termination = summary.message;
+  out.iterations = static_cast<int>(summary.iterations.size());
+  if (summary.termination_type == ceres::NO_CONVERGENCE)
+    throw InputError(fmt::format(
+        "the {} fit did not converge in {} iterations ({}); the samples may be too noisy or "
+        "too few for this variant: measure more configurations or pick another --variant",
+        to_string(o.variant), o.max_iterations, summary.message));
+  if (summary.termination_type != ceres::CONVERGENCE || !summary.IsSolutionUsable())
+    throw InputError(fmt::format("the {} fit failed: {}", to_string(o.variant), summary.message));
+
+  // Unrobustified residuals at the solution: their variance scales the covariance, since
+  // relative residuals have no known standard deviation of their own.
+  double ss = 0;
+  for (const auto& r : residuals) {
+    MachineProfile m = base;
+    for (int p : r.params) m.set(ids[p], Parameter{starts[p] * std::exp(theta[p]), Provenance::fitted, {}, {}, {}});
+    const double rel = (predicted(predict(m, r.sample->counts, o.variant), r.component) - r.measured) / r.measured;
+    ss += rel * rel;
+  }
+  out.rms_relative = residuals.empty() ? 0 : std::sqrt(ss / static_cast<double>(residuals.size()));
+  const int dof = out.residuals - free;
+  const double s2 = dof > 0 ? ss / dof : 0;
+
+  std::vector<double> log_var(ids.size(), 0.0);
+  {
+    ceres::Covariance::Options co;
+    co.algorithm_type = ceres::DENSE_SVD;
+    co.num_threads = 1;
+    ceres::Covariance cov(co);
+    std::vector<std::pair<const double*, const double*>> blocks;
+    for (std::size_t i = 0; i < ids.size(); ++i)
+      if (identifiable[i]) blocks.emplace_back(&theta[i], &theta[i]);
+    if (dof <= 0) {
+      out.covariance_note = "no degrees of freedom left for an uncertainty estimate (as many residuals as parameters)";
+    } else if (cov.Compute(blocks, &problem)) {
+      out.covariance_ok = true;
+      for (std::size_t i = 0; i < ids.size(); ++i) {
+        if (!identifiable[i]) continue;
+        double c = 0;
+        cov.GetCovarianceBlock(&theta[i], &theta[i], &c);
+        log_var[i] = std::max(0.0, c * s2);
+      }
+    } else {
+      out.covariance_note =
+          "the covariance could not be computed: the Jacobian is rank deficient, so some fitted "
+          "parameters are not separately determined by these samples (e.g. a latency and a "
+          "bandwidth when every copy has the same size); widen the sweep";
+    }
+  }
+
+  out.profile = start;
+  const std::string stamp = utc_now();
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    FittedParameter f;
+    f.id = ids[i];
+    if (const Parameter* p = start.find(ids[i])) f.probed = p->value;
+    f.fitted = identifiable[i];
+    f.value = starts[i] * std::exp(theta[i]);
+    if (!f.fitted) {
+      f.value = starts[i];
+      f.note = f.probed ? "not identifiable from these samples (it moves no prediction); kept the probed value"
+                        : "not identifiable from these samples and absent from the profile; left out";
+    } else {
+      if (out.covariance_ok) {
+        f.log_sigma = std::sqrt(log_var[i]);
+        f.has_interval = true;
+        f.lo95 = f.value * std::exp(-kZ95 * f.log_sigma);
+        f.hi95 = f.value * std::exp(kZ95 * f.log_sigma);
+      }
+      if (f.probed) {
+        const double ratio = f.value / *f.probed;
+        if (ratio > o.flag_ratio || ratio < 1.0 / o.flag_ratio) {
+          f.flagged = true;
+          f.note = fmt::format("fitted is {:.2f}x the probed value: the probe and the workload see "
+                               "different machines here (e.g. a probe at another size)",
+                               ratio);
+        }
+      } else {
+        f.note = "no probed value to compare with";
+      }
+      Parameter par;
+      par.value = f.value;
+      par.provenance = Provenance::fitted;
+      if (f.has_interval) par.uncertainty = (f.hi95 - f.lo95) / 2;
+      par.note = fmt::format("fitted to {} samples, model variant {}, {}{}", n_samples,
+                             to_string(o.variant), stamp,
+                             f.probed ? "; probed " + fmt_value(*f.probed, ids[i]) : std::string());
+      out.profile.set(ids[i], par);
+    }
+    out.params.push_back(std::move(f));
+  }
+  return out;
+}
+
+namespace {
+
+// Deterministic on every platform (std::shuffle's distribution is not).
+std::vector<int> shuffled_indices(int n, std::uint64_t seed) {
+  std::vector<int> idx(n);
+  std::iota(idx.begin(), idx.end(), 0);
+  std::mt19937_64 rng(seed);
+  for (int i = n - 1; i > 0; --i) std::swap(idx[i], idx[rng() % static_cast<std::uint64_t>(i + 1)]);
+  return idx;
+}
+
+}  // namespace
+
+std::vector<CvResult> cross_validate(const std::vector<Sample>& samples, const MachineProfile& start,
+                                     const FitOptions& base, const std::vector<Variant>& variants,
+                                     int k, std::uint64_t seed) {
+  const int n = static_cast<int>(samples.size());
+  if (k < 2) throw InputError(fmt::format("cross-validation needs at least 2 folds, got {}", k));
+  if (n < k)
+    throw InputError(fmt::format("{}-fold cross-validation needs at least {} samples, the store holds {}", k, k, n));
+  const auto order = shuffled_indices(n, seed);
+  std::vector<int> fold_of(n);
+  for (int i = 0; i < n; ++i) fold_of[order[i]] = i % k;
+
+  std::vector<CvResult> out;
+  for (Variant v : variants) {
+    CvResult cv;
+    cv.variant = v;
+    cv.folds = k;
+    std::vector<double> all_err;
+    for (int f = 0; f < k; ++f) {
+      std::vector<Sample> train, test;
+      for (int i = 0; i < n; ++i) (fold_of[i] == f ? test : train).push_back(samples[i]);
+      FitOptions o = base;
+      o.variant = v;
+      try {
+        const FitResult r = fit(train, start, o);
+        double sum = 0;
+        for (const auto& s : test) {
+          const double meas = s.find(Component::total)->median;
+          const double err = std::abs(predict(r.profile, s.counts, v).total - meas) / meas;
+          sum += err;
+          all_err.push_back(err);
+          cv.max_rel = std::max(cv.max_rel, err);
+        }
+        cv.fold_means.push_back(test.empty() ? 0 : sum / static_cast<double>(test.size()));
+      } catch (const InputError& e) {
+        if (cv.failed_folds++ == 0) cv.failure = e.what();
+      }
+    }
+    cv.held_out = static_cast<int>(all_err.size());
+    if (!all_err.empty())
+      cv.mean_rel = std::accumulate(all_err.begin(), all_err.end(), 0.0) / static_cast<double>(all_err.size());
+    if (cv.fold_means.size() >= 2) {
+      const double m = std::accumulate(cv.fold_means.begin(), cv.fold_means.end(), 0.0) /
+                       static_cast<double>(cv.fold_means.size());
+      double var = 0;
+      for (double x : cv.fold_means) var += (x - m) * (x - m);
+      var /= static_cast<double>(cv.fold_means.size() - 1);
+      cv.se = std::sqrt(var / static_cast<double>(cv.fold_means.size()));
+    }
+    out.push_back(std::move(cv));
+  }
+  return out;
+}
+
+VariantChoice choose_variant(const std::vector<CvResult>& cv) {
+  const CvResult* best = nullptr;
+  for (const auto& c : cv)
+    if (c.failed_folds == 0 && c.held_out > 0 && (!best || c.mean_rel < best->mean_rel)) best = &c;
+  if (!best) {
+    std::string why;
+    for (const auto& c : cv) why += fmt::format("{}{}: {}", why.empty() ? "" : "; ", to_string(c.variant), c.failure);
+    throw InputError("no model variant could be cross-validated on these samples: " + why);
+  }
+  // all_variants() lists the variants from the simplest to the richest.
+  const CvResult* chosen = best;
+  for (Variant v : all_variants()) {
+    auto it = std::find_if(cv.begin(), cv.end(), [v](const CvResult& c) { return c.variant == v; });
+    if (it == cv.end() || it->failed_folds > 0 || it->held_out == 0) continue;
+    if (it->mean_rel <= best->mean_rel + best->se) {
+      chosen = &*it;
+      break;
+    }
+  }
+  std::string table;
+  for (const auto& c : cv) {
+    table += fmt::format("{}{} {}", table.empty() ? "" : ", ", to_string(c.variant),
+                         c.failed_folds ? fmt::format("failed in {} fold(s)", c.failed_folds)
+                                        : fmt::format("{:.2f}% (se {:.2f}%, max {:.1f}%)", 100 * c.mean_rel,
+                                                      100 * c.se, 100 * c.max_rel));
+  }
+  VariantChoice out;
+  out.chosen = chosen->variant;
+  const int k = cv.front().folds;
+  if (chosen == best)
+    out.reason = fmt::format(
+        "{}-fold cross-validated mean relative error of the total: {}. Chose {}: lowest error, and "
+        "no simpler variant is within one standard error of it.",
+        k, table, to_string(chosen->variant));
+  else
+    out.reason = fmt::format(
+        "{}-fold cross-validated mean relative error of the total: {}. Chose {}, the simplest "
+        "variant within one standard error of the best ({}, {:.2f}% + {:.2f}%).",
+        k, table, to_string(chosen->variant), to_string(best->variant), 100 * best->mean_rel, 100 * best->se);
+  return out;
+}
+
+}  // namespace dtflop::calib

@@ -1,0 +1,96 @@
+// Fitting the DTFLOP model's parameters to measured samples (Ceres), with 95% intervals from
+// ceres::Covariance, and choosing a model variant by k-fold cross-validation.
+//
+// The fit minimizes, over the parameters the samples' counts exercise, the sum of a robust
+// loss of relative residuals (predicted - measured) / measured: one residual per sample for
+// the total and one for each measured component the sample's counts exercise (CG, GC, G, C).
+// Parameters are estimated in log space, theta = log(value / start), so they stay positive and
+// the problem is scaled. Predictions come from model/predict.hpp itself: what is fitted is
+// exactly what `dtflop predict` computes.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calibrate/sample.hpp"
+#include "model/predict.hpp"
+#include "model/profile.hpp"
+
+namespace dtflop::calib {
+
+enum class Loss { none, huber, cauchy };
+std::string_view to_string(Loss l);
+
+struct FitOptions {
+  Variant variant = Variant::extended;
+  Loss loss = Loss::huber;
+  double loss_scale = 0.05;      // relative residual where the robust loss starts to bend
+  // Measured components that give residuals besides the total (only where a sample has them
+  // and its counts exercise them).
+  std::vector<Component> components = {Component::CG, Component::GC, Component::G, Component::C};
+  int max_iterations = 200;
+  double flag_ratio = 1.5;       // fitted / probed outside [1/r, r] is flagged
+};
+
+struct FittedParameter {
+  Param id{};
+  bool fitted = false;           // false: kept at its start value (not identifiable)
+  double value = 0;              // fitted value (or the kept one)
+  std::optional<double> probed;  // the start profile's value, when it had one
+  bool has_interval = false;
+  double lo95 = 0, hi95 = 0;     // 95% interval (fitted and covariance available)
+  double log_sigma = 0;          // standard deviation of log(value)
+  bool flagged = false;          // fitted and probed disagree by more than flag_ratio
+  std::string note;
+};
+
+struct FitResult {
+  Variant variant = Variant::extended;
+  int samples = 0;
+  int residuals = 0;
+  int free_parameters = 0;
+  std::vector<FittedParameter> params;  // every parameter the samples' counts exercise
+  std::string termination;              // Ceres' one-line report
+  int iterations = 0;
+  double rms_relative = 0;              // sqrt(mean squared relative residual), no loss applied
+  bool covariance_ok = false;
+  std::string covariance_note;
+  MachineProfile profile;               // the start profile with the fitted values written in
+};
+
+// Throws InputError for: no samples; fewer samples than free parameters; a solve that fails or
+// does not converge; a sample whose counts need a parameter with no start value (neither in
+// the start profile nor guessable).
+FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, const FitOptions& options);
+
+struct CvResult {
+  Variant variant = Variant::extended;
+  int folds = 0;
+  int held_out = 0;                 // predictions scored
+  double mean_rel = 0;              // mean |relative error| of the total over held-out samples
+  double max_rel = 0;
+  double se = 0;                    // standard error of the per-fold means
+  std::vector<double> fold_means;
+  int failed_folds = 0;             // folds whose fit failed (then the variant is not eligible)
+  std::string failure;              // the first failure's message
+};
+
+// k-fold cross-validation of each variant: samples are shuffled (deterministically, `seed`)
+// into k folds; each fold is predicted by a fit to the others. Needs k >= 2 and at least k
+// samples.
+std::vector<CvResult> cross_validate(const std::vector<Sample>& samples, const MachineProfile& start,
+                                     const FitOptions& base, const std::vector<Variant>& variants,
+                                     int k, std::uint64_t seed);
+
+struct VariantChoice {
+  Variant chosen = Variant::extended;
+  std::string reason;  // one paragraph: the CV errors and the rule applied
+};
+// The simplest variant (seed < latency < extended) whose cross-validated mean error lies within
+// one standard error of the best one's (the one-standard-error rule). Throws InputError when no
+// variant could be cross-validated.
+VariantChoice choose_variant(const std::vector<CvResult>& cv);
+
+}  // namespace dtflop::calib

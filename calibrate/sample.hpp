@@ -1,0 +1,82 @@
+// A sample: one measured configuration of a workload on one machine, as the sample store
+// holds it (one JSON object per line of a .jsonl file).
+//
+// A sample measures `repetitions` runs of `steps` steps each. `counts` are the exact cost counts
+// of one such run (what the backend declares for run(steps)), and every measured component is
+// the time of one run, so predict(profile, counts) compares with it directly.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "calibrate/stats.hpp"
+#include "model/cost_counts.hpp"
+#include "model/predict.hpp"
+#include "model/profile.hpp"
+
+namespace dtflop::calib {
+
+inline constexpr const char* kSampleSchema = "dtflop.sample";
+inline constexpr int kSampleSchemaVersion = 1;
+
+// The measured components the model predicts, each tied to model terms:
+//   total - wall time of the run                      <-> Prediction::total
+//   CG    - host->device copies (device-side duration) <-> dt_CG + lat_CG
+//   GC    - device->host copies                        <-> dt_GC + lat_GC
+//   G     - kernels (device-side duration)             <-> dt_GG + dt_G (extended: max of them)
+//   C     - CPU work, host clock                       <-> dt_C
+enum class Component { total, CG, GC, G, C };
+
+std::string_view to_string(Component c);
+std::optional<Component> component_from_string(std::string_view s);
+const std::vector<Component>& all_components();
+// The model's prediction of component `c` (seconds), per the table above.
+double predicted(const Prediction& p, Component c);
+
+// How a sample's components were timed.
+enum class TimingSource {
+  cupti,  // CUPTI activity records for copies and kernels, host clocks for CPU work and total
+  host,   // host clocks only (CPU backends, or CUPTI unavailable: the reason is in timing_note)
+};
+std::string_view to_string(TimingSource s);
+
+struct Sample {
+  std::string key;              // identifies the configuration measured (resume key)
+  MachineIdentity machine;      // where it was measured
+  std::string workload;         // "rbe"
+  std::string backend;          // "cuda-seed", "cpu-seq", ...
+  std::string plan;             // the sweep plan it belongs to ("seed-test1", "random:50", ...)
+  nlohmann::json parameters = nlohmann::json::object();  // the configuration
+  CostCounts counts;            // exact counts of one repetition (a run of `steps` steps)
+  std::int64_t steps = 1;       // steps per repetition
+  int warmup = 0;               // runs discarded before the timed ones
+  TimingSource source = TimingSource::host;
+  std::string timing_note;      // e.g. why CUPTI was not used
+  std::map<Component, Stats> components;  // seconds per repetition
+  nlohmann::json detail = nlohmann::json::object();  // informational measurements
+  std::string measured_at;      // ISO 8601 UTC
+
+  const Stats* find(Component c) const {
+    auto it = components.find(c);
+    return it == components.end() ? nullptr : &it->second;
+  }
+  int repetitions() const;  // repetitions of the total (0 when absent)
+};
+
+nlohmann::json to_json(const Sample& s);
+// Validates every field; throws InputError naming the field and what was expected.
+Sample sample_from_json(const nlohmann::json& j);
+
+nlohmann::json to_json(const MachineIdentity& id);
+MachineIdentity identity_from_json(const nlohmann::json& j);
+
+// Current UTC time, ISO 8601 ("2026-11-21T10:00:00Z").
+std::string utc_now();
+
+}  // namespace dtflop::calib

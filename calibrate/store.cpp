@@ -1,0 +1,193 @@
+#include "calibrate/store.hpp"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <system_error>
+
+#include <fmt/format.h>
+
+#include "model/errors.hpp"
+
+namespace dtflop::calib {
+
+namespace {
+
+std::string errno_text(int e) { return std::error_code(e, std::generic_category()).message(); }
+
+std::string shorten(const std::string& s, std::size_t n = 50) {
+  return s.size() <= n ? s : s.substr(0, n) + "...";
+}
+
+}  // namespace
+
+std::set<std::string> StoreContents::keys() const {
+  std::set<std::string> k;
+  for (const auto& s : samples) k.insert(s.key);
+  return k;
+}
+
+StoreContents read_store(const std::filesystem::path& path) {
+  StoreContents out;
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return out;
+  if (std::filesystem::is_directory(path, ec))
+    throw InputError(fmt::format("sample store '{}' is a folder; name a .jsonl file", path.string()));
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw InputError(fmt::format("cannot read sample store '{}': {}", path.string(), errno_text(errno)));
+  std::stringstream buf;
+  buf << in.rdbuf();
+  const std::string text = buf.str();
+
+  // Split into lines, remembering where each ends.
+  struct Line {
+    std::size_t begin, end;  // [begin, end) without the newline
+    bool terminated;         // followed by a newline
+  };
+  std::vector<Line> lines;
+  for (std::size_t pos = 0; pos < text.size();) {
+    const std::size_t nl = text.find('\n', pos);
+    if (nl == std::string::npos) {
+      lines.push_back({pos, text.size(), false});
+      break;
+    }
+    lines.push_back({pos, nl, true});
+    pos = nl + 1;
+  }
+  // The last line holding anything: only it may be torn.
+  std::size_t last = lines.size();
+  for (std::size_t i = lines.size(); i-- > 0;)
+    if (text.find_first_not_of(" \t\r", lines[i].begin) < lines[i].end) {
+      last = i;
+      break;
+    }
+
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const auto& L = lines[i];
+    const std::string line = text.substr(L.begin, L.end - L.begin);
+    if (line.find_first_not_of(" \t\r") == std::string::npos) {
+      if (L.terminated) out.good_bytes = L.end + 1;
+      continue;
+    }
+    nlohmann::json j;
+    bool parsed = true;
+    try {
+      j = nlohmann::json::parse(line);
+    } catch (const nlohmann::json::parse_error&) {
+      parsed = false;
+    }
+    // A line cut short by an interrupted write can only be the last one, and cannot parse.
+    if (!parsed && i == last && (!out.samples.empty() || (!L.terminated && line.front() == '{'))) {
+      out.torn_tail = true;
+      out.warnings.push_back(fmt::format(
+          "sample store '{}': skipped its last line ({} bytes), which is not complete JSON; a "
+          "sweep was probably interrupted while writing it, and rerunning the sweep measures "
+          "that configuration again",
+          path.string(), L.end - L.begin));
+      continue;
+    }
+    std::string problem;
+    if (!parsed) problem = "is not JSON";
+    else if (!j.is_object() || !j.contains("schema")) problem = "is not a dtflop sample (no \"schema\" field)";
+    else if (j["schema"] != kSampleSchema)
+      problem = fmt::format("holds a {} object, not a dtflop sample", shorten(j["schema"].dump()));
+    if (!problem.empty()) {
+      if (out.samples.empty())
+        throw InputError(fmt::format(
+            "'{}' is not a dtflop sample store: its line {} {}. A store is written by `dtflop "
+            "sweep --store FILE`, one JSON sample per line",
+            path.string(), i + 1, problem));
+      throw InputError(fmt::format(
+          "sample store '{}' is damaged: line {} of {} {} (it starts '{}'). Only the last line "
+          "can be cut short by an interrupted sweep; remove line {} by hand to keep the rest",
+          path.string(), i + 1, lines.size(), problem, shorten(line), i + 1));
+    }
+    try {
+      out.samples.push_back(sample_from_json(j));
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("sample store '{}', line {}: {}", path.string(), i + 1, e.what()));
+    }
+    out.good_bytes = L.terminated ? L.end + 1 : L.end;
+  }
+  return out;
+}
+
+StoreWriter::StoreWriter(const std::filesystem::path& path, std::vector<std::string>& warnings)
+    : path_(path) {
+  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+  if (fd_ < 0)
+    throw InputError(fmt::format("cannot open sample store '{}' for writing: {}", path.string(),
+                                 errno_text(errno)));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    const int e = errno;
+    ::close(fd_);
+    fd_ = -1;
+    if (e == EWOULDBLOCK)
+      throw InputError(fmt::format("sample store '{}' is being written by another process (a "
+                                   "sweep still running?); wait for it or use another --store",
+                                   path.string()));
+    throw InputError(fmt::format("cannot lock sample store '{}': {}", path.string(), errno_text(e)));
+  }
+  // Under the lock, nothing else appends: check the tail and cut off a torn line.
+  StoreContents c;
+  try {
+    c = read_store(path);
+  } catch (...) {
+    ::close(fd_);
+    fd_ = -1;
+    throw;
+  }
+  const auto size = std::filesystem::file_size(path);
+  if (c.good_bytes < size) {
+    if (c.torn_tail)
+      warnings.push_back(fmt::format("sample store '{}': cut off a torn last line ({} bytes) left by "
+                                     "an interrupted sweep",
+                                     path.string(), size - c.good_bytes));
+    if (::ftruncate(fd_, static_cast<off_t>(c.good_bytes)) != 0) {
+      const int e = errno;
+      ::close(fd_);
+      fd_ = -1;
+      throw InputError(fmt::format("cannot repair sample store '{}': {}", path.string(), errno_text(e)));
+    }
+  } else if (size > 0 && c.good_bytes == size) {
+    // A last sample without its newline (written by hand): end the line before appending.
+    char last = 0;
+    if (::pread(fd_, &last, 1, static_cast<off_t>(size - 1)) == 1 && last != '\n') {
+      if (::write(fd_, "\n", 1) != 1) {
+        const int e = errno;
+        ::close(fd_);
+        fd_ = -1;
+        throw InputError(fmt::format("cannot write sample store '{}': {}", path.string(), errno_text(e)));
+      }
+    }
+  }
+}
+
+StoreWriter::~StoreWriter() {
+  if (fd_ >= 0) ::close(fd_);  // also releases the lock
+}
+
+void StoreWriter::append(const Sample& s) {
+  const std::string line = to_json(s).dump() + "\n";
+  // One write() of the whole line: a signal cannot split it. A short write (disk full) is
+  // finished by further writes; the reader skips a line torn by a crash in between.
+  std::size_t done = 0;
+  while (done < line.size()) {
+    const ssize_t n = ::write(fd_, line.data() + done, line.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw InputError(fmt::format("writing sample store '{}' failed: {}", path_.string(), errno_text(errno)));
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  if (::fdatasync(fd_) != 0)
+    throw InputError(fmt::format("flushing sample store '{}' failed: {}", path_.string(), errno_text(errno)));
+}
+
+}  // namespace dtflop::calib

@@ -1,0 +1,184 @@
+// The Ceres fit on samples made from a known profile: it must find that profile again, give
+// intervals that cover it, flag disagreement with the start profile, keep what the samples
+// cannot determine, and refuse what it cannot do.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "calibrate/fit.hpp"
+#include "model/errors.hpp"
+#include "tests/calibrate/synthetic.hpp"
+
+namespace dtflop::calib {
+namespace {
+
+// The start profile: every parameter off the truth by a known factor.
+MachineProfile perturbed(const MachineProfile& truth, double factor) {
+  MachineProfile m = truth;
+  for (const auto& [p, v] : truth.params()) {
+    Parameter q = v;
+    q.value = v.value * factor;
+    q.provenance = Provenance::probed;
+    m.set(p, q);
+  }
+  return m;
+}
+
+const std::vector<Param> kSeedPipelineLatency = {Param::B_CG_pageable, Param::B_GC_pageable, Param::L_CG_pageable,
+                                                 Param::L_GC_pageable, Param::B_GG, Param::V_C1_fp32,
+                                                 Param::V_G_fp32, Param::L_launch};
+
+TEST(CalibFit, RecoversTheTruthFromExactSamples) {
+  const MachineProfile truth = test::round_profile();
+  const auto samples = test::seed_pipeline_samples(truth, Variant::latency, 0.0);
+  FitOptions o;
+  o.variant = Variant::latency;
+  const FitResult r = fit(samples, perturbed(truth, 1.3), o);
+  EXPECT_EQ(r.samples, static_cast<int>(samples.size()));
+  EXPECT_EQ(r.free_parameters, static_cast<int>(kSeedPipelineLatency.size()));
+  EXPECT_LT(r.rms_relative, 1e-6);
+  for (Param p : kSeedPipelineLatency) {
+    const Parameter& f = r.profile.get(p);
+    EXPECT_EQ(f.provenance, Provenance::fitted) << info(p).name;
+    EXPECT_NEAR(f.value / truth.get(p).value, 1.0, 1e-4) << info(p).name;
+  }
+  // Parameters the samples do not exercise are left as they were.
+  EXPECT_EQ(r.profile.get(Param::V_C1_fp64).provenance, Provenance::probed);
+  EXPECT_DOUBLE_EQ(r.profile.get(Param::V_C1_fp64).value, 1.3 * truth.get(Param::V_C1_fp64).value);
+  // 30% off is within the default flag ratio (1.5): nothing flagged.
+  for (const auto& f : r.params) EXPECT_FALSE(f.flagged) << info(f.id).name;
+}
+
+TEST(CalibFit, NoisySamplesGiveIntervalsThatCoverTheTruth) {
+  const MachineProfile truth = test::round_profile();
+  const auto samples = test::seed_pipeline_samples(truth, Variant::latency, 0.02, 11);
+  FitOptions o;
+  o.variant = Variant::latency;
+  const FitResult r = fit(samples, perturbed(truth, 0.8), o);
+  ASSERT_TRUE(r.covariance_ok) << r.covariance_note;
+  EXPECT_GT(r.rms_relative, 0.001);
+  EXPECT_LT(r.rms_relative, 0.05);
+  int covered = 0;
+  for (const auto& f : r.params) {
+    ASSERT_TRUE(f.fitted) << info(f.id).name;
+    ASSERT_TRUE(f.has_interval);
+    EXPECT_LT(f.lo95, f.value);
+    EXPECT_GT(f.hi95, f.value);
+    const double t = truth.get(f.id).value;
+    EXPECT_NEAR(f.value / t, 1.0, 0.15) << info(f.id).name;
+    covered += f.lo95 <= t && t <= f.hi95;
+    // The profile carries the interval's half-width.
+    EXPECT_NEAR(*r.profile.get(f.id).uncertainty, (f.hi95 - f.lo95) / 2, 1e-12 * f.value);
+  }
+  // Eight 95% intervals: all but at most one should hold the truth.
+  EXPECT_GE(covered, static_cast<int>(r.params.size()) - 1);
+}
+
+TEST(CalibFit, LargeDisagreementWithTheProbedValueIsFlagged) {
+  const MachineProfile truth = test::round_profile();
+  const auto samples = test::seed_pipeline_samples(truth, Variant::latency, 0.0);
+  MachineProfile start = perturbed(truth, 1.0);
+  Parameter b = start.get(Param::B_CG_pageable);
+  b.value *= 3;  // the probe saw three times the bandwidth the workload gets
+  start.set(Param::B_CG_pageable, b);
+  FitOptions o;
+  o.variant = Variant::latency;
+  const FitResult r = fit(samples, start, o);
+  for (const auto& f : r.params) {
+    if (f.id == Param::B_CG_pageable) {
+      EXPECT_TRUE(f.flagged);
+      EXPECT_NE(f.note.find("0.33x"), std::string::npos) << f.note;
+      EXPECT_NEAR(f.value / truth.get(f.id).value, 1.0, 1e-4);
+    } else {
+      EXPECT_FALSE(f.flagged) << info(f.id).name;
+    }
+  }
+}
+
+TEST(CalibFit, ParametersThatMoveNoPredictionAreKept) {
+  // All-thread CPU work: the one-thread rate is listed as needed but never used.
+  MachineProfile truth = test::round_profile();
+  std::mt19937_64 rng(3);
+  std::vector<Sample> samples;
+  for (int i = 1; i <= 12; ++i) {
+    CostCounts c;
+    c.N_C = 1'000'000LL * i;
+    c.cpu_threads = truth.identity.cpu_threads;
+    samples.push_back(test::synthetic_sample("cpu" + std::to_string(i), c, truth, Variant::seed, 0.0, rng, "cpu-par"));
+  }
+  const MachineProfile start = perturbed(truth, 2.0);
+  FitOptions o;
+  o.variant = Variant::seed;
+  const FitResult r = fit(samples, start, o);
+  ASSERT_EQ(r.params.size(), 2u);
+  for (const auto& f : r.params) {
+    if (f.id == Param::V_C1_fp32) {
+      EXPECT_FALSE(f.fitted);
+      EXPECT_NE(f.note.find("not identifiable"), std::string::npos) << f.note;
+      EXPECT_EQ(r.profile.get(f.id).provenance, Provenance::probed);
+      EXPECT_DOUBLE_EQ(r.profile.get(f.id).value, start.get(f.id).value);
+    } else {
+      EXPECT_EQ(f.id, Param::V_C_fp32);
+      EXPECT_TRUE(f.fitted);
+      EXPECT_NEAR(f.value / truth.get(f.id).value, 1.0, 1e-6);
+      EXPECT_TRUE(f.flagged);  // the start was 2x off
+    }
+  }
+}
+
+TEST(CalibFit, RefusesWhatItCannotDo) {
+  const MachineProfile truth = test::round_profile();
+  FitOptions o;
+  o.variant = Variant::latency;
+  EXPECT_THROW(fit({}, truth, o), InputError);
+  auto samples = test::seed_pipeline_samples(truth, Variant::latency, 0.0);
+  samples.resize(5);  // 5 samples, 8 parameters
+  try {
+    fit(samples, truth, o);
+    FAIL() << "fitted 8 parameters to 5 samples";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("5 samples cannot determine 8 parameters"), std::string::npos) << e.what();
+  }
+  samples = test::seed_pipeline_samples(truth, Variant::latency, 0.0);
+  o.max_iterations = 1;
+  try {
+    fit(samples, perturbed(truth, 20), o);
+    FAIL() << "one iteration from 20x off converged";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("did not converge"), std::string::npos) << e.what();
+  }
+}
+
+TEST(CalibFit, CrossValidationPrefersTheVariantThatGeneratedTheData) {
+  MachineProfile truth = test::round_profile();
+  // Latencies that matter: 200 us per pageable copy, 50 us per launch.
+  for (auto [p, v] : {std::pair{Param::L_CG_pageable, 200e-6}, {Param::L_GC_pageable, 200e-6}, {Param::L_launch, 50e-6}})
+    truth.set(p, Parameter{v, Provenance::user, {}, {}, {}});
+  const auto samples = test::seed_pipeline_samples(truth, Variant::latency, 0.01, 5);
+  FitOptions o;
+  const auto cv = cross_validate(samples, perturbed(truth, 1.2), o, all_variants(), 5, 1);
+  ASSERT_EQ(cv.size(), 3u);
+  for (const auto& c : cv) {
+    EXPECT_EQ(c.failed_folds, 0) << to_string(c.variant) << ": " << c.failure;
+    EXPECT_EQ(c.held_out, static_cast<int>(samples.size()));
+    EXPECT_EQ(c.fold_means.size(), 5u);
+  }
+  EXPECT_GT(cv[0].mean_rel, 5 * cv[1].mean_rel);  // seed cannot express the latencies
+  EXPECT_LT(cv[1].mean_rel, 0.02);
+  const VariantChoice choice = choose_variant(cv);
+  EXPECT_EQ(choice.chosen, Variant::latency) << choice.reason;
+  EXPECT_NE(choice.reason.find("5-fold"), std::string::npos);
+  EXPECT_NE(choice.reason.find("seed"), std::string::npos);
+}
+
+TEST(CalibFit, CrossValidationNeedsEnoughSamples) {
+  const MachineProfile truth = test::round_profile();
+  auto samples = test::seed_pipeline_samples(truth, Variant::latency, 0.0);
+  samples.resize(3);
+  EXPECT_THROW(cross_validate(samples, truth, FitOptions{}, all_variants(), 5, 1), InputError);
+  EXPECT_THROW(cross_validate(samples, truth, FitOptions{}, all_variants(), 1, 1), InputError);
+  EXPECT_THROW(choose_variant({}), InputError);
+}
+
+}  // namespace
+}  // namespace dtflop::calib
