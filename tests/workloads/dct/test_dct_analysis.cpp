@@ -1,0 +1,168 @@
+// Image analysis against the renderer's truth: centroid accuracy (the 0.01 px and
+// 0.05 px targets), polarity, bit depth, lighting, region of interest and the filters.
+#include <cmath>
+#include <cstdio>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "model/errors.hpp"
+#include "workloads/dct/analysis.hpp"
+#include "workloads/dct/specimen.hpp"
+#include "workloads/dct/tracking.hpp"
+
+namespace dtflop::dct {
+namespace {
+
+struct Errors {
+  double rms = 0, max = 0;
+  int found = 0, missing = 0;
+};
+
+// Each true centre's nearest found dot (within 2 px); missing ones counted.
+Errors compare(const std::vector<Vec2>& truth, const std::vector<DotObservation>& found) {
+  std::vector<Vec2> f;
+  for (const auto& d : found) f.push_back({d.x, d.y});
+  Errors e;
+  if (f.empty()) { e.missing = static_cast<int>(truth.size()); return e; }
+  PointIndex idx(f);
+  std::vector<std::uint32_t> k;
+  std::vector<double> d2;
+  double s = 0;
+  for (const auto& t : truth) {
+    idx.knn(t, 1, k, d2);
+    if (std::sqrt(d2[0]) > 2) { ++e.missing; continue; }
+    s += d2[0];
+    e.max = std::max(e.max, std::sqrt(d2[0]));
+    ++e.found;
+  }
+  e.rms = e.found ? std::sqrt(s / e.found) : 0;
+  return e;
+}
+
+Specimen random_specimen(double radius, std::uint64_t seed, const std::string& kind = "uniform") {
+  Specimen s = parse_specimen(fmt::format("{}:size=480x360,pattern=random,radius={},gap={},seed={}", kind, radius,
+                                          radius, seed));
+  return s;
+}
+
+TEST(DctCentroids, NoiselessRadius10IsWithinOneHundredthPixel) {
+  for (std::uint64_t seed : {11u, 12u}) {
+    for (double radius : {10.0, 13.7}) {
+      Specimen s = random_specimen(radius, seed);
+      const auto r = analyze(s.deformed_image(), AnalysisOptions{});
+      const Errors e = compare(s.deformed_centres(), r.dots);
+      EXPECT_EQ(e.missing, 0);
+      EXPECT_EQ(r.dots.size(), s.dots.size());
+      EXPECT_LE(e.rms, 0.01) << "radius " << radius << " seed " << seed;
+      std::printf("centroid RMS error, radius %.1f px, seed %d: %.5f px (max %.5f)\n", radius, static_cast<int>(seed), e.rms, e.max);
+      RecordProperty("rms_px_r" + std::to_string(static_cast<int>(radius)), std::to_string(e.rms));
+    }
+  }
+}
+
+TEST(DctCentroids, NoiseOfTwoGreyLevelsStaysWithinFiveHundredths) {
+  Specimen s = random_specimen(10, 21);
+  s.render.noise_sigma = 2;
+  const auto r = analyze(s.deformed_image(), AnalysisOptions{});
+  const Errors e = compare(s.deformed_centres(), r.dots);
+  EXPECT_EQ(e.missing, 0);
+  EXPECT_LE(e.rms, 0.05);
+  std::printf("centroid RMS error with noise 2: %.5f px\n", e.rms);
+  EXPECT_GT(e.rms, 0.0);  // noise does move the centroids: the test can fail
+}
+
+TEST(DctCentroids, LightDotsSixteenBitsBlurAndLighting) {
+  Specimen s = random_specimen(10, 31);
+  s.render.polarity = Polarity::light_dots;
+  s.render.bit_depth = 16;
+  s.render.blur_sigma = 1.0;
+  s.render.lighting = 0.3;
+  const cv::Mat img = s.deformed_image();
+  ASSERT_EQ(img.depth(), CV_16U);
+  AnalysisOptions o;
+  o.polarity = Polarity::light_dots;
+  o.margin = 4;  // blur spreads the edge: weight a wider band
+  const auto r = analyze(img, o);
+  const Errors e = compare(s.deformed_centres(), r.dots);
+  EXPECT_EQ(e.missing, 0);
+  EXPECT_LE(e.rms, 0.02);
+  // Wrong polarity finds the background, not the dots.
+  const auto wrong = analyze(img, AnalysisOptions{});
+  EXPECT_LT(wrong.dots.size(), s.dots.size() / 4);
+}
+
+TEST(DctCentroids, ThresholdMethodsAgreeOnCleanImages) {
+  Specimen s = random_specimen(8, 41);
+  const cv::Mat img = s.deformed_image();
+  for (auto m : {ThresholdMethod::fixed, ThresholdMethod::otsu, ThresholdMethod::adaptive}) {
+    AnalysisOptions o;
+    o.method = m;
+    o.threshold = 120;
+    o.adaptive_block = 61;
+    const auto r = analyze(img, o);
+    const Errors e = compare(s.deformed_centres(), r.dots);
+    EXPECT_EQ(e.missing, 0) << to_string(m);
+    EXPECT_LE(e.rms, 0.02) << to_string(m);
+  }
+  // Our Otsu (shared with the device) matches OpenCV's on 8-bit images.
+  cv::Mat ref;
+  const double cv_t = cv::threshold(img, ref, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
+  double ours = 0;
+  AnalysisOptions o;
+  threshold_image(img, o, &ours);
+  EXPECT_EQ(ours, cv_t);
+}
+
+TEST(DctCentroids, SequentialAndParallelAgreeExactly) {
+  Specimen s = random_specimen(6, 51);
+  s.render.noise_sigma = 3;
+  const cv::Mat img = s.deformed_image();
+  const auto a = analyze(img, AnalysisOptions{}, 1);
+  const auto b = analyze(img, AnalysisOptions{}, 4);
+  ASSERT_EQ(a.dots.size(), b.dots.size());
+  for (std::size_t i = 0; i < a.dots.size(); ++i) {
+    EXPECT_EQ(a.dots[i].x, b.dots[i].x);
+    EXPECT_EQ(a.dots[i].y, b.dots[i].y);
+  }
+  EXPECT_EQ(a.stats.window_pixels, b.stats.window_pixels);
+}
+
+TEST(DctFilters, AreaShapeBorderAndRoi) {
+  // A Kirsch hole is one huge dark blob: the area filter (the seed's Area1) removes it.
+  Specimen s = parse_specimen("kirsch:size=400x400,a=90,radius=5,pitch=18");
+  const cv::Mat img = s.reference_image();
+  const auto r = analyze(img, AnalysisOptions{});
+  EXPECT_EQ(r.dots.size(), s.dots.size());
+  EXPECT_EQ(r.stats.rejected_area, 1);
+  AnalysisOptions small;
+  small.max_area = 50;  // dots are ~79 px
+  EXPECT_EQ(analyze(img, small).dots.size(), 0u);
+  // Specks (Area2) and a line (shape).
+  cv::Mat dirty = img.clone();
+  cv::circle(dirty, {8, 200}, 1, cv::Scalar(0), cv::FILLED);
+  cv::line(dirty, {5, 390}, {120, 392}, cv::Scalar(0), 3);
+  const auto rd = analyze(dirty, AnalysisOptions{});
+  EXPECT_EQ(rd.dots.size(), s.dots.size());
+  EXPECT_GE(rd.stats.rejected_area + rd.stats.rejected_shape, 3) << rd.stats.rejected_area << " " << rd.stats.rejected_shape << " " << rd.stats.rejected_border << " " << rd.stats.components;
+  // A region of interest keeps the dots wholly inside it, in image coordinates.
+  AnalysisOptions roi;
+  roi.roi = cv::Rect(0, 0, 210, 400);
+  const auto rr = analyze(img, roi);
+  EXPECT_GT(rr.dots.size(), 0u);
+  EXPECT_LT(rr.dots.size(), s.dots.size());
+  for (const auto& d : rr.dots) EXPECT_LT(d.x, 210 - 5);
+  EXPECT_GT(rr.stats.rejected_border, 0) << rr.stats.components << " " << rr.stats.rejected_area << " " << rr.stats.rejected_shape;
+  AnalysisOptions bad;
+  bad.roi = cv::Rect(1000, 1000, 10, 10);
+  EXPECT_THROW(analyze(img, bad), InputError);
+  bad = AnalysisOptions{};
+  bad.min_area = 10;
+  bad.max_area = 5;
+  EXPECT_THROW(analyze(img, bad), InputError);
+  EXPECT_THROW(analyze(cv::Mat(10, 10, CV_32F), AnalysisOptions{}), InputError);
+}
+
+}  // namespace
+}  // namespace dtflop::dct

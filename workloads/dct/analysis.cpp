@@ -1,0 +1,252 @@
+#include "workloads/dct/analysis.hpp"
+
+#include <algorithm>
+#include <mutex>
+
+#include <fmt/format.h>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "model/errors.hpp"
+#include "workloads/dct/kernels.hpp"
+
+namespace dtflop::dct {
+
+std::string to_string(ThresholdMethod m) {
+  switch (m) {
+    case ThresholdMethod::fixed: return "fixed";
+    case ThresholdMethod::otsu: return "otsu";
+    case ThresholdMethod::adaptive: return "adaptive";
+  }
+  return "?";
+}
+
+ThresholdMethod threshold_method_from_string(const std::string& s) {
+  if (s == "fixed") return ThresholdMethod::fixed;
+  if (s == "otsu") return ThresholdMethod::otsu;
+  if (s == "adaptive") return ThresholdMethod::adaptive;
+  throw InputError(fmt::format("threshold method '{}' is unknown; use fixed, otsu or adaptive", s));
+}
+
+cv::Rect effective_roi(const AnalysisOptions& o, cv::Size image) {
+  if (o.roi.area() == 0) return {0, 0, image.width, image.height};
+  return o.roi & cv::Rect(0, 0, image.width, image.height);
+}
+
+void validate(const AnalysisOptions& o, cv::Size image) {
+  if (image.width < 1 || image.height < 1) throw InputError("the image is empty");
+  if (o.roi.area() > 0) {
+    const cv::Rect r = effective_roi(o, image);
+    if (r.area() == 0)
+      throw InputError(fmt::format("region of interest {}x{}+{}+{} lies outside the {}x{} image", o.roi.width,
+                                   o.roi.height, o.roi.x, o.roi.y, image.width, image.height));
+  }
+  if (o.min_area < 1 || o.max_area < o.min_area)
+    throw InputError(fmt::format("dot area filter [{}, {}] px is empty; need 1 <= min <= max", o.min_area,
+                                 o.max_area));
+  if (!(o.max_aspect >= 1) || !(o.min_fill >= 0 && o.min_fill <= 1))
+    throw InputError("shape filter needs max aspect >= 1 and min fill within [0, 1]");
+  if (o.margin < 0 || o.margin > 8) throw InputError(fmt::format("centroid margin {} px must lie in 0..8", o.margin));
+  if (o.method == ThresholdMethod::fixed && !(o.threshold >= 0 && o.threshold <= 255))
+    throw InputError(fmt::format("fixed threshold {} is outside 0..255 (8-bit scale)", o.threshold));
+  if (o.method == ThresholdMethod::adaptive && (o.adaptive_block < 3 || o.adaptive_block % 2 == 0))
+    throw InputError(fmt::format("adaptive block {} must be odd and >= 3", o.adaptive_block));
+}
+
+double otsu_threshold(const std::vector<std::int64_t>& h) {
+  // Between-class variance maximised over t; class 0 = bins <= t. First maximum wins.
+  double total = 0, sum = 0;
+  for (int i = 0; i < 256; ++i) {
+    total += static_cast<double>(h[i]);
+    sum += i * static_cast<double>(h[i]);
+  }
+  double w0 = 0, s0 = 0, best = -1;
+  int t = 0;
+  for (int i = 0; i < 256; ++i) {
+    w0 += static_cast<double>(h[i]);
+    s0 += i * static_cast<double>(h[i]);
+    const double w1 = total - w0;
+    if (w0 == 0 || w1 == 0) continue;
+    const double m0 = s0 / w0, m1 = (sum - s0) / w1;
+    const double v = w0 * w1 * (m0 - m1) * (m0 - m1);
+    if (v > best) {
+      best = v;
+      t = i;
+    }
+  }
+  return t;
+}
+
+cv::Mat threshold_image(const cv::Mat& image, const AnalysisOptions& o, double* used) {
+  const bool dark = o.polarity == Polarity::dark_dots;
+  const bool wide = image.depth() == CV_16U;
+  cv::Mat mask;
+  double T = 0;  // native: dark dots are v <= T, light dots v > T
+  if (o.method == ThresholdMethod::adaptive) {
+    cv::Mat img8;
+    if (wide) image.convertTo(img8, CV_8U, 1.0 / 257);
+    else img8 = image;
+    cv::adaptiveThreshold(img8, mask, 255, cv::ADAPTIVE_THRESH_MEAN_C, dark ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY,
+                          o.adaptive_block, dark ? o.adaptive_c : -o.adaptive_c);
+    if (used) *used = -1;
+    return mask;
+  }
+  if (o.method == ThresholdMethod::otsu) {
+    std::vector<std::int64_t> h(256, 0);
+    for (int i = 0; i < image.rows; ++i) {
+      if (wide) {
+        const auto* p = image.ptr<std::uint16_t>(i);
+        for (int j = 0; j < image.cols; ++j) ++h[p[j] / 257];
+      } else {
+        const auto* p = image.ptr<std::uint8_t>(i);
+        for (int j = 0; j < image.cols; ++j) ++h[p[j]];
+      }
+    }
+    const double t = otsu_threshold(h);
+    T = wide ? t * 257 + 256 : t;
+  } else {
+    T = wide ? std::floor(o.threshold * 257) : std::floor(o.threshold);
+  }
+  cv::threshold(image, mask, T, 255, dark ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
+  if (wide) mask.convertTo(mask, CV_8U);
+  if (used) *used = T;
+  return mask;
+}
+
+namespace {
+
+// Restores OpenCV's thread count on scope exit.
+class ThreadScope {
+ public:
+  explicit ThreadScope(int n) : old_(cv::getNumThreads()) { cv::setNumThreads(n); }
+  ~ThreadScope() { cv::setNumThreads(old_); }
+  ThreadScope(const ThreadScope&) = delete;
+  ThreadScope& operator=(const ThreadScope&) = delete;
+
+ private:
+  int old_;
+};
+
+std::mutex opencv_threads_mutex;  // cv::setNumThreads is process-wide
+
+template <class Img>
+void centroid_of(const cv::Mat& img, const cv::Mat& labels, cv::Rect roi, int id, cv::Rect box, bool dark,
+                 int margin, DotObservation& out, DotRejection& why, AnalysisStats& st, std::int64_t& first) {
+  const int grow = margin + kRingWidth;
+  const cv::Rect win = cv::Rect(box.x - grow, box.y - grow, box.width + 2 * grow, box.height + 2 * grow) &
+                       cv::Rect(0, 0, roi.width, roi.height);
+  auto label = [&](int x, int y) -> int {  // ROI coordinates
+    if (x < 0 || y < 0 || x >= roi.width || y >= roi.height) return -1;
+    const int l = labels.at<int>(y, x);
+    return l == 0 ? -1 : l;
+  };
+  const double cx = win.x + 0.5 * (win.width - 1), cy = win.y + 0.5 * (win.height - 1);
+  // Classify each window pixel once; both passes read the classes.
+  std::vector<std::uint8_t> cls(static_cast<std::size_t>(win.area()));
+  RingSums<double> ring;
+  std::int64_t nring = 0, nweight = 0;
+  first = -1;
+  for (int y = win.y, k = 0; y < win.y + win.height; ++y)
+    for (int x = win.x; x < win.x + win.width; ++x, ++k) {
+      const int c = classify_pixel(label, x, y, id, margin);
+      cls[k] = static_cast<std::uint8_t>(c);
+      if (c == kRing) {
+        ring.add(x - cx, y - cy, static_cast<double>(img.template at<Img>(y + roi.y, x + roi.x)));
+        ++nring;
+      }
+      if (first < 0 && label(x, y) == id) first = static_cast<std::int64_t>(y) * roi.width + x;
+    }
+  double a, b, c;
+  solve_plane(ring, a, b, c);
+  WeightSums<double> w;
+  for (int y = win.y, k = 0; y < win.y + win.height; ++y)
+    for (int x = win.x; x < win.x + win.width; ++x, ++k)
+      if (cls[k] == kWeighted) {
+        w.add(x - cx, y - cy, static_cast<double>(img.template at<Img>(y + roi.y, x + roi.x)), a, b, c, dark);
+        ++nweight;
+      }
+  st.window_pixels += win.area();
+  st.ring_pixels += nring;
+  st.weighted_pixels += nweight;
+  if (!(w.w > 0) || nring == 0) {
+    why = DotRejection::no_contrast;
+    return;
+  }
+  out.x = roi.x + cx + w.wx / w.w;
+  out.y = roi.y + cy + w.wy / w.w;
+  out.weight = w.w;
+  why = DotRejection::kept;
+}
+
+}  // namespace
+
+AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threads) {
+  if (image.empty() || image.channels() != 1 || (image.depth() != CV_8U && image.depth() != CV_16U))
+    throw InputError("the image must be one-channel 8- or 16-bit grey (convert colour images first)");
+  validate(o, image.size());
+  const cv::Rect roi = effective_roi(o, image.size());
+  const cv::Mat view = image(roi);
+  AnalysisResult r;
+  r.stats.roi_pixels = roi.area();
+  const bool dark = o.polarity == Polarity::dark_dots;
+
+  std::unique_lock lock(opencv_threads_mutex);
+  ThreadScope scope(std::max(1, threads));
+  const cv::Mat mask = threshold_image(view, o, &r.stats.threshold);
+  cv::Mat labels, stats, cents;
+  const int n = cv::connectedComponentsWithStats(mask, labels, stats, cents, 8, CV_32S, cv::CCL_DEFAULT);
+  r.stats.components = n - 1;
+
+  struct Item {
+    DotObservation d;
+    DotRejection why = DotRejection::kept;
+    std::int64_t first = -1;
+    AnalysisStats st;
+  };
+  std::vector<Item> items(static_cast<std::size_t>(std::max(0, n - 1)));
+  const int grow = o.margin + kRingWidth;
+  auto work = [&](const cv::Range& range) {
+    for (int id = range.start; id < range.end; ++id) {
+      Item& it = items[static_cast<std::size_t>(id - 1)];
+      const int area = stats.at<int>(id, cv::CC_STAT_AREA);
+      const cv::Rect box(stats.at<int>(id, cv::CC_STAT_LEFT), stats.at<int>(id, cv::CC_STAT_TOP),
+                         stats.at<int>(id, cv::CC_STAT_WIDTH), stats.at<int>(id, cv::CC_STAT_HEIGHT));
+      it.d.area = area;
+      it.d.box = box + roi.tl();
+      if (area < o.min_area || area > o.max_area) { it.why = DotRejection::area; continue; }
+      const double lo = std::min(box.width, box.height), hi = std::max(box.width, box.height);
+      if (hi > o.max_aspect * lo || area < o.min_fill * box.area()) { it.why = DotRejection::shape; continue; }
+      if (o.reject_border && (box.x - grow < 0 || box.y - grow < 0 || box.x + box.width + grow > roi.width ||
+                              box.y + box.height + grow > roi.height)) {
+        it.why = DotRejection::border;
+        continue;
+      }
+      if (image.depth() == CV_8U)
+        centroid_of<std::uint8_t>(image, labels, roi, id, box, dark, o.margin, it.d, it.why, it.st, it.first);
+      else
+        centroid_of<std::uint16_t>(image, labels, roi, id, box, dark, o.margin, it.d, it.why, it.st, it.first);
+    }
+  };
+  if (threads > 1) cv::parallel_for_(cv::Range(1, n), work);
+  else work(cv::Range(1, n));
+
+  std::vector<const Item*> kept;
+  for (const auto& it : items) {
+    switch (it.why) {
+      case DotRejection::kept: kept.push_back(&it); break;
+      case DotRejection::area: ++r.stats.rejected_area; break;
+      case DotRejection::shape: ++r.stats.rejected_shape; break;
+      case DotRejection::border: ++r.stats.rejected_border; break;
+      case DotRejection::no_contrast: ++r.stats.rejected_contrast; break;
+    }
+    r.stats.window_pixels += it.st.window_pixels;
+    r.stats.ring_pixels += it.st.ring_pixels;
+    r.stats.weighted_pixels += it.st.weighted_pixels;
+  }
+  std::sort(kept.begin(), kept.end(), [](const Item* a, const Item* b) { return a->first < b->first; });
+  r.dots.reserve(kept.size());
+  for (const Item* it : kept) r.dots.push_back(it->d);
+  return r;
+}
+
+}  // namespace dtflop::dct

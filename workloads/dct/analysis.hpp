@@ -1,0 +1,80 @@
+// Image analysis of the DCT workload (seed 6.1.2, 7.1): threshold, connected-component
+// labelling, filtering by area and shape, and the background-removed intensity-weighted
+// centroid of eq. 7.1 of every kept dot. The CPU implementation here uses OpenCV for the
+// threshold and the labelling; the CUDA backend has its own (cuda_backend.cu) with the same
+// rules and the same per-dot arithmetic (kernels.hpp).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "workloads/dct/specimen.hpp"
+
+namespace dtflop::dct {
+
+enum class ThresholdMethod { fixed, otsu, adaptive };
+
+struct AnalysisOptions {
+  Polarity polarity = Polarity::dark_dots;
+  ThresholdMethod method = ThresholdMethod::otsu;
+  double threshold = 128;      // fixed threshold, 8-bit scale (x257 for 16-bit images)
+  int adaptive_block = 51;     // adaptive: odd neighbourhood size, px
+  double adaptive_c = 10;      // adaptive: offset from the local mean, 8-bit scale
+  int min_area = 12;           // px; smaller components are noise (the seed's Area2)
+  int max_area = 20000;        // px; larger ones are not dots (the seed's Area1)
+  double max_aspect = 1.8;     // bounding box long side / short side
+  double min_fill = 0.55;      // area / bounding-box area (a disc fills pi/4)
+  int margin = 2;              // px of background around a dot that carry its edge's weight
+  bool reject_border = true;   // drop dots whose window leaves the region of interest
+  cv::Rect roi;                // region of interest; empty = the whole image
+};
+
+// Throws InputError with what to change.
+void validate(const AnalysisOptions& o, cv::Size image);
+
+// The region actually analysed: `roi` clipped, or the whole image.
+cv::Rect effective_roi(const AnalysisOptions& o, cv::Size image);
+
+enum class DotRejection : std::uint8_t { kept = 0, area, shape, border, no_contrast };
+
+struct DotObservation {
+  double x = 0, y = 0;   // centroid, image pixels
+  double weight = 0;     // sum of the background-removed intensities
+  int area = 0;          // labelled pixels
+  cv::Rect box;          // labelled bounding box, image pixels
+};
+
+// What the analysis did, for the counts and for people.
+struct AnalysisStats {
+  std::int64_t roi_pixels = 0;
+  std::int64_t components = 0;      // after labelling, before filtering
+  std::int64_t rejected_area = 0, rejected_shape = 0, rejected_border = 0, rejected_contrast = 0;
+  std::int64_t window_pixels = 0;   // pixels of all kept dots' windows
+  std::int64_t ring_pixels = 0;     // of which background-ring pixels
+  std::int64_t weighted_pixels = 0; // of which weighted pixels
+  double threshold = 0;             // threshold used, native grey levels
+};
+
+struct AnalysisResult {
+  std::vector<DotObservation> dots;  // in raster order of each dot's first pixel
+  AnalysisStats stats;
+};
+
+// `threads` = 1: sequential (OpenCV's sequential labelling, one thread); > 1: OpenCV's
+// parallel labelling and centroids on `threads` threads.
+AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threads = 1);
+
+// The binary mask (255 = dot pixel) and the threshold used, for inspection and tests.
+cv::Mat threshold_image(const cv::Mat& image, const AnalysisOptions& o, double* used = nullptr);
+
+// Otsu's threshold of an 8- or 16-bit image, from a 256-bin histogram of the 8-bit scale
+// (16-bit values are divided by 257 first), in native grey levels. Shared with the device.
+double otsu_threshold(const std::vector<std::int64_t>& hist256);
+
+std::string to_string(ThresholdMethod m);
+ThresholdMethod threshold_method_from_string(const std::string& s);
+
+}  // namespace dtflop::dct

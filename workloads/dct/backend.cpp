@@ -1,0 +1,165 @@
+#include "workloads/dct/backend.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "model/errors.hpp"
+
+namespace dtflop::dct {
+namespace {
+
+double now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+std::string rejection_summary(const AnalysisStats& st) {
+  return fmt::format("threshold {:g}, {} components: {} rejected by area, {} by shape, {} at the border, {} "
+                     "without contrast",
+                     st.threshold, st.components, st.rejected_area, st.rejected_shape, st.rejected_border,
+                     st.rejected_contrast);
+}
+
+}  // namespace
+
+void Backend::check_frame(const cv::Mat& frame) const {
+  if (ref_pos_.empty()) throw InputError("no reference frame was set before processing a frame");
+  if (frame.empty()) throw InputError("the frame is empty (unreadable image?)");
+  if (frame.size() != size_ || frame.depth() != depth_ || frame.channels() != 1)
+    throw InputError(fmt::format("the frame is {}x{} {}-bit with {} channel(s) but the reference is {}x{} {}-bit grey; "
+                                 "all frames must come from the same camera setting",
+                                 frame.cols, frame.rows, frame.depth() == CV_16U ? 16 : 8, frame.channels(),
+                                 size_.width, size_.height, depth_ == CV_16U ? 16 : 8));
+}
+
+void Backend::accept_reference(const cv::Mat& image, std::vector<DotObservation> dots, const AnalysisStats& st) {
+  if (dots.empty())
+    throw InputError(fmt::format("no dots were found in the reference image ({}); check the polarity (dark or "
+                                 "light dots), the threshold and the area limits",
+                                 rejection_summary(st)));
+  const std::size_t need = opt_.interp == Interp::mls ? 6 : 3;
+  if (dots.size() < need)
+    throw InputError(fmt::format("only {} dot(s) were found in the reference image ({}); {} needs at least {}",
+                                 dots.size(), rejection_summary(st), to_string(opt_.interp), need));
+  size_ = image.size();
+  depth_ = image.depth();
+  ref_dots_ = std::move(dots);
+  ref_pos_.clear();
+  for (const auto& d : ref_dots_) ref_pos_.push_back({d.x, d.y});
+  points_ = opt_.points.empty() ? grid_points_over(ref_pos_, opt_.points_x, opt_.points_y, opt_.points_inset)
+                                : opt_.points;
+  if (opt_.interp == Interp::mls) mls_ = build_mls_table(ref_pos_, points_, opt_.mls);
+  else fe_ = build_fe_table(ref_pos_, points_, opt_.fe_max_gap);
+  last_disp_.assign(ref_pos_.size(), {});
+  last_tracked_.assign(ref_pos_.size(), 0);
+}
+
+void Backend::track(const std::vector<Vec2>& found, FrameOutput& out) {
+  std::vector<Vec2> predicted;
+  if (opt_.follow) {
+    predicted = ref_pos_;
+    for (std::size_t j = 0; j < ref_pos_.size(); ++j)
+      if (last_tracked_[j]) predicted[j] = {ref_pos_[j].x + last_disp_[j].x, ref_pos_[j].y + last_disp_[j].y};
+  }
+  out.matches = match_dots(ref_pos_, found, opt_.match, predicted);
+  if (out.matches.matched < static_cast<int>(std::min<std::size_t>(ref_pos_.size(), 3)))
+    throw InputError(fmt::format("the frame's dots cannot be matched to the reference: {}. The motion may exceed "
+                                 "the search radius; pass a larger search radius or frames closer in time",
+                                 out.matches.summary()));
+  out.displacement.assign(ref_pos_.size(), {});
+  out.tracked.assign(ref_pos_.size(), 0);
+  for (std::size_t j = 0; j < ref_pos_.size(); ++j) {
+    const int k = out.matches.ref_to_def[j];
+    if (k < 0) continue;
+    out.displacement[j] = {found[k].x - ref_pos_[j].x, found[k].y - ref_pos_[j].y};
+    out.tracked[j] = 1;
+  }
+  last_disp_ = out.displacement;
+  last_tracked_ = out.tracked;
+}
+
+namespace {
+
+class CpuBackend final : public Backend {
+ public:
+  CpuBackend(const PipelineOptions& o, bool parallel) : Backend(o), parallel_(parallel) {
+    threads_ = parallel ? (o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())))
+                        : 1;
+  }
+  std::string name() const override { return parallel_ ? "cpu-par" : "cpu-seq"; }
+
+  void set_reference(const cv::Mat& image) override {
+    AnalysisResult r = analyze(image, opt_.analysis, threads_);
+    accept_reference(image, std::move(r.dots), r.stats);
+  }
+
+  FrameOutput process(const cv::Mat& frame) override {
+    check_frame(frame);
+    FrameOutput out;
+    double t0 = now();
+    AnalysisResult r = analyze(frame, opt_.analysis, threads_);
+    double t1 = now();
+    out.seconds["analysis"] = t1 - t0;
+    out.dots = std::move(r.dots);
+    out.stats = r.stats;
+    std::vector<Vec2> found;
+    found.reserve(out.dots.size());
+    for (const auto& d : out.dots) found.push_back({d.x, d.y});
+    track(found, out);
+    double t2 = now();
+    out.seconds["tracking"] = t2 - t1;
+    out.fields = opt_.interp == Interp::mls
+                     ? evaluate_mls(mls_, ref_pos_, out.displacement, out.tracked, opt_.mls, threads_)
+                     : evaluate_fe(fe_, out.displacement, out.tracked, threads_);
+    out.seconds["fields"] = now() - t2;
+    out.seconds["total"] = now() - t0;
+    FrameShape& s = out.shape;
+    s.image_pixels = static_cast<std::int64_t>(frame.total());
+    s.bytes_per_pixel = frame.depth() == CV_16U ? 2 : 1;
+    s.roi_pixels = r.stats.roi_pixels;
+    s.components = r.stats.components;
+    s.dots = static_cast<std::int64_t>(ref_pos_.size());
+    s.window_pixels = r.stats.window_pixels;
+    s.ring_pixels = r.stats.ring_pixels;
+    s.weighted_pixels = r.stats.weighted_pixels;
+    s.points = static_cast<std::int64_t>(points_.size());
+    s.support_entries = opt_.interp == Interp::mls ? mls_.entries() : 0;
+    s.interp = opt_.interp;
+    s.otsu = opt_.analysis.method == ThresholdMethod::otsu;
+    out.counts = cpu_counts(s, threads_);
+    return out;
+  }
+
+ private:
+  bool parallel_;
+  int threads_ = 1;
+};
+
+}  // namespace
+
+std::vector<std::string> backend_names() { return {"cpu-seq", "cpu-par", "cuda"}; }
+
+std::string cuda_unavailable_reason() {
+#ifdef DTFLOP_HAVE_CUDA
+  return cuda_device_check();
+#else
+  return "dtflop was built without CUDA (nvcc was not found at configure time)";
+#endif
+}
+
+std::unique_ptr<Backend> make_backend(const std::string& name, const PipelineOptions& o) {
+  if (name == "cpu-seq") return std::make_unique<CpuBackend>(o, false);
+  if (name == "cpu-par") return std::make_unique<CpuBackend>(o, true);
+  if (name == "cuda") {
+    const std::string why = cuda_unavailable_reason();
+    if (!why.empty()) throw InputError("the cuda backend cannot run here: " + why + "; use cpu-seq or cpu-par");
+#ifdef DTFLOP_HAVE_CUDA
+    return make_cuda_backend(o);
+#endif
+  }
+  throw InputError(fmt::format("backend '{}' is unknown; use cpu-seq, cpu-par or cuda", name));
+}
+
+}  // namespace dtflop::dct

@@ -1,0 +1,93 @@
+#include "workloads/dct/counts.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "model/errors.hpp"
+#include "workloads/dct/kernels.hpp"
+
+namespace dtflop::dct {
+
+FrameShape estimate_shape(std::int64_t width, std::int64_t height, int bytes_per_pixel, std::int64_t n_dots,
+                          double r, std::int64_t n_points, std::int64_t dots_per_support, Interp interp, int margin) {
+  if (width < 1 || height < 1 || n_dots < 0 || !(r > 0) || n_points < 0 || dots_per_support < 0)
+    throw InputError("shape estimate needs a positive frame size and dot radius, and counts >= 0");
+  if (bytes_per_pixel != 1 && bytes_per_pixel != 2) throw InputError("bytes per pixel must be 1 or 2");
+  FrameShape s;
+  s.image_pixels = s.roi_pixels = width * height;
+  s.bytes_per_pixel = bytes_per_pixel;
+  const double pi = std::numbers::pi;
+  const double area = pi * r * r;
+  s.foreground_pixels = static_cast<std::int64_t>(std::llround(static_cast<double>(n_dots) * area));
+  s.components = s.dots = n_dots;
+  const double side = 2 * r + 1 + 2 * (margin + kRingWidth);
+  s.window_pixels = static_cast<std::int64_t>(std::llround(static_cast<double>(n_dots) * side * side));
+  // Weighted: the dot grown by `margin` (a square dilation, counted as a disc of r + margin).
+  s.weighted_pixels = static_cast<std::int64_t>(std::llround(static_cast<double>(n_dots) * pi * (r + margin + 0.5) * (r + margin + 0.5)));
+  s.ring_pixels = s.window_pixels - s.weighted_pixels;
+  s.points = n_points;
+  s.support_entries = interp == Interp::mls ? n_points * dots_per_support : 0;
+  s.interp = interp;
+  return s;
+}
+
+std::int64_t analysis_flops(const FrameShape& s) {
+  return kFlopsPerRingPixel * s.ring_pixels + kFlopsPerWeightedPixel * s.weighted_pixels +
+         (kFlopsPerPlane + kFlopsPerCentroid) * s.dots;
+}
+
+std::int64_t field_flops(const FrameShape& s) {
+  const std::int64_t disp = 2 * s.dots;
+  if (s.interp == Interp::fe) return disp + kFlopsPerFePoint * s.points;
+  return disp + kFlopsPerSupportDot * s.support_entries + kFlopsPerPoint * s.points;
+}
+
+namespace {
+std::int64_t field_values(const FrameShape& s) {
+  if (s.interp == Interp::fe) return 12 * s.points + 8 * s.points;
+  return 5 * s.support_entries + 8 * s.points;
+}
+}  // namespace
+
+CostCounts cpu_counts(const FrameShape& s, int threads) {
+  CostCounts c;
+  c.P = 8;
+  c.precision = Precision::fp64;
+  c.N_C = analysis_flops(s) + field_flops(s);
+  c.N_CC = 4 * s.roi_pixels + 4 * s.window_pixels + field_values(s);
+  c.cpu_threads = threads < 1 ? 1 : threads;
+  return c;
+}
+
+CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
+  CostCounts c;
+  c.P = 4;
+  c.precision = Precision::fp32;
+  c.host_memory = frame_memory;
+  const std::int64_t frame_values = (s.image_pixels * s.bytes_per_pixel + 3) / 4;
+  c.N_CG = frame_values + s.dots;
+  c.transfers_CG = 2;
+  c.N_GC = 1 + 8 * s.components + 7 * s.points;
+  c.transfers_GC = 3;
+  const std::int64_t roi_values = (s.roi_pixels * s.bytes_per_pixel + 3) / 4;
+  c.N_GG = roi_values + s.roi_pixels      // threshold + label init
+           + 5 * s.roi_pixels             // union
+           + 2 * s.foreground_pixels      // compress
+           + s.roi_pixels + s.components  // roots to ids
+           + 2 * s.roi_pixels             // stats
+           + 2 * s.window_pixels + 2 * s.weighted_pixels  // centroids
+           + 6 * s.dots                   // displacements
+           + field_values(s);
+  c.launches = 9;
+  if (s.otsu) {
+    c.N_GG += roi_values + 512;
+    c.launches += 2;
+  }
+  c.N_G = analysis_flops(s) + field_flops(s);
+  c.N_C = 0;
+  return c;
+}
+
+}  // namespace dtflop::dct

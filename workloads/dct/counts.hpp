@@ -1,0 +1,76 @@
+// CostCounts of the DCT backends: what one deformed frame costs, from a frame's image
+// to its fields in host memory. The seed gives no DCT count formulas (ch. 7.5.1 only names
+// the support domain as the varied parameter), so these are derived from the code: the
+// per-pixel, per-dot and per-point FLOPs are the constants of kernels.hpp, and the values
+// moved are each stage's reads and writes, each counted once per stage, as listed beside the
+// functions. Image analysis depends on the image (how many pixels are dots), so the counts
+// take the shape a run measured (FrameShape, reported by every backend) or one estimated
+// before running (estimate_shape) for prediction.
+#pragma once
+
+#include <cstdint>
+
+#include "model/cost_counts.hpp"
+#include "workloads/dct/fields.hpp"
+
+namespace dtflop::dct {
+
+struct FrameShape {
+  std::int64_t image_pixels = 0;       // the whole frame (what a GPU backend uploads)
+  int bytes_per_pixel = 1;             // 1 (8-bit) or 2 (16-bit)
+  std::int64_t roi_pixels = 0;         // analysed
+  std::int64_t foreground_pixels = 0;  // above threshold (dot pixels)
+  std::int64_t components = 0;         // labelled, before filtering
+  std::int64_t dots = 0;               // reference dots n_f (kept and tracked against)
+  std::int64_t window_pixels = 0;      // sum of the kept dots' centroid windows
+  std::int64_t ring_pixels = 0;        // of which background-ring pixels
+  std::int64_t weighted_pixels = 0;    // of which weighted pixels
+  std::int64_t points = 0;             // interpolation points n_m
+  std::int64_t support_entries = 0;    // MLS: sum over points of their support dots
+  Interp interp = Interp::mls;
+  bool otsu = true;                    // the threshold is computed from the frame
+};
+
+// Estimate for prediction: n_dots dots of radius r px in a w x h frame, n_points points with
+// `dots_per_support` dots each.
+FrameShape estimate_shape(std::int64_t width, std::int64_t height, int bytes_per_pixel, std::int64_t n_dots,
+                          double dot_radius, std::int64_t n_points, std::int64_t dots_per_support, Interp interp,
+                          int margin = 2);
+
+// FLOPs of centroids + displacements + fields (the same formulas on every backend).
+std::int64_t analysis_flops(const FrameShape& s);
+std::int64_t field_flops(const FrameShape& s);
+
+// cpu-seq (threads = 1) and cpu-par: float64 (P = 8), nothing on a device.
+//   N_C  = 14 ring + 11 weighted + 48 n_f (plane + centroid) + 2 n_f (displacements)
+//          + MLS: 242 sum(l_m) + 603 n_m   |   FE: 40 n_m
+//   N_CC = 2 roi (threshold: read, write) + 2 roi (labelling: read mask, write labels)
+//          + 4 window (two passes, label + image) + MLS: 5 sum(l_m) + 8 n_m | FE: 12 n_m + 8 n_m
+//          (5 per support entry: index, X, Y, U_x, U_y; 8 per point: 2 position, 1 radius,
+//          5 outputs; FE: 3 indices + 9 coefficients per point)
+CostCounts cpu_counts(const FrameShape& s, int threads);
+
+// Device buffers and launch layout of the cuda backend.
+struct CudaLayout {
+  int block_pixels = 256;  // threads per block of the per-pixel kernels
+  int block_points = 128;  // threads (points) per block of the field kernel
+  int block_dots = 128;    // threads per block of the per-dot centroid kernel (one block per dot)
+};
+
+// cuda: float32 (P = 4 bytes per value; the frame counts as bytes / 4 values, the device's
+// double-precision centroid positions as 2 values each).
+//   N_CG = ceil(image bytes / 4) + n_f (reference-dot index of each match)       2 copies
+//   N_GC = 1 (component count) + 8 components (centroid x, y as doubles, weight, area,
+//          status, first pixel) + 7 n_m (5 fields, status, support)            3 copies
+//   N_GG = image bytes / 4 + roi (threshold + label init: read pixel, write label)
+//          + 5 roi (union: own and 4 neighbour labels) + 2 fg (compress)
+//          + roi + components (roots to ids) + 2 roi (stats: label, root)
+//          + 2 window + 2 weighted (centroid: label and pixel, then pixel again)
+//          + 6 n_f (displacements: 2 doubles in, 2 floats out) + MLS: 5 sum(l_m) + 8 n_m
+//          | FE: 12 n_m + 8 n_m;  Otsu adds roi (histogram read) + 256 + 256
+//   N_G  = the FLOPs above;  N_C = 0 (matching is comparisons, not FLOPs)
+//   launches = 9 (+2 with Otsu): init, union, compress, ids, stats-init, stats, centroid,
+//              displacement, fields [+ histogram, otsu]
+CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory);
+
+}  // namespace dtflop::dct

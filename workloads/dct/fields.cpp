@@ -1,0 +1,311 @@
+#include "workloads/dct/fields.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "model/errors.hpp"
+#include "workloads/dct/tracking.hpp"
+
+namespace dtflop::dct {
+
+std::vector<Vec2> grid_points(double x0, double y0, double x1, double y1, int nx, int ny) {
+  if (nx < 1 || ny < 1 || static_cast<std::int64_t>(nx) * ny > 16'777'216)
+    throw InputError(fmt::format("interpolation grid {}x{} must have 1..16M points", nx, ny));
+  std::vector<Vec2> p;
+  p.reserve(static_cast<std::size_t>(nx) * ny);
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i)
+      p.push_back({nx == 1 ? 0.5 * (x0 + x1) : x0 + (x1 - x0) * i / (nx - 1),
+                   ny == 1 ? 0.5 * (y0 + y1) : y0 + (y1 - y0) * j / (ny - 1)});
+  return p;
+}
+
+std::vector<Vec2> grid_points_over(const std::vector<Vec2>& dots, int nx, int ny, double inset) {
+  if (dots.empty()) throw InputError("no dots to place interpolation points over");
+  double x0 = dots[0].x, x1 = x0, y0 = dots[0].y, y1 = y0;
+  for (const auto& d : dots) {
+    x0 = std::min(x0, d.x); x1 = std::max(x1, d.x);
+    y0 = std::min(y0, d.y); y1 = std::max(y1, d.y);
+  }
+  if (x1 - x0 > 2 * inset) { x0 += inset; x1 -= inset; }
+  if (y1 - y0 > 2 * inset) { y0 += inset; y1 -= inset; }
+  return grid_points(x0, y0, x1, y1, nx, ny);
+}
+
+std::string Support::str() const {
+  return kind == Kind::dots ? fmt::format("{}dots", dots) : fmt::format("{:g}px", radius);
+}
+
+Support parse_support(const std::string& text) {
+  Support s;
+  auto number = [&](const std::string& t) {
+    try {
+      std::size_t used = 0;
+      const double v = std::stod(t, &used);
+      if (used != t.size()) throw std::invalid_argument("trailing");
+      return v;
+    } catch (const std::exception&) {
+      throw InputError(fmt::format("support '{}' is not understood; write e.g. 60dots or 12.5px", text));
+    }
+  };
+  auto ends = [&](const char* suffix) {
+    const std::string sfx(suffix);
+    return text.size() > sfx.size() && text.compare(text.size() - sfx.size(), sfx.size(), sfx) == 0;
+  };
+  if (ends("px")) {
+    s.kind = Support::Kind::radius;
+    s.radius = number(text.substr(0, text.size() - 2));
+    if (!(s.radius > 0)) throw InputError(fmt::format("support radius {} must be > 0 px", text));
+  } else {
+    const std::string t = ends("dots") ? text.substr(0, text.size() - 4) : text;
+    const double v = number(t);
+    if (v != std::floor(v) || v < 6 || v > 4096)
+      throw InputError(fmt::format("support of {} dots must be a whole number in 6..4096 (the quadratic basis "
+                                   "needs at least 6)", t));
+    s.kind = Support::Kind::dots;
+    s.dots = static_cast<int>(v);
+  }
+  return s;
+}
+
+std::string to_string(Interp i) { return i == Interp::mls ? "mls" : "fe"; }
+Interp interp_from_string(const std::string& s) {
+  if (s == "mls") return Interp::mls;
+  if (s == "fe") return Interp::fe;
+  throw InputError(fmt::format("interpolation '{}' is unknown; use mls or fe", s));
+}
+std::string to_string(Weight w) {
+  switch (w) {
+    case Weight::cubic_spline: return "cubic";
+    case Weight::quartic: return "quartic";
+    case Weight::gaussian: return "gaussian";
+  }
+  return "?";
+}
+Weight weight_from_string(const std::string& s) {
+  if (s == "cubic") return Weight::cubic_spline;
+  if (s == "quartic") return Weight::quartic;
+  if (s == "gaussian") return Weight::gaussian;
+  throw InputError(fmt::format("weight function '{}' is unknown; use cubic, quartic or gaussian", s));
+}
+std::string to_string(PointStatus s) {
+  switch (s) {
+    case PointStatus::ok: return "ok";
+    case PointStatus::too_few_dots: return "too_few_dots";
+    case PointStatus::ill_conditioned: return "ill_conditioned";
+    case PointStatus::outside_mesh: return "outside_mesh";
+    case PointStatus::lost_vertex: return "lost_vertex";
+    case PointStatus::far_from_dots: return "far_from_dots";
+  }
+  return "?";
+}
+
+MlsTable build_mls_table(const std::vector<Vec2>& reference, const std::vector<Vec2>& points, const MlsOptions& o) {
+  if (reference.size() < 6)
+    throw InputError(fmt::format("the reference frame holds {} dot(s); MLS needs at least 6", reference.size()));
+  if (o.support.kind == Support::Kind::dots && o.support.dots > static_cast<int>(reference.size()))
+    throw InputError(fmt::format("support of {} dots asks for more than the {} dots found", o.support.dots,
+                                 reference.size()));
+  PointIndex index(reference);
+  const double gap = o.max_gap * median_spacing(reference);
+  MlsTable t;
+  t.points = points;
+  t.offsets.assign(1, 0);
+  t.rho.reserve(points.size());
+  t.geometry.reserve(points.size());
+  std::vector<std::uint32_t> idx;
+  std::vector<double> d2;
+  std::vector<std::pair<std::uint32_t, double>> hits;
+  for (const auto& p : points) {
+    double rho;
+    if (o.support.kind == Support::Kind::dots) {
+      index.knn(p, o.support.dots + 1, idx, d2);
+      const double dn = std::sqrt(d2[static_cast<std::size_t>(o.support.dots) - 1]);
+      const double dn1 = idx.size() > static_cast<std::size_t>(o.support.dots) ? std::sqrt(d2.back()) : dn * 1.05;
+      rho = 0.5 * (dn + dn1);
+      if (!(rho > dn)) rho = std::nextafter(dn, 2 * dn + 1);  // two dots at one distance
+      idx.resize(static_cast<std::size_t>(o.support.dots));
+      for (auto k : idx) t.dots.push_back(static_cast<std::int32_t>(k));
+      t.geometry.push_back(gap > 0 && std::sqrt(d2[0]) > gap ? PointStatus::far_from_dots : PointStatus::ok);
+    } else {
+      rho = o.support.radius;
+      index.within(p, rho, hits);
+      for (const auto& h : hits)
+        if (h.second < rho * rho) t.dots.push_back(static_cast<std::int32_t>(h.first));
+      index.knn(p, 1, idx, d2);
+      t.geometry.push_back(gap > 0 && std::sqrt(d2[0]) > gap ? PointStatus::far_from_dots : PointStatus::ok);
+    }
+    t.rho.push_back(rho);
+    t.offsets.push_back(static_cast<std::int32_t>(t.dots.size()));
+  }
+  return t;
+}
+
+std::vector<FieldValue<double>> evaluate_mls(const MlsTable& t, const std::vector<Vec2>& reference,
+                                             const std::vector<Vec2>& disp, const std::vector<std::uint8_t>& tracked,
+                                             const MlsOptions& o, int threads) {
+  const std::size_t n = t.points.size();
+  std::vector<FieldValue<double>> out(n);
+  auto work = [&](const cv::Range& r) {
+    for (int m = r.start; m < r.end; ++m) {
+      FieldValue<double>& f = out[static_cast<std::size_t>(m)];
+      if (t.geometry[m] != PointStatus::ok) {
+        f.status = t.geometry[m];
+        continue;
+      }
+      const Vec2 xm = t.points[m];
+      const double rho = t.rho[m];
+      MlsMoments<double> mo;
+      bool have0 = false;
+      Vec2 u0{};
+      for (int k = t.offsets[m]; k < t.offsets[m + 1]; ++k) {
+        const int j = t.dots[k];
+        if (!tracked[j]) continue;
+        if (!have0) { u0 = disp[j]; have0 = true; }
+        mo.add(o.weight, (reference[j].x - xm.x) / rho, (reference[j].y - xm.y) / rho, disp[j].x - u0.x,
+               disp[j].y - u0.y);
+      }
+      f = mls_solve<double>(mo, rho, u0.x, u0.y, o.min_dots, o.min_pivot_ratio);
+    }
+  };
+  if (threads > 1) cv::parallel_for_(cv::Range(0, static_cast<int>(n)), work);
+  else work(cv::Range(0, static_cast<int>(n)));
+  return out;
+}
+
+FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec2>& points, double max_gap) {
+  if (reference.size() < 3)
+    throw InputError(fmt::format("the reference frame holds {} dot(s); FE needs at least 3", reference.size()));
+  double x0 = reference[0].x, x1 = x0, y0 = reference[0].y, y1 = y0;
+  for (const auto& d : reference) {
+    x0 = std::min(x0, d.x); x1 = std::max(x1, d.x);
+    y0 = std::min(y0, d.y); y1 = std::max(y1, d.y);
+  }
+  for (const auto& p : points) {
+    x0 = std::min(x0, p.x); x1 = std::max(x1, p.x);
+    y0 = std::min(y0, p.y); y1 = std::max(y1, p.y);
+  }
+  cv::Subdiv2D sub(cv::Rect(static_cast<int>(std::floor(x0)) - 2, static_cast<int>(std::floor(y0)) - 2,
+                            static_cast<int>(std::ceil(x1 - x0)) + 5, static_cast<int>(std::ceil(y1 - y0)) + 5));
+  std::vector<int> vertex_dot;
+  for (std::size_t j = 0; j < reference.size(); ++j) {
+    const int v = sub.insert(cv::Point2f(static_cast<float>(reference[j].x), static_cast<float>(reference[j].y)));
+    if (v >= static_cast<int>(vertex_dot.size())) vertex_dot.resize(static_cast<std::size_t>(v) + 1, -1);
+    if (vertex_dot[v] < 0) vertex_dot[v] = static_cast<int>(j);
+  }
+  const double spacing = median_spacing(reference);
+  const double gap = max_gap * spacing;
+  FeTable t;
+  t.points = points;
+  {
+    std::vector<cv::Vec6f> tris;
+    sub.getTriangleList(tris);
+    for (const auto& tr : tris) {
+      bool real = true;
+      for (int k = 0; k < 3; ++k)
+        real &= tr[2 * k] >= x0 - 1 && tr[2 * k] <= x1 + 1 && tr[2 * k + 1] >= y0 - 1 && tr[2 * k + 1] <= y1 + 1;
+      t.triangles += real;
+    }
+  }
+  auto vdot = [&](int v) { return v >= 0 && v < static_cast<int>(vertex_dot.size()) ? vertex_dot[v] : -1; };
+  // Barycentric coordinates of p in triangle (a, b, c) of dots; false if degenerate.
+  auto bary = [&](int a, int b, int c, Vec2 p, double* N, double* Nx, double* Ny) {
+    const Vec2 A = reference[a], B = reference[b], C = reference[c];
+    const double det = (B.x - A.x) * (C.y - A.y) - (C.x - A.x) * (B.y - A.y);
+    if (std::abs(det) < 1e-9) return false;
+    Nx[0] = (B.y - C.y) / det; Ny[0] = (C.x - B.x) / det;
+    Nx[1] = (C.y - A.y) / det; Ny[1] = (A.x - C.x) / det;
+    Nx[2] = (A.y - B.y) / det; Ny[2] = (B.x - A.x) / det;
+    N[0] = ((B.x - p.x) * (C.y - p.y) - (C.x - p.x) * (B.y - p.y)) / det;
+    N[1] = ((C.x - p.x) * (A.y - p.y) - (A.x - p.x) * (C.y - p.y)) / det;
+    N[2] = 1 - N[0] - N[1];
+    return true;
+  };
+  PointIndex index(reference);
+  std::vector<std::uint32_t> idx;
+  std::vector<double> d2;
+  for (const auto& p : points) {
+    double N[3] = {}, Nx[3] = {}, Ny[3] = {};
+    int tri[3] = {-1, -1, -1};
+    PointStatus st = PointStatus::outside_mesh;
+    int edge = 0, vertex = 0;
+    const int loc = sub.locate(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), edge, vertex);
+    std::vector<int> edges;
+    if (loc == cv::Subdiv2D::PTLOC_INSIDE || loc == cv::Subdiv2D::PTLOC_ON_EDGE) {
+      edges = {edge, sub.rotateEdge(edge, 2)};
+    } else if (loc == cv::Subdiv2D::PTLOC_VERTEX) {
+      int e0 = 0;
+      sub.getVertex(vertex, &e0);
+      int e = e0;
+      for (int guard = 0; guard < 64; ++guard) {
+        edges.push_back(e);
+        e = sub.getEdge(e, cv::Subdiv2D::NEXT_AROUND_ORG);
+        if (e == e0) break;
+      }
+    }
+    for (int e : edges) {
+      const int e2 = sub.getEdge(e, cv::Subdiv2D::NEXT_AROUND_LEFT);
+      const int a = vdot(sub.edgeOrg(e)), b = vdot(sub.edgeDst(e)), c = vdot(sub.edgeDst(e2));
+      if (a < 0 || b < 0 || c < 0) continue;
+      double n[3], nx[3], ny[3];
+      if (!bary(a, b, c, p, n, nx, ny)) continue;
+      if (n[0] < -1e-9 || n[1] < -1e-9 || n[2] < -1e-9) continue;
+      std::copy(n, n + 3, N); std::copy(nx, nx + 3, Nx); std::copy(ny, ny + 3, Ny);
+      tri[0] = a; tri[1] = b; tri[2] = c;
+      st = PointStatus::ok;
+      // A triangle spanning a hole or a gap in the pattern interpolates across material
+      // that holds no dots: not a measurement.
+      auto len = [&](int i, int j) { return std::hypot(reference[i].x - reference[j].x, reference[i].y - reference[j].y); };
+      if (std::max({len(a, b), len(b, c), len(c, a)}) > 2.5 * spacing) st = PointStatus::outside_mesh;
+      break;
+    }
+    index.knn(p, 1, idx, d2);
+    if (st == PointStatus::ok && gap > 0 && std::sqrt(d2[0]) > gap) st = PointStatus::far_from_dots;
+    for (int k = 0; k < 3; ++k) {
+      t.tri.push_back(tri[k]);
+      t.N.push_back(N[k]); t.Nx.push_back(Nx[k]); t.Ny.push_back(Ny[k]);
+    }
+    t.geometry.push_back(st);
+  }
+  return t;
+}
+
+std::vector<FieldValue<double>> evaluate_fe(const FeTable& t, const std::vector<Vec2>& disp,
+                                            const std::vector<std::uint8_t>& tracked, int threads) {
+  const std::size_t n = t.points.size();
+  std::vector<FieldValue<double>> out(n);
+  auto work = [&](const cv::Range& r) {
+    for (int m = r.start; m < r.end; ++m) {
+      FieldValue<double>& f = out[static_cast<std::size_t>(m)];
+      f.status = t.geometry[m];
+      if (f.status != PointStatus::ok) continue;
+      const int* tri = &t.tri[3 * static_cast<std::size_t>(m)];
+      if (!tracked[tri[0]] || !tracked[tri[1]] || !tracked[tri[2]]) {
+        f.status = PointStatus::lost_vertex;
+        continue;
+      }
+      double dxx = 0, dxy = 0, dyx = 0, dyy = 0;
+      for (int k = 0; k < 3; ++k) {
+        const Vec2 U = disp[tri[k]];
+        const std::size_t q = 3 * static_cast<std::size_t>(m) + k;
+        f.ux += t.N[q] * U.x;
+        f.uy += t.N[q] * U.y;
+        dxx += t.Nx[q] * U.x; dxy += t.Ny[q] * U.x;
+        dyx += t.Nx[q] * U.y; dyy += t.Ny[q] * U.y;
+      }
+      f.exx = dxx;
+      f.eyy = dyy;
+      f.exy = 0.5 * (dxy + dyx);
+      f.support = 3;
+    }
+  };
+  if (threads > 1) cv::parallel_for_(cv::Range(0, static_cast<int>(n)), work);
+  else work(cv::Range(0, static_cast<int>(n)));
+  return out;
+}
+
+}  // namespace dtflop::dct

@@ -1,0 +1,146 @@
+#include "workloads/dct/io.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+
+#include <fmt/format.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "model/errors.hpp"
+#include "workloads/dct/fields.hpp"
+
+namespace dtflop::dct {
+
+cv::Mat read_grey(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw InputError(fmt::format("image '{}' does not exist or is not a file", path.string()));
+  cv::Mat img = cv::imread(path.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+  if (img.empty())
+    throw InputError(fmt::format("image '{}' cannot be read: not an image format OpenCV knows, or damaged",
+                                 path.string()));
+  if (img.depth() != CV_8U && img.depth() != CV_16U)
+    throw InputError(fmt::format("image '{}' has an unsupported depth; use 8- or 16-bit images", path.string()));
+  if (img.channels() == 3) cv::cvtColor(img, img, cv::COLOR_BGR2GRAY);
+  else if (img.channels() == 4) cv::cvtColor(img, img, cv::COLOR_BGRA2GRAY);
+  else if (img.channels() != 1)
+    throw InputError(fmt::format("image '{}' has {} channels; use grey or colour images", path.string(), img.channels()));
+  return img;
+}
+
+void write_image(const std::filesystem::path& path, const cv::Mat& image) {
+  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
+  bool ok = false;
+  try {
+    ok = cv::imwrite(path.string(), image);
+  } catch (const cv::Exception& e) {
+    throw InputError(fmt::format("cannot write image '{}': {}", path.string(), e.what()));
+  }
+  if (!ok) throw InputError(fmt::format("cannot write image '{}' (unknown extension or unwritable folder)", path.string()));
+}
+
+void write_fields_csv(const std::filesystem::path& path, const std::vector<Vec2>& points,
+                      const std::vector<FieldValue<double>>& fields) {
+  if (points.size() != fields.size()) throw InputError("points and fields differ in length");
+  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
+  std::ofstream f(path);
+  if (!f) throw InputError(fmt::format("cannot write '{}'", path.string()));
+  f << "x,y,u_x,u_y,e_xx,e_yy,e_xy,valid,status,support\n";
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const auto& v = fields[i];
+    const bool ok = v.status == PointStatus::ok;
+    if (ok)
+      f << fmt::format("{:.3f},{:.3f},{:.6f},{:.6f},{:.9g},{:.9g},{:.9g},1,ok,{}\n", points[i].x, points[i].y, v.ux,
+                       v.uy, v.exx, v.eyy, v.exy, v.support);
+    else
+      f << fmt::format("{:.3f},{:.3f},,,,,,0,{},{}\n", points[i].x, points[i].y, to_string(v.status), v.support);
+  }
+  if (!f) throw InputError(fmt::format("writing '{}' failed", path.string()));
+}
+
+std::string field_name(Field f) {
+  switch (f) {
+    case Field::ux: return "u_x";
+    case Field::uy: return "u_y";
+    case Field::exx: return "e_xx";
+    case Field::eyy: return "e_yy";
+    case Field::exy: return "e_xy";
+  }
+  return "?";
+}
+std::string field_unit(Field f) { return (f == Field::ux || f == Field::uy) ? "px" : "microstrain"; }
+double field_value(const FieldValue<double>& v, Field f) {
+  switch (f) {
+    case Field::ux: return v.ux;
+    case Field::uy: return v.uy;
+    case Field::exx: return v.exx * 1e6;
+    case Field::eyy: return v.eyy * 1e6;
+    case Field::exy: return v.exy * 1e6;
+  }
+  return 0;
+}
+
+cv::Mat overlay(const cv::Mat& image, const std::vector<Vec2>& points, int nx, int ny, const std::vector<double>& values,
+                const std::string& title, const std::string& unit) {
+  if (nx < 2 || ny < 2 || static_cast<std::size_t>(nx) * ny != points.size() || values.size() != points.size())
+    throw InputError("an overlay needs a grid of at least 2x2 points with one value each");
+  cv::Mat grey8;
+  if (image.depth() == CV_16U) image.convertTo(grey8, CV_8U, 1.0 / 257);
+  else grey8 = image;
+  cv::Mat base;
+  cv::cvtColor(grey8, base, cv::COLOR_GRAY2BGR);
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (double v : values)
+    if (std::isfinite(v)) { lo = std::min(lo, v); hi = std::max(hi, v); }
+  if (!std::isfinite(lo)) { lo = -1; hi = 1; }
+  if (lo < 0 && hi > 0) { hi = std::max(-lo, hi); lo = -hi; }
+  if (hi - lo < 1e-12) { hi += 0.5; lo -= 0.5; }
+  // Field on the point grid (8-bit colour index + validity), resized over the grid's extent.
+  cv::Mat idx(ny, nx, CV_8U), valid(ny, nx, CV_8U);
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const double v = values[static_cast<std::size_t>(j) * nx + i];
+      valid.at<std::uint8_t>(j, i) = std::isfinite(v) ? 255 : 0;
+      idx.at<std::uint8_t>(j, i) = std::isfinite(v) ? cv::saturate_cast<std::uint8_t>(255 * (v - lo) / (hi - lo)) : 0;
+    }
+  const double x0 = points.front().x, y0 = points.front().y, x1 = points.back().x, y1 = points.back().y;
+  const cv::Rect area = cv::Rect(cv::Point(static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0))),
+                                 cv::Point(static_cast<int>(std::ceil(x1)) + 1, static_cast<int>(std::ceil(y1)) + 1)) &
+                        cv::Rect(0, 0, base.cols, base.rows);
+  if (area.area() > 0) {
+    cv::Mat big, bigvalid, colour;
+    cv::resize(idx, big, area.size(), 0, 0, cv::INTER_LINEAR);
+    cv::resize(valid, bigvalid, area.size(), 0, 0, cv::INTER_NEAREST);
+    cv::applyColorMap(big, colour, cv::COLORMAP_JET);
+    cv::Mat roi = base(area), blend;
+    cv::addWeighted(roi, 0.4, colour, 0.6, 0, blend);
+    blend.copyTo(roi, bigvalid);
+  }
+  // Colour bar on the right with limits, title and unit.
+  const int bar_w = std::max(60, base.cols / 12), pad = 10;
+  cv::Mat canvas(base.rows, base.cols + bar_w + 2 * pad + 120, CV_8UC3, cv::Scalar(255, 255, 255));
+  base.copyTo(canvas(cv::Rect(0, 0, base.cols, base.rows)));
+  const int bar_h = std::max(64, base.rows - 80);
+  cv::Mat ramp(bar_h, 1, CV_8U);
+  for (int i = 0; i < bar_h; ++i) ramp.at<std::uint8_t>(i, 0) = static_cast<std::uint8_t>(255 - (255 * i) / (bar_h - 1));
+  cv::Mat ramp_c, ramp_big;
+  cv::applyColorMap(ramp, ramp_c, cv::COLORMAP_JET);
+  cv::resize(ramp_c, ramp_big, cv::Size(bar_w / 3, bar_h), 0, 0, cv::INTER_NEAREST);
+  const int bx = base.cols + pad, by = 40;
+  ramp_big.copyTo(canvas(cv::Rect(bx, by, ramp_big.cols, ramp_big.rows)));
+  const double scale = std::max(0.4, base.rows / 1200.0);
+  const int thick = std::max(1, static_cast<int>(scale * 1.5));
+  auto text = [&](const std::string& s, int x, int y) {
+    cv::putText(canvas, s, cv::Point(x, y), cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(0, 0, 0), thick, cv::LINE_AA);
+  };
+  text(fmt::format("{} [{}]", title, unit), bx, 25);
+  text(fmt::format("{:.4g}", hi), bx + ramp_big.cols + 4, by + 12);
+  text(fmt::format("{:.4g}", 0.5 * (lo + hi)), bx + ramp_big.cols + 4, by + bar_h / 2);
+  text(fmt::format("{:.4g}", lo), bx + ramp_big.cols + 4, by + bar_h);
+  return canvas;
+}
+
+}  // namespace dtflop::dct

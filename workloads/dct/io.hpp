@@ -1,0 +1,38 @@
+// File I/O of the DCT workload (library dtflop_dct_io, not in the device bundle): images
+// through OpenCV's codecs, CSV of fields and dots, and colour-mapped PNG overlays of a field
+// on the image with a colour bar and units.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "workloads/dct/kernels.hpp"
+#include "workloads/dct/specimen.hpp"
+
+namespace dtflop::dct {
+
+// One-channel 8- or 16-bit image (colour is converted to grey). Throws InputError with the
+// path when the file is missing, unreadable or of an unsupported depth.
+cv::Mat read_grey(const std::filesystem::path& path);
+// PNG or TIFF by extension; throws InputError when writing fails.
+void write_image(const std::filesystem::path& path, const cv::Mat& image);
+
+// x, y, u_x, u_y, e_xx, e_yy, e_xy, valid, status, support (one row per point).
+void write_fields_csv(const std::filesystem::path& path, const std::vector<Vec2>& points,
+                      const std::vector<FieldValue<double>>& fields);
+
+enum class Field { ux, uy, exx, eyy, exy };
+std::string field_name(Field f);   // "u_x", ... "e_xy"
+std::string field_unit(Field f);   // "px" or "microstrain"
+double field_value(const FieldValue<double>& v, Field f);  // strain in microstrain
+
+// Colour map of `values` (one per point of an nx x ny grid, NaN = invalid) drawn over the
+// grey `image` across the grid's extent, with a colour bar labelled with `title` and `unit`.
+// Symmetric limits when the values change sign. Returns a BGR image.
+cv::Mat overlay(const cv::Mat& image, const std::vector<Vec2>& points, int nx, int ny,
+                const std::vector<double>& values, const std::string& title, const std::string& unit);
+
+}  // namespace dtflop::dct

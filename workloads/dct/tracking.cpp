@@ -1,0 +1,169 @@
+#include "workloads/dct/tracking.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <nanoflann.hpp>
+
+#include "model/errors.hpp"
+
+namespace dtflop::dct {
+
+namespace {
+struct Cloud {
+  const std::vector<Vec2>* pts;
+  std::size_t kdtree_get_point_count() const { return pts->size(); }
+  double kdtree_get_pt(std::size_t i, std::size_t dim) const { return dim == 0 ? (*pts)[i].x : (*pts)[i].y; }
+  template <class BBox>
+  bool kdtree_get_bbox(BBox&) const { return false; }
+};
+using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Cloud>, Cloud, 2, std::uint32_t>;
+}  // namespace
+
+struct PointIndex::Impl {
+  Cloud cloud;
+  Tree tree;
+  explicit Impl(const std::vector<Vec2>& p) : cloud{&p}, tree(2, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10)) {
+    tree.buildIndex();
+  }
+};
+
+PointIndex::PointIndex(const std::vector<Vec2>& points) : impl_(std::make_unique<Impl>(points)) {}
+PointIndex::~PointIndex() = default;
+std::size_t PointIndex::size() const { return impl_->cloud.pts->size(); }
+
+void PointIndex::knn(Vec2 q, int k, std::vector<std::uint32_t>& idx, std::vector<double>& d2) const {
+  const std::size_t n = std::min<std::size_t>(static_cast<std::size_t>(std::max(k, 0)), size());
+  idx.assign(n, 0);
+  d2.assign(n, 0);
+  if (n == 0) return;
+  const double qq[2] = {q.x, q.y};
+  const std::size_t got = impl_->tree.knnSearch(qq, n, idx.data(), d2.data());
+  idx.resize(got);
+  d2.resize(got);
+}
+
+void PointIndex::within(Vec2 q, double radius, std::vector<std::pair<std::uint32_t, double>>& out) const {
+  out.clear();
+  if (size() == 0) return;
+  const double qq[2] = {q.x, q.y};
+  impl_->tree.radiusSearch(qq, radius * radius, out, nanoflann::SearchParams(32, 0, true));
+}
+
+double median_spacing(const std::vector<Vec2>& points) {
+  if (points.size() < 2) return 0;
+  PointIndex index(points);
+  std::vector<double> nn;
+  nn.reserve(points.size());
+  std::vector<std::uint32_t> idx;
+  std::vector<double> d2;
+  for (const auto& p : points) {
+    index.knn(p, 2, idx, d2);
+    nn.push_back(std::sqrt(d2.back()));
+  }
+  std::nth_element(nn.begin(), nn.begin() + static_cast<std::ptrdiff_t>(nn.size() / 2), nn.end());
+  return nn[nn.size() / 2];
+}
+
+std::string Matches::summary() const {
+  int nothing = 0, ambiguous = 0, claimed = 0;
+  for (auto r : lost_reason) {
+    nothing += r == LostReason::nothing_near;
+    ambiguous += r == LostReason::ambiguous;
+    claimed += r == LostReason::claimed_by_other;
+  }
+  const int lost = nothing + ambiguous + claimed;
+  std::string s = fmt::format("{} of {} reference dots matched", matched, ref_to_def.size());
+  if (lost > 0)
+    s += fmt::format(", {} lost ({} with no dot within {:.1f} px, {} ambiguous, {} claimed by a nearer dot)", lost,
+                     nothing, search_radius, ambiguous, claimed);
+  if (!appeared.empty()) s += fmt::format(", {} unmatched dot(s) appeared", appeared.size());
+  return s;
+}
+
+Matches match_dots(const std::vector<Vec2>& reference, const std::vector<Vec2>& deformed, const MatchOptions& o,
+                   const std::vector<Vec2>& predicted) {
+  if (!predicted.empty() && predicted.size() != reference.size())
+    throw InputError("predicted positions must be given for every reference dot");
+  if (!(o.ambiguity >= 1)) throw InputError("the ambiguity ratio must be >= 1");
+  const std::size_t n = reference.size();
+  Matches m;
+  m.ref_to_def.assign(n, -1);
+  m.lost_reason.assign(n, LostReason::nothing_near);
+  m.search_radius = o.search_radius > 0 ? o.search_radius : 0.4 * median_spacing(reference);
+  if (!(m.search_radius > 0)) m.search_radius = 1;  // one dot: nothing to scale by
+  if (deformed.empty() || n == 0) {
+    for (std::size_t k = 0; k < deformed.size(); ++k) m.appeared.push_back(static_cast<int>(k));
+    return m;
+  }
+  PointIndex def_index(deformed);
+  std::vector<int> owner(deformed.size(), -1);
+  std::vector<double> owner_d(deformed.size(), 0);
+  std::vector<std::uint32_t> idx;
+  std::vector<double> d2;
+
+  // One pass: each listed reference dot proposes its nearest deformed dot; conflicts go to
+  // the nearer proposer and the other is lost (claimed).
+  auto pass = [&](const std::vector<int>& which, const std::vector<Vec2>& where) {
+    for (std::size_t q = 0; q < which.size(); ++q) {
+      const int j = which[q];
+      def_index.knn(where[q], 2, idx, d2);
+      const double d1 = std::sqrt(d2[0]);
+      if (d1 > m.search_radius) { m.lost_reason[j] = LostReason::nothing_near; continue; }
+      if (idx.size() > 1 && std::sqrt(d2[1]) < o.ambiguity * d1 && std::sqrt(d2[1]) <= m.search_radius) {
+        m.lost_reason[j] = LostReason::ambiguous;
+        continue;
+      }
+      const int k = static_cast<int>(idx[0]);
+      if (owner[k] >= 0) {
+        if (owner_d[k] <= d1) { m.lost_reason[j] = LostReason::claimed_by_other; continue; }
+        m.ref_to_def[owner[k]] = -1;
+        m.lost_reason[owner[k]] = LostReason::claimed_by_other;
+      }
+      owner[k] = j;
+      owner_d[k] = d1;
+      m.ref_to_def[j] = k;
+      m.lost_reason[j] = LostReason::none;
+    }
+  };
+  std::vector<int> all(n);
+  std::vector<Vec2> where(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    all[j] = static_cast<int>(j);
+    where[j] = predicted.empty() ? reference[j] : predicted[j];
+  }
+  pass(all, where);
+
+  // Second pass for the lost: predict from the mean displacement of matched neighbours.
+  std::vector<int> lost;
+  for (std::size_t j = 0; j < n; ++j)
+    if (m.ref_to_def[j] < 0) lost.push_back(static_cast<int>(j));
+  if (!lost.empty() && o.refine_neighbours > 0 && lost.size() < n) {
+    PointIndex ref_index(reference);
+    std::vector<Vec2> guess;
+    std::vector<int> retry;
+    for (int j : lost) {
+      ref_index.knn(reference[j], o.refine_neighbours * 2 + 1, idx, d2);
+      double sx = 0, sy = 0;
+      int c = 0;
+      for (auto k : idx) {
+        const int t = m.ref_to_def[k];
+        if (t < 0 || c >= o.refine_neighbours) continue;
+        sx += deformed[t].x - reference[k].x;
+        sy += deformed[t].y - reference[k].y;
+        ++c;
+      }
+      if (c == 0) continue;
+      retry.push_back(j);
+      guess.push_back({reference[j].x + sx / c, reference[j].y + sy / c});
+    }
+    pass(retry, guess);
+  }
+  m.matched = static_cast<int>(std::count_if(m.ref_to_def.begin(), m.ref_to_def.end(), [](int t) { return t >= 0; }));
+  for (std::size_t k = 0; k < deformed.size(); ++k)
+    if (owner[k] < 0) m.appeared.push_back(static_cast<int>(k));
+  return m;
+}
+
+}  // namespace dtflop::dct

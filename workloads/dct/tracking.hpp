@@ -1,0 +1,61 @@
+// Tracking (seed 6.2, eq. 6.3): match each reference dot to a dot of the deformed frame,
+// with a k-d tree from nanoflann. Dots lost or appearing are reported, never mismatched
+// silently: a match is accepted only if it is the nearest dot around the predicted position,
+// inside the search radius, unambiguous (the second-nearest is clearly farther), and no other
+// reference dot claims the same deformed dot.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "workloads/dct/specimen.hpp"
+
+namespace dtflop::dct {
+
+// A 2D k-d tree over a set of points (nanoflann). The points must outlive the index.
+class PointIndex {
+ public:
+  explicit PointIndex(const std::vector<Vec2>& points);
+  ~PointIndex();
+  PointIndex(const PointIndex&) = delete;
+  PointIndex& operator=(const PointIndex&) = delete;
+  // The k nearest points (fewer if the set is smaller), nearest first: indices and squared
+  // distances.
+  void knn(Vec2 q, int k, std::vector<std::uint32_t>& idx, std::vector<double>& d2) const;
+  // All points within `radius`, nearest first.
+  void within(Vec2 q, double radius, std::vector<std::pair<std::uint32_t, double>>& out) const;
+  std::size_t size() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Median distance from each point to its nearest neighbour (0 for fewer than 2 points).
+double median_spacing(const std::vector<Vec2>& points);
+
+struct MatchOptions {
+  double search_radius = 0;   // px; 0 = 0.4 x the reference dots' median spacing
+  double ambiguity = 1.5;     // the second-nearest must be >= this x the nearest's distance
+  int refine_neighbours = 6;  // second pass: predict lost dots from this many matched neighbours
+};
+
+enum class LostReason : std::uint8_t { none = 0, nothing_near, ambiguous, claimed_by_other };
+
+struct Matches {
+  std::vector<int> ref_to_def;          // per reference dot: deformed index, or -1
+  std::vector<LostReason> lost_reason;  // per reference dot
+  std::vector<int> appeared;            // deformed dots no reference dot matched
+  int matched = 0;
+  double search_radius = 0;             // what was used
+  std::string summary() const;          // "1598 of 1600 matched, 2 lost (...), 1 appeared"
+};
+
+// `predicted` (optional, one per reference dot) is where each dot is expected in the
+// deformed frame, e.g. its position in the previous frame; empty = the reference position.
+Matches match_dots(const std::vector<Vec2>& reference, const std::vector<Vec2>& deformed,
+                   const MatchOptions& o, const std::vector<Vec2>& predicted = {});
+
+}  // namespace dtflop::dct
