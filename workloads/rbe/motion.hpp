@@ -74,8 +74,9 @@ GaussianMotion moments(const DriftModel& drift);
 // The kernel of size I_x x I_y for `motion` on `grid`'s cells: each entry is the probability
 // mass of the displacement over that cell offset, normalized to sum 1 over the kernel. Axis-
 // aligned motion gives a separable kernel (1D cell integrals through erf), correlated motion a
-// full one (each cell integrated by 8x8 Gauss-Legendre-free midpoint sub-cells). Throws
-// InputError when a size is < 1 or the kernel would hold no probability mass.
+// full one (each cell integrated exactly along x through the conditional normal's CDF and by
+// composite Simpson along y). Throws InputError when a size is < 1 or larger than the grid,
+// or the kernel would hold no probability mass.
 MotionKernel make_kernel(const GaussianMotion& motion, const Grid& grid, std::int64_t Ix,
                          std::int64_t Iy);
 

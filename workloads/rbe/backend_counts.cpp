@@ -1,0 +1,172 @@
+#include "workloads/rbe/backend_counts.hpp"
+
+#include <fmt/format.h>
+
+#include "model/errors.hpp"
+#include "workloads/rbe/resident_geometry.hpp"
+
+namespace dtflop::rbe {
+
+std::int64_t edge_taps(std::int64_t I) {
+  const std::int64_t c = kernel_centre(I);
+  std::int64_t s = 0;
+  for (std::int64_t a = 0; a < I; ++a) s += a > c ? a - c : c - a;
+  return s;
+}
+
+CostCounts cpu_seq_counts(const Shape& s, Prediction prediction) {
+  validate(s);
+  const std::int64_t ng = s.cells();
+  const std::int64_t row_taps = s.Ix * s.nx - edge_taps(s.Ix);  // valid (output, tap) pairs, one row
+  const std::int64_t col_taps = s.Iy * s.ny - edge_taps(s.Iy);  // ... one column
+  CostCounts c;
+  c.P = 8;
+  c.precision = Precision::fp64;
+  c.cpu_threads = 1;
+  const std::int64_t correction = 3 * ng + 1;  // multiply, sum, A_c x sum, divide
+  if (prediction == Prediction::separable) {
+    c.N_C = 2 * s.ny * row_taps + 2 * s.nx * col_taps + correction;
+    // x-pass r+w, y-pass r+w, multiply (pred, l -> q), sum (q), divide (q -> p); kernels once.
+    c.N_CC = 2 * ng + 2 * ng + 3 * ng + ng + 2 * ng + s.Ix + s.Iy;
+  } else {
+    c.N_C = 2 * row_taps * col_taps + correction;
+    c.N_CC = 2 * ng + 3 * ng + ng + 2 * ng + s.Ix * s.Iy;
+  }
+  return c;
+}
+
+CostCounts cpu_par_counts(const Shape& s, Prediction prediction, int threads) {
+  validate(s);
+  if (threads < 1) throw InputError(fmt::format("cpu-par needs at least one thread, got {}", threads));
+  const std::int64_t ng = s.cells();
+  CostCounts c;
+  c.P = 4;
+  c.precision = Precision::fp32;
+  c.cpu_threads = threads;
+  // Correction: (l x scale) x prediction, 2 multiplications, and the sum, 1 addition, per
+  // cell; the scale 1 / (A_c S) of the previous step: 2 operations.
+  const std::int64_t correction = 3 * ng + 2;
+  // Prediction: read q, write the intermediate (u or the zero-padded copy); read it, write the
+  // prediction. Correction: read the prediction and l, write q. Kernels once.
+  if (prediction == Prediction::separable) {
+    c.N_C = 2 * ng * (s.Ix + s.Iy) + correction;
+    c.N_CC = 7 * ng + s.Ix + s.Iy;
+  } else {
+    c.N_C = 2 * ng * s.Ix * s.Iy + correction;
+    c.N_CC = 7 * ng + s.Ix * s.Iy;
+  }
+  return c;
+}
+
+CostCounts cuda_seed_counts(const Shape& s, HostMemory memory) {
+  CostCounts c = seed_gpu_counts(s, memory);
+  c.N_C += 1;  // A_c x sum, which the seed counts inside its n_g summations
+  return c;
+}
+
+ResidentPlan resident_plan(const Shape& s, const Layout& l, std::size_t max_shared) {
+  validate(s);
+  auto bad = [&](const std::string& why) {
+    return InputError(fmt::format("layout {} is invalid: {}", to_string(l), why));
+  };
+  if (l.block_x < 8 || l.block_x > 1024 || l.block_x % 8 != 0)
+    throw bad("block_x must be a multiple of 8 between 8 and 1024 (each thread of the x-pass "
+              "computes 8 neighbouring cells)");
+  if (l.block_y < 1) throw bad("block_y must be at least 1");
+  const std::int64_t threads = std::int64_t{l.block_x} * l.block_y;
+  if (threads > 1024) throw bad(fmt::format("a block of {} threads is more than 1024", threads));
+  if (threads % 32 != 0) throw bad(fmt::format("a block of {} threads is not whole warps (a multiple of 32)", threads));
+  const int R = l.cells_per_thread;
+  if (R != 1 && R != 2 && R != 4 && R != 8 && R != 16)
+    throw bad("cells_per_thread must be 1, 2, 4, 8 or 16");
+
+  ResidentPlan p;
+  p.threads = static_cast<int>(threads);
+  p.tile_w = l.block_x;
+  p.tile_h = l.block_y * R;
+  p.blocks_x = (s.nx + p.tile_w - 1) / p.tile_w;
+  p.blocks_y = (s.ny + p.tile_h - 1) / p.tile_h;
+  const resident::TileGeometry fused = resident::fused_geometry(s, l);
+  const resident::TileGeometry ypass = resident::ypass_geometry(s, l);
+  if (l.passes == Layout::Passes::fused) {
+    if (fused.smem_bytes > max_shared)
+      throw bad(fmt::format("the fused tile needs {} bytes of shared memory for a {}x{} kernel, more than "
+                            "the {} a block may have; use a smaller tile or :split",
+                            fused.smem_bytes, s.Ix, s.Iy, max_shared));
+    p.passes = Layout::Passes::fused;
+  } else if (l.passes == Layout::Passes::split) {
+    p.passes = Layout::Passes::split;
+  } else {
+    // Fused when its tile fits with room for two blocks per multiprocessor and the x-pass
+    // recomputes at most as many halo rows as the tile has rows; else split.
+    p.passes = (fused.smem_bytes <= max_shared / 2 && s.Iy - 1 <= p.tile_h) ? Layout::Passes::fused
+                                                                            : Layout::Passes::split;
+  }
+  constexpr std::int64_t kMaxGridY = 65535;
+  if (p.blocks_y > kMaxGridY)
+    throw bad(fmt::format("{} rows of blocks exceed CUDA's {}; use more rows per block (block_y x "
+                          "cells_per_thread)",
+                          p.blocks_y, kMaxGridY));
+  if (p.passes == Layout::Passes::fused) {
+    p.smem_bytes = fused.smem_bytes;
+    return p;
+  }
+  if (ypass.smem_bytes > max_shared)
+    throw bad(fmt::format("the y-pass tile needs {} bytes of shared memory for a {}-row kernel, more than "
+                          "the {} a block may have; use fewer rows per block (block_y x cells_per_thread)",
+                          ypass.smem_bytes, s.Iy, max_shared));
+  const resident::TileGeometry xpass = resident::xpass_geometry(s, l);
+  if (xpass.smem_bytes > max_shared)
+    throw bad(fmt::format("the x-pass tile needs {} bytes of shared memory for a {}-column kernel, more "
+                          "than the {} a block may have; use fewer threads per block",
+                          xpass.smem_bytes, s.Ix, max_shared));
+  p.smem_bytes = ypass.smem_bytes;
+  p.xtile_w = xpass.out_w;
+  p.xtile_h = xpass.out_h;
+  p.xblocks_x = (s.nx + p.xtile_w - 1) / p.xtile_w;
+  p.xblocks_y = (s.ny + p.xtile_h - 1) / p.xtile_h;
+  p.xsmem_bytes = xpass.smem_bytes;
+  if (p.xblocks_y > kMaxGridY)
+    throw bad(fmt::format("the x-pass needs {} rows of blocks, more than CUDA's {}; use more threads per "
+                          "block",
+                          p.xblocks_y, kMaxGridY));
+  return p;
+}
+
+CostCounts cuda_resident_counts(const Shape& s, const Layout& l) {
+  const ResidentPlan p = resident_plan(s, l);
+  const std::int64_t ng = s.cells();
+  const std::int64_t W = p.tile_w, H = p.tile_h, B = p.blocks();
+  CostCounts c;
+  c.P = 4;
+  c.precision = Precision::fp32;
+  // Per block of the correcting kernel: y-pass 2 I_y per output; (scale x prediction) x l, 2
+  // multiplications per output; the sum: one addition per output (reductions are counted as one
+  // addition per value summed, see docs/rbe.md); the scale 1 / (A_c S): 2 operations.
+  const std::int64_t correct_block = 2 * s.Iy * W * H + 3 * W * H + 2;
+  if (p.passes == Layout::Passes::fused) {
+    c.launches = 1;
+    c.N_G = B * (2 * s.Ix * W * (H + s.Iy - 1) + correct_block);
+    c.N_GG = 3 * ng + s.Ix + s.Iy + 2 + 2 * B;
+  } else {
+    c.launches = 2;
+    c.N_G = p.xblocks() * 2 * s.Ix * p.xtile_w * p.xtile_h + B * correct_block;
+    c.N_GG = 5 * ng + s.Ix + s.Iy + 2 + 2 * B;
+  }
+  return c;
+}
+
+CostCounts cuda_resident_run_counts(const Shape& s, const Layout& l, std::int64_t steps, std::int64_t chunk) {
+  if (steps < 1) throw InputError(fmt::format("a run needs at least one step, got {}", steps));
+  if (chunk < 1) throw InputError(fmt::format("chunk of {} steps must be at least 1", chunk));
+  CostCounts c = cuda_resident_counts(s, l).scaled(steps);
+  const std::int64_t chunks = (steps + chunk - 1) / chunk;
+  // Per chunk: zero its sums (2 values each, written), carry the last sum in and out (two
+  // 8-byte device copies, read + write), copy the chunk's sums to the host in one copy.
+  c.N_GG += 2 * steps + chunks * 2 * (2 + 2);
+  c.N_GC += 2 * steps;
+  c.transfers_GC += chunks;
+  return c;
+}
+
+}  // namespace dtflop::rbe

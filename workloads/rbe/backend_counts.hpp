@@ -1,0 +1,71 @@
+// Exact cost counts of one step of each RBE backend (the code that does the work sits beside
+// each function: cpu_seq.cpp, cpu_par.cpp, cuda_seed.cu, cuda_resident.cu). docs/rbe.md
+// derives every formula; tests/workloads/rbe/test_rbe_backend_counts.cpp checks them against
+// formulas written out by hand.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "model/cost_counts.hpp"
+#include "workloads/rbe/backend.hpp"
+
+namespace dtflop::rbe {
+
+// S(I) = sum over kernel entries a of |a - c|: the taps that fall off one grid edge, summed
+// over the outputs of a row (see cpu_seq_counts).
+std::int64_t edge_taps(std::int64_t kernel_size);
+
+// cpu-seq, float64, one thread, bounds-checked loops (taps outside the grid are skipped):
+//   valid taps along x, whole grid: T_x = n_y (I_x n_x - S(I_x)), along y: T_y = n_x (I_y n_y - S(I_y))
+//   separable: N_C = 2 T_x + 2 T_y + 3 n_g + 1,  N_CC = 10 n_g + I_x + I_y
+//   full:      N_C = 2 (I_x n_x - S(I_x)) (I_y n_y - S(I_y)) + 3 n_g + 1,  N_CC = 8 n_g + I_x I_y
+//   (multiply by l: n_g, sum: n_g, A_c x sum: 1, divide: n_g)
+CostCounts cpu_seq_counts(const Shape& s, Prediction prediction);
+
+// cpu-par, float32, `threads` threads, zero-padded buffers so every output takes every tap:
+//   separable: N_C = 2 n_g (I_x + I_y) + 3 n_g + 2,  N_CC = 7 n_g + I_x + I_y
+//   full:      N_C = 2 n_g I_x I_y + 3 n_g + 2,      N_CC = 7 n_g + I_x I_y
+// (the previous step's normalization 1 / (A_c S) is folded into this step's multiply by l).
+CostCounts cpu_par_counts(const Shape& s, Prediction prediction, int threads);
+
+// cuda-seed: eqs. 5.10-5.16 (seed_gpu_counts) plus the one multiplication A_c x sum on the CPU
+// that the seed folds into its n_g summations: N_C = n_g + 1.
+CostCounts cuda_seed_counts(const Shape& s, HostMemory memory);
+
+// How cuda-resident covers the grid for a shape and a layout.
+struct ResidentPlan {
+  Layout::Passes passes = Layout::Passes::fused;  // resolved: fused or split
+  int threads = 0;                 // per block, all kernels
+  int tile_w = 0, tile_h = 0;      // outputs per block of the (fused or y-pass) kernel
+  std::int64_t blocks_x = 0, blocks_y = 0;
+  std::size_t smem_bytes = 0;      // dynamic shared memory of that kernel
+  // split only: the x-pass kernel
+  int xtile_w = 0, xtile_h = 0;
+  std::int64_t xblocks_x = 0, xblocks_y = 0;
+  std::size_t xsmem_bytes = 0;
+  std::int64_t blocks() const { return blocks_x * blocks_y; }
+  std::int64_t xblocks() const { return xblocks_x * xblocks_y; }
+};
+// Largest dynamic shared memory a block may use on sm_90 (227 KiB).
+inline constexpr std::size_t kMaxSharedBytes = 232448;
+// Throws InputError, saying which rule the layout breaks, for an invalid layout: block_x a
+// multiple of 8 in [8, 1024]; block_x x block_y a multiple of 32, at most 1024;
+// cells_per_thread one of 1, 2, 4, 8, 16; the tile's shared memory within `max_shared`.
+ResidentPlan resident_plan(const Shape& s, const Layout& layout, std::size_t max_shared = kMaxSharedBytes);
+
+// cuda-resident, float32, one steady-state step inside a run (see cuda_resident.cu):
+//   fused: launches 1, N_GG = 3 n_g + I_x + I_y + 2 + 2 B,
+//          N_G = B [2 I_x W (H + I_y - 1) + (2 I_y + 3) W H + 2]
+//   split: launches 2, N_GG = 5 n_g + I_x + I_y + 2 + 2 B,
+//          N_G = B_x 2 I_x W_x H_x + B [(2 I_y + 3) W H + 2]
+// with B blocks of W x H outputs (B_x blocks of W_x x H_x in the x-pass). Halo values re-read
+// by neighbouring blocks come from L2 and are not counted in N_GG; every tile computes all of
+// its outputs (those outside the grid are zeros and not stored), so N_G counts them.
+CostCounts cuda_resident_counts(const Shape& s, const Layout& layout);
+// A run of `steps` steps in chunks of `chunk` steps (one CUDA graph each): adds per chunk one
+// memset of the chunk's sums, one 8-byte device copy and one device->host copy of the sums.
+CostCounts cuda_resident_run_counts(const Shape& s, const Layout& layout, std::int64_t steps,
+                                    std::int64_t chunk);
+
+}  // namespace dtflop::rbe

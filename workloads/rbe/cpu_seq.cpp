@@ -1,0 +1,125 @@
+// cpu-seq: the float64 reference backend, one thread, written for clarity: the separable
+// prediction (5.3-5.4) or the conventional 2D convolution (4.10), then the correction in the
+// seed's three steps (5.7, sum, 5.6). Its counts: cpu_seq_counts() (backend_counts.cpp).
+#include <fmt/format.h>
+
+#include "workloads/rbe/backend_counts.hpp"
+#include "workloads/rbe/detail.hpp"
+#include "workloads/rbe/reference.hpp"
+
+namespace dtflop::rbe::detail {
+namespace {
+
+class CpuSeq final : public Backend {
+ public:
+  explicit CpuSeq(const BackendOptions& o) : options_(o) {}
+
+  std::string_view name() const override { return "cpu-seq"; }
+  std::string_view description() const override {
+    return "float64 reference on one thread (separable or full 2D prediction)";
+  }
+  bool needs_gpu() const override { return false; }
+  const BackendOptions& options() const override { return options_; }
+
+  CostCounts step_counts(const Shape& s, const BackendOptions& o) const override {
+    return cpu_seq_counts(s, o.prediction.value_or(Prediction::separable));
+  }
+
+  void init(const Problem& problem) override {
+    ready_ = false;
+    p_ = normalized_prior(problem);
+    prediction_ = resolve_prediction(options_, problem.kernel, true, name());
+    grid_ = problem.grid;
+    kernel_ = problem.kernel;
+    dense_ = kernel_.dense();
+    mask_ = problem.mask;
+    l_ = masked_likelihood(problem.likelihood, mask_, grid_.cells());
+    const auto n = p_.size();
+    u_.assign(n, 0);
+    pred_.assign(n, 0);
+    q_.assign(n, 0);
+    steps_ = 0;
+    failed_ = false;
+    ready_ = true;
+  }
+
+  RunResult run(std::int64_t steps) override {
+    if (steps < 1) throw InputError(fmt::format("a run needs at least one step, got {}", steps));
+    RunResult r;
+    r.steps = steps;
+    r.samples.reserve(static_cast<std::size_t>(steps));
+    const double t0 = seconds_now();
+    for (std::int64_t i = 0; i < steps; ++i) {
+      double sum = 0;
+      r.samples.push_back(advance(l_, sum));
+      r.sums.push_back(sum * grid_.cell_area());
+    }
+    r.wall_seconds = seconds_now() - t0;
+    return r;
+  }
+
+  StepTimes step(std::span<const double> likelihood) override {
+    const auto l = masked_likelihood(likelihood, mask_, grid_.cells());
+    double sum = 0;
+    return advance(l, sum);
+  }
+
+  std::vector<double> belief() override {
+    if (!ready_ || failed_) throw_not_ready(name(), failed_);
+    return p_;
+  }
+
+ private:
+  StepTimes advance(const std::vector<double>& l, double& sum) {
+    if (!ready_ || failed_) throw_not_ready(name(), failed_);
+    const std::int64_t nx = grid_.nx(), ny = grid_.ny(), n = grid_.cells();
+    StepTimes t;
+    const double t0 = seconds_now();
+    {
+      Range range("rbe/predict");
+      if (prediction_ == Prediction::separable) {
+        reference::pass_x(nx, ny, kernel_.kx().data(), kernel_.Ix(), p_.data(), u_.data());
+        reference::pass_y(nx, ny, kernel_.ky().data(), kernel_.Iy(), u_.data(), pred_.data());
+      } else {
+        reference::convolve_full(nx, ny, dense_.data(), kernel_.Ix(), kernel_.Iy(), p_.data(), pred_.data());
+      }
+    }
+    const double t1 = seconds_now();
+    {
+      Range range("rbe/correct");
+      reference::multiply(n, l.data(), pred_.data(), q_.data());
+      sum = reference::sum(n, q_.data());
+    }
+    const double t2 = seconds_now();
+    if (!(sum > 0 && std::isfinite(sum))) failed_ = true;
+    check_sum(sum, steps_, name());
+    {
+      Range range("rbe/normalize");
+      reference::normalize(n, q_.data(), grid_.cell_area(), sum, p_.data());
+    }
+    const double t3 = seconds_now();
+    ++steps_;
+    t.part(Component::predict) = t1 - t0;
+    t.part(Component::correct) = t2 - t1;
+    t.part(Component::normalize) = t3 - t2;
+    t.total = t3 - t0;
+    return t;
+  }
+
+  BackendOptions options_;
+  Grid grid_;
+  MotionKernel kernel_;
+  std::vector<double> dense_;
+  Prediction prediction_ = Prediction::separable;
+  std::vector<std::uint8_t> mask_;
+  std::vector<double> p_, l_, u_, pred_, q_;
+  std::int64_t steps_ = 0;
+  bool ready_ = false;
+  bool failed_ = false;
+};
+
+}  // namespace
+
+std::unique_ptr<Backend> make_cpu_seq(const BackendOptions& options) { return std::make_unique<CpuSeq>(options); }
+
+}  // namespace dtflop::rbe::detail

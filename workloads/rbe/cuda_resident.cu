@@ -1,0 +1,616 @@
+// cuda-resident: the belief stays on the device. One step is one kernel (fused) or two (split):
+//
+//  fused  rbe_resident_fused<R>: load the block's input tile (output tile plus the kernel's
+//         halo) of the unnormalized belief q_{k-1} into shared memory; x-pass into a shared u
+//         tile (each thread 8 neighbouring outputs of one row from a register window); y-pass
+//         (each thread R outputs of one column from a register window); multiply by the
+//         previous step's scale 1 / (A_c S_{k-1}) and by the likelihood; store q_k; reduce the
+//         block's share of S_k (float64) and add it atomically to S_k in device memory.
+//  split  rbe_resident_xpass (x-pass to a device buffer u), then rbe_resident_ypass<R> (y-pass
+//         from a shared u tile, correction and reduction as above); for kernels whose fused
+//         tile would not fit in shared memory.
+//
+// The normalization is never a pass of its own: S_k stays on the device and the next step
+// scales by it. A run is captured into CUDA graphs (segments of up to kSegment steps), and
+// the sums S_k, one scalar per step, come back in one copy per segment. Counts:
+// cuda_resident_counts() (backend_counts.cpp), geometry: resident_geometry.hpp.
+// No fmt here: its compile-time format checks do not compile under nvcc in C++20.
+#include <cuda_runtime.h>
+
+#include <cfloat>
+#include <cmath>
+#include <map>
+#include <optional>
+
+#include "workloads/rbe/backend_counts.hpp"
+#include "workloads/rbe/cuda_memory.hpp"
+#include "workloads/rbe/detail.hpp"
+#include "workloads/rbe/resident_geometry.hpp"
+
+namespace dtflop::rbe::detail {
+namespace {
+
+using resident::kRx;
+using resident::kScratchDoubles;
+
+constexpr std::int64_t kSegment = 1000;  // steps per captured graph
+constexpr std::int64_t kChunk = 50;      // steps per timing sample inside a graph
+
+struct KernelArgs {
+  const float* __restrict__ q_prev;
+  float* __restrict__ q_next;
+  const float* __restrict__ l;
+  float* __restrict__ u;       // split: the x-pass result, n_x n_y values
+  const float* __restrict__ kx;  // flipped, zero-padded to kx_len
+  const float* __restrict__ ky;  // flipped, zero-padded to ky_len
+  const double* sum_in;        // S_{k-1}
+  double* sum_out;             // S_k (zeroed before the step)
+  int nx, ny, Ix, Iy, hx, hy;  // hx, hy: halo before the cell (I - 1 - c)
+  int in_rows, in_cols, in_pitch, u_rows, u_pitch, kx_len, ky_len;
+  double cell_area;
+};
+
+// 1 / (A_c S), or 0 when S is zero, not finite or the scale would overflow float (the host
+// reports the error from the sums; the belief turns to zeros, never NaN).
+__device__ inline double scale_from(double S, double area) {
+  const double s = 1.0 / (area * S);
+  return (S > 0.0 && s <= double(FLT_MAX)) ? s : 0.0;
+}
+
+// acc[j] = sum_{a < I} k[a] row[j + a], j < 8. k is zero-padded to whole groups of 8 and
+// 16-byte aligned; row is readable up to 8 ceil(I / 8) + 7.
+__device__ __forceinline__ void x_window(const float* row, const float* k, int I, float (&acc)[kRx]) {
+  float w[2 * kRx];
+#pragma unroll
+  for (int j = 0; j < kRx; ++j) {
+    acc[j] = 0.f;
+    w[j] = row[j];
+  }
+  const int full = I / kRx;
+  for (int g = 0; g < full; ++g) {
+    const float* r = row + g * kRx + kRx;
+#pragma unroll
+    for (int j = 0; j < kRx; ++j) w[kRx + j] = r[j];
+    const float4 k0 = *reinterpret_cast<const float4*>(k + g * kRx);
+    const float4 k1 = *reinterpret_cast<const float4*>(k + g * kRx + 4);
+    const float kk[kRx] = {k0.x, k0.y, k0.z, k0.w, k1.x, k1.y, k1.z, k1.w};
+#pragma unroll
+    for (int b = 0; b < kRx; ++b)
+#pragma unroll
+      for (int j = 0; j < kRx; ++j) acc[j] = fmaf(kk[b], w[j + b], acc[j]);
+#pragma unroll
+    for (int j = 0; j < kRx; ++j) w[j] = w[kRx + j];
+  }
+  const int rem = I - full * kRx;
+  if (rem > 0) {
+    const float* r = row + full * kRx + kRx;
+#pragma unroll
+    for (int j = 0; j < kRx; ++j) w[kRx + j] = r[j];
+    const float4 k0 = *reinterpret_cast<const float4*>(k + full * kRx);
+    const float4 k1 = *reinterpret_cast<const float4*>(k + full * kRx + 4);
+    const float kk[kRx] = {k0.x, k0.y, k0.z, k0.w, k1.x, k1.y, k1.z, k1.w};
+#pragma unroll
+    for (int b = 0; b < kRx; ++b)
+      if (b < rem) {
+#pragma unroll
+        for (int j = 0; j < kRx; ++j) acc[j] = fmaf(kk[b], w[j + b], acc[j]);
+      }
+  }
+}
+
+// acc[j] = sum_{b < I} k[b] col[(j + b) pitch], j < R. k zero-padded to whole groups of R;
+// col readable up to row R ceil(I / R) + R - 1.
+template <int R>
+__device__ __forceinline__ void y_window(const float* col, int pitch, const float* k, int I, float (&acc)[R]) {
+  float w[2 * R];
+#pragma unroll
+  for (int j = 0; j < R; ++j) {
+    acc[j] = 0.f;
+    w[j] = col[j * pitch];
+  }
+  const int full = I / R;
+  for (int g = 0; g < full; ++g) {
+    const float* c = col + (g * R + R) * pitch;
+#pragma unroll
+    for (int j = 0; j < R; ++j) w[R + j] = c[j * pitch];
+    float kk[R];
+#pragma unroll
+    for (int b = 0; b < R; ++b) kk[b] = k[g * R + b];
+#pragma unroll
+    for (int b = 0; b < R; ++b)
+#pragma unroll
+      for (int j = 0; j < R; ++j) acc[j] = fmaf(kk[b], w[j + b], acc[j]);
+#pragma unroll
+    for (int j = 0; j < R; ++j) w[j] = w[R + j];
+  }
+  const int rem = I - full * R;
+  if (rem > 0) {
+    const float* c = col + (full * R + R) * pitch;
+#pragma unroll
+    for (int j = 0; j < R; ++j) w[R + j] = c[j * pitch];
+#pragma unroll
+    for (int b = 0; b < R; ++b)
+      if (b < rem) {
+        const float kb = k[full * R + b];
+#pragma unroll
+        for (int j = 0; j < R; ++j) acc[j] = fmaf(kb, w[j + b], acc[j]);
+      }
+  }
+}
+
+// y-pass from the shared u tile, correction, store, block reduction, atomic add of the block's
+// share of S_k. `red` holds 32 warp partials; red[32] the scale.
+template <int R>
+__device__ __forceinline__ void y_correct(const KernelArgs& a, const float* u, const float* ky, int x0, int y0,
+                                          double* red) {
+  const int tx = threadIdx.x, ty = threadIdx.y;
+  const int tid = ty * blockDim.x + tx, T = blockDim.x * blockDim.y;
+  float acc[R];
+  y_window<R>(u + (ty * R) * a.u_pitch + tx, a.u_pitch, ky, a.Iy, acc);
+  const float s = static_cast<float>(red[32]);
+  const int gx = x0 + tx;
+  float part = 0.f;
+#pragma unroll
+  for (int j = 0; j < R; ++j) {
+    const int gy = y0 + ty * R + j;
+    const bool inside = gx < a.nx && gy < a.ny;
+    const std::size_t i = std::size_t(gy) * std::size_t(a.nx) + std::size_t(gx);
+    const float lv = inside ? __ldg(a.l + i) : 0.f;
+    const float qv = lv * (s * acc[j]);
+    if (inside) a.q_next[i] = qv;
+    part += qv;
+  }
+  double v = part;
+#pragma unroll
+  for (int off = 16; off > 0; off >>= 1) v += __shfl_down_sync(0xffffffffu, v, off);
+  const int lane = tid & 31, warp = tid >> 5;
+  if (lane == 0) red[warp] = v;  // red[0..31]; the scale in red[32] stays
+
+  __syncthreads();
+  if (warp == 0) {
+    v = lane < (T >> 5) ? red[lane] : 0.0;
+#pragma unroll
+    for (int off = 16; off > 0; off >>= 1) v += __shfl_down_sync(0xffffffffu, v, off);
+    if (lane == 0) atomicAdd(a.sum_out, v);
+  }
+}
+
+template <int R>
+__global__ void rbe_resident_fused(KernelArgs a) {
+  extern __shared__ double smem[];
+  double* red = smem;
+  float* kx = reinterpret_cast<float*>(smem + kScratchDoubles);
+  float* ky = kx + a.kx_len;
+  float* in = ky + a.ky_len;
+  float* u = in + a.in_rows * a.in_pitch;
+  const int tx = threadIdx.x, ty = threadIdx.y, bx = blockDim.x, by = blockDim.y;
+  const int tid = ty * bx + tx, T = bx * by;
+  const int x0 = blockIdx.x * bx, y0 = blockIdx.y * by * R;
+  if (tid == 0) red[32] = scale_from(*a.sum_in, a.cell_area);
+  for (int i = tid; i < a.kx_len; i += T) kx[i] = a.kx[i];
+  for (int i = tid; i < a.ky_len; i += T) ky[i] = a.ky[i];
+  const int gx0 = x0 - a.hx, gy0 = y0 - a.hy;
+  for (int r = ty; r < a.in_rows; r += by) {
+    const int gy = gy0 + r;
+    const bool row_in = gy >= 0 && gy < a.ny;
+    float* dst = in + r * a.in_pitch;
+    for (int c = tx; c < a.in_cols; c += bx) {
+      const int gx = gx0 + c;
+      dst[c] = (row_in && gx >= 0 && gx < a.nx) ? __ldg(a.q_prev + std::size_t(gy) * std::size_t(a.nx) + gx) : 0.f;
+    }
+  }
+  // u rows below the x-pass's are read only by taps the y-pass skips: keep them finite.
+  for (int i = tid; i < (a.u_rows - a.in_rows) * a.u_pitch; i += T) u[a.in_rows * a.u_pitch + i] = 0.f;
+  __syncthreads();
+  const int segs = bx / kRx;
+  const int tasks = a.in_rows * segs;
+  for (int t = tid; t < tasks; t += T) {
+    const int r = t % a.in_rows, seg = t / a.in_rows;
+    float acc[kRx];
+    x_window(in + r * a.in_pitch + seg * kRx, kx, a.Ix, acc);
+    float* dst = u + r * a.u_pitch + seg * kRx;
+#pragma unroll
+    for (int j = 0; j < kRx; ++j) dst[j] = acc[j];
+  }
+  __syncthreads();
+  y_correct<R>(a, u, ky, x0, y0, red);
+}
+
+// Split x-pass: tile of 128 x (T / 16) outputs, one 8-wide segment per thread; writes u.
+__global__ void rbe_resident_xpass(KernelArgs a) {
+  extern __shared__ double smem[];
+  float* kx = reinterpret_cast<float*>(smem + kScratchDoubles);
+  float* in = kx + a.kx_len;
+  const int tid = threadIdx.y * blockDim.x + threadIdx.x, T = blockDim.x * blockDim.y;
+  const int rows = a.in_rows;  // T / 16
+  const int x0 = blockIdx.x * resident::kXpassWidth, y0 = blockIdx.y * rows;
+  for (int i = tid; i < a.kx_len; i += T) kx[i] = a.kx[i];
+  const int gx0 = x0 - a.hx;
+  for (int i = tid; i < rows * a.in_cols; i += T) {
+    const int r = i / a.in_cols, c = i - r * a.in_cols;
+    const int gy = y0 + r, gx = gx0 + c;
+    in[r * a.in_pitch + c] =
+        (gy < a.ny && gx >= 0 && gx < a.nx) ? __ldg(a.q_prev + std::size_t(gy) * std::size_t(a.nx) + gx) : 0.f;
+  }
+  __syncthreads();
+  const int r = tid % rows, seg = tid / rows;
+  float acc[kRx];
+  x_window(in + r * a.in_pitch + seg * kRx, kx, a.Ix, acc);
+  const int gy = y0 + r;
+  if (gy >= a.ny) return;
+#pragma unroll
+  for (int j = 0; j < kRx; ++j) {
+    const int gx = x0 + seg * kRx + j;
+    if (gx < a.nx) a.u[std::size_t(gy) * std::size_t(a.nx) + gx] = acc[j];
+  }
+}
+
+// Split y-pass and correction: loads the u tile (with the y halo) from device memory.
+template <int R>
+__global__ void rbe_resident_ypass(KernelArgs a) {
+  extern __shared__ double smem[];
+  double* red = smem;
+  float* ky = reinterpret_cast<float*>(smem + kScratchDoubles);
+  float* u = ky + a.ky_len;
+  const int tx = threadIdx.x, ty = threadIdx.y, bx = blockDim.x, by = blockDim.y;
+  const int tid = ty * bx + tx, T = bx * by;
+  const int x0 = blockIdx.x * bx, y0 = blockIdx.y * by * R;
+  if (tid == 0) red[32] = scale_from(*a.sum_in, a.cell_area);
+  for (int i = tid; i < a.ky_len; i += T) ky[i] = a.ky[i];
+  const int gy0 = y0 - a.hy, gx = x0 + tx;
+  for (int r = ty; r < a.u_rows; r += by) {
+    const int gy = gy0 + r;
+    u[r * a.u_pitch + tx] = (gy >= 0 && gy < a.ny && gx < a.nx)
+                                ? __ldg(a.u + std::size_t(gy) * std::size_t(a.nx) + gx)
+                                : 0.f;
+  }
+  __syncthreads();
+  y_correct<R>(a, u, ky, x0, y0, red);
+}
+
+template <int R>
+struct Kernels {
+  static void* fused() { return reinterpret_cast<void*>(&rbe_resident_fused<R>); }
+  static void* ypass() { return reinterpret_cast<void*>(&rbe_resident_ypass<R>); }
+};
+
+void* fused_kernel(int R) {
+  switch (R) {
+    case 1: return Kernels<1>::fused();
+    case 2: return Kernels<2>::fused();
+    case 4: return Kernels<4>::fused();
+    case 8: return Kernels<8>::fused();
+    default: return Kernels<16>::fused();
+  }
+}
+void* ypass_kernel(int R) {
+  switch (R) {
+    case 1: return Kernels<1>::ypass();
+    case 2: return Kernels<2>::ypass();
+    case 4: return Kernels<4>::ypass();
+    case 8: return Kernels<8>::ypass();
+    default: return Kernels<16>::ypass();
+  }
+}
+
+class CudaResident final : public Backend {
+ public:
+  explicit CudaResident(const BackendOptions& o) : options_(o) {
+    // Reject layouts that break a rule whatever the grid (the smem rule needs the shape).
+    (void)resident_plan({1024, 1024, 1, 1}, o.layout);
+  }
+  ~CudaResident() override = default;
+
+  std::string_view name() const override { return "cuda-resident"; }
+  std::string_view description() const override {
+    return "belief resident on the GPU: fused tile kernel, device-side sum, CUDA graph";
+  }
+  bool needs_gpu() const override { return true; }
+  const BackendOptions& options() const override { return options_; }
+  CostCounts step_counts(const Shape& s, const BackendOptions& o) const override {
+    return cuda_resident_counts(s, o.layout);
+  }
+  CostCounts run_counts(const Shape& s, const BackendOptions& o, std::int64_t steps) const override {
+    // Each segment of up to kSegment steps brings its sums back in one copy.
+    return cuda_resident_run_counts(s, o.layout, steps, kSegment);
+  }
+  std::vector<std::string_view> kernel_names() const override {
+    return {"rbe_resident_fused", "rbe_resident_xpass", "rbe_resident_ypass"};
+  }
+
+  void init(const Problem& problem) override {
+    ready_ = false;
+    if (const auto why = cuda_unavailable_reason(); !why.empty()) throw DeviceUnavailable("cuda-resident: " + why);
+    const auto prior = normalized_prior(problem);
+    resolve_prediction(options_, problem.kernel, false, name());
+    shape_ = problem.shape();
+    grid_ = problem.grid;
+    mask_ = problem.mask;
+    int dev = 0, max_smem = 0;
+    DTFLOP_CUDA(cudaGetDevice(&dev));
+    DTFLOP_CUDA(cudaDeviceGetAttribute(&max_smem, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
+    plan_ = resident_plan(shape_, options_.layout, static_cast<std::size_t>(max_smem));
+    prepare_kernels();
+
+    graphs_.clear();
+    const auto n = static_cast<std::size_t>(shape_.cells());
+    q_[0] = DeviceArray<float>(n);
+    q_[1] = DeviceArray<float>(n);
+    l_ = DeviceArray<float>(n);
+    u_ = plan_.passes == Layout::Passes::split ? DeviceArray<float>(n) : DeviceArray<float>();
+    sums_ = DeviceArray<double>(kSegment + 1);
+    last_ = DeviceArray<double>(1);
+    host_sums_ = HostArray<double>(kSegment, true);
+    if (!stream_) stream_.emplace();
+    if (!events_) events_.emplace(kSegment + 1);
+
+    // Flipped kernels, zero-padded to whole register groups.
+    const auto fused = resident::fused_geometry(shape_, options_.layout);
+    const int kx_len = fused.kx_len, ky_len = fused.ky_len;
+    std::vector<float> kx(static_cast<std::size_t>(kx_len), 0.f), ky(static_cast<std::size_t>(ky_len), 0.f);
+    for (std::int64_t a = 0; a < shape_.Ix; ++a)
+      kx[std::size_t(a)] = float(problem.kernel.kx()[std::size_t(shape_.Ix - 1 - a)]);
+    for (std::int64_t b = 0; b < shape_.Iy; ++b)
+      ky[std::size_t(b)] = float(problem.kernel.ky()[std::size_t(shape_.Iy - 1 - b)]);
+    kx_ = DeviceArray<float>(kx.size());
+    ky_ = DeviceArray<float>(ky.size());
+    kx_.upload(kx);
+    ky_.upload(ky);
+
+    std::vector<float> p(prior.begin(), prior.end());
+    q_[0].upload(p);
+    const double last = 1.0 / grid_.cell_area();  // scale 1: the prior is normalized
+    last_.upload(&last, 1);
+    upload_likelihood(masked_likelihood(problem.likelihood, mask_, shape_.cells()));
+
+    args_ = KernelArgs{};
+    args_.l = l_.get();
+    args_.u = u_.get();
+    args_.kx = kx_.get();
+    args_.ky = ky_.get();
+    args_.nx = int(shape_.nx);
+    args_.ny = int(shape_.ny);
+    args_.Ix = int(shape_.Ix);
+    args_.Iy = int(shape_.Iy);
+    args_.hx = int(shape_.Ix - 1 - kernel_centre(shape_.Ix));
+    args_.hy = int(shape_.Iy - 1 - kernel_centre(shape_.Iy));
+    args_.cell_area = grid_.cell_area();
+    const auto g = plan_.passes == Layout::Passes::fused ? fused : resident::ypass_geometry(shape_, options_.layout);
+    args_.in_rows = g.in_rows;
+    args_.in_cols = g.in_cols;
+    args_.in_pitch = g.in_pitch;
+    args_.u_rows = g.u_rows;
+    args_.u_pitch = g.u_pitch;
+    args_.kx_len = kx_len;
+    args_.ky_len = ky_len;
+    xargs_ = args_;
+    if (plan_.passes == Layout::Passes::split) {
+      const auto xg = resident::xpass_geometry(shape_, options_.layout);
+      xargs_.in_rows = xg.in_rows;
+      xargs_.in_cols = xg.in_cols;
+      xargs_.in_pitch = xg.in_pitch;
+      xargs_.u_rows = 0;
+      xargs_.u_pitch = 0;
+      xargs_.ky_len = 0;
+    }
+    DTFLOP_CUDA(cudaDeviceSynchronize());
+    cur_ = 0;
+    steps_ = 0;
+    failed_ = false;
+    ready_ = true;
+  }
+
+  RunResult run(std::int64_t steps) override {
+    if (steps < 1) throw InputError("a run needs at least one step, got " + std::to_string(steps));
+    check_ready();
+    RunResult r;
+    r.steps = steps;
+    r.steps_per_sample = options_.graph ? kChunk : 1;
+    for (std::int64_t done = 0; done < steps;) {
+      const std::int64_t n = std::min(kSegment, steps - done);
+      const std::int64_t chunk = options_.graph ? kChunk : 1;
+      double t0 = seconds_now();
+      if (options_.graph) {
+        const auto key = std::make_pair(n, cur_);
+        auto it = graphs_.find(key);
+        if (it == graphs_.end()) {
+          cudaGraph_t graph = nullptr;
+          DTFLOP_CUDA(cudaStreamBeginCapture(stream_->get(), cudaStreamCaptureModeThreadLocal));
+          try {
+            enqueue(n, chunk, true);
+          } catch (...) {
+            cudaStreamEndCapture(stream_->get(), &graph);
+            if (graph) cudaGraphDestroy(graph);
+            throw;
+          }
+          DTFLOP_CUDA(cudaStreamEndCapture(stream_->get(), &graph));
+          GraphExec exec(graph);
+          cudaGraphDestroy(graph);
+          DTFLOP_CUDA(cudaGraphUpload(exec.get(), stream_->get()));
+          stream_->sync();
+          it = graphs_.emplace(key, std::move(exec)).first;
+          const double t1 = seconds_now();
+          r.setup_seconds += t1 - t0;
+          t0 = t1;
+        }
+        DTFLOP_CUDA(cudaGraphLaunch(it->second.get(), stream_->get()));
+      } else {
+        enqueue(n, chunk, true);
+      }
+      stream_->sync();
+      r.wall_seconds += seconds_now() - t0;
+      // Timing samples: the mean step of each chunk, from the events between chunks.
+      const std::int64_t chunks = (n + chunk - 1) / chunk;
+      for (std::int64_t c = 0; c < chunks; ++c) {
+        const std::int64_t m = std::min(chunk, n - c * chunk);
+        StepTimes t;
+        t.total = events_->seconds(std::size_t(c), std::size_t(c + 1)) / double(m);
+        t.part(Component::device_step) = t.total;
+        r.samples.push_back(t);
+      }
+      for (std::int64_t k = 0; k < n; ++k) {
+        const double S = host_sums_[std::size_t(k)];
+        if (!(S > 0 && std::isfinite(S))) {
+          failed_ = true;
+          check_sum(S, steps_ + k, name());
+        }
+        r.sums.push_back(S * grid_.cell_area());
+      }
+      cur_ ^= int(n & 1);
+      steps_ += n;
+      done += n;
+    }
+    return r;
+  }
+
+  StepTimes step(std::span<const double> likelihood) override {
+    check_ready();
+    const auto l = masked_likelihood(likelihood, mask_, shape_.cells());
+    StepTimes t;
+    const double t0 = seconds_now();
+    upload_likelihood(l);
+    const double t1 = seconds_now();
+    enqueue(1, 1, false);
+    stream_->sync();
+    const double t2 = seconds_now();
+    double S = 0;
+    DTFLOP_CUDA(cudaMemcpy(&S, sums_.get() + 1, sizeof(double), cudaMemcpyDeviceToHost));
+    const double t3 = seconds_now();
+    t.part(Component::to_device) = t1 - t0;
+    t.part(Component::device_step) = events_->seconds(0, 1);
+    t.part(Component::to_host) = t3 - t2;
+    t.total = t3 - t0;
+    cur_ ^= 1;
+    if (!(S > 0 && std::isfinite(S))) {
+      failed_ = true;
+      check_sum(S, steps_, name());
+    }
+    ++steps_;
+    return t;
+  }
+
+  std::vector<double> belief() override {
+    check_ready();
+    stream_->sync();
+    const auto n = static_cast<std::size_t>(shape_.cells());
+    std::vector<float> q(n);
+    double last = 0;
+    DTFLOP_CUDA(cudaMemcpy(q.data(), q_[cur_].get(), n * sizeof(float), cudaMemcpyDeviceToHost));
+    DTFLOP_CUDA(cudaMemcpy(&last, last_.get(), sizeof(double), cudaMemcpyDeviceToHost));
+    const double s = 1.0 / (grid_.cell_area() * last);
+    std::vector<double> p(n);
+    for (std::size_t i = 0; i < n; ++i) p[i] = double(q[i]) * s;
+    return p;
+  }
+
+ private:
+  void check_ready() const {
+    if (!ready_ || failed_) throw_not_ready(name(), failed_);
+  }
+
+  void prepare_kernels() {
+    const int R = options_.layout.cells_per_thread;
+    const int T = plan_.threads;
+    auto prepare = [&](void* fn, std::size_t smem, const char* what) {
+      DTFLOP_CUDA(cudaFuncSetAttribute(fn, cudaFuncAttributeMaxDynamicSharedMemorySize, int(smem)));
+      cudaFuncAttributes attr{};
+      DTFLOP_CUDA(cudaFuncGetAttributes(&attr, fn));
+      if (attr.maxThreadsPerBlock < T)
+        throw InputError("layout " + to_string(options_.layout) + " is invalid on this device: the " + what +
+                         " kernel with " + std::to_string(R) + " cells per thread takes " +
+                         std::to_string(attr.numRegs) + " registers per thread and runs at most " +
+                         std::to_string(attr.maxThreadsPerBlock) + " threads per block, fewer than " +
+                         std::to_string(T) + "; use a smaller block");
+    };
+    if (plan_.passes == Layout::Passes::fused) {
+      prepare(fused_kernel(R), plan_.smem_bytes, "fused");
+    } else {
+      prepare(reinterpret_cast<void*>(&rbe_resident_xpass), plan_.xsmem_bytes, "x-pass");
+      prepare(ypass_kernel(R), plan_.smem_bytes, "y-pass");
+    }
+  }
+
+  void upload_likelihood(const std::vector<double>& l) {
+    std::vector<float> f(l.begin(), l.end());
+    l_.upload(f);
+  }
+
+  template <int R>
+  void launch_correcting(const KernelArgs& a, cudaStream_t s) {
+    const dim3 block(unsigned(options_.layout.block_x), unsigned(options_.layout.block_y));
+    const dim3 grid(unsigned(plan_.blocks_x), unsigned(plan_.blocks_y));
+    if (plan_.passes == Layout::Passes::fused)
+      rbe_resident_fused<R><<<grid, block, plan_.smem_bytes, s>>>(a);
+    else
+      rbe_resident_ypass<R><<<grid, block, plan_.smem_bytes, s>>>(a);
+    DTFLOP_CUDA_LAUNCHED();
+  }
+
+  void launch_step(std::int64_t k) {
+    const cudaStream_t s = stream_->get();
+    KernelArgs a = args_;
+    a.q_prev = q_[cur_ ^ int(k & 1)].get();
+    a.q_next = q_[cur_ ^ int((k + 1) & 1)].get();
+    a.sum_in = sums_.get() + k;
+    a.sum_out = sums_.get() + k + 1;
+    if (plan_.passes == Layout::Passes::split) {
+      KernelArgs x = xargs_;
+      x.q_prev = a.q_prev;
+      const dim3 block(unsigned(options_.layout.block_x), unsigned(options_.layout.block_y));
+      const dim3 grid(unsigned(plan_.xblocks_x), unsigned(plan_.xblocks_y));
+      rbe_resident_xpass<<<grid, block, plan_.xsmem_bytes, s>>>(x);
+      DTFLOP_CUDA_LAUNCHED();
+    }
+    switch (options_.layout.cells_per_thread) {
+      case 1: launch_correcting<1>(a, s); break;
+      case 2: launch_correcting<2>(a, s); break;
+      case 4: launch_correcting<4>(a, s); break;
+      case 8: launch_correcting<8>(a, s); break;
+      default: launch_correcting<16>(a, s); break;
+    }
+  }
+
+  // n steps: zero their sums, carry S in, the steps (an event after every `chunk`), carry S
+  // out, and (optionally) the n sums to the host in one copy.
+  void enqueue(std::int64_t n, std::int64_t chunk, bool sums_back) {
+    const cudaStream_t s = stream_->get();
+    DTFLOP_CUDA(cudaMemsetAsync(sums_.get() + 1, 0, std::size_t(n) * sizeof(double), s));
+    DTFLOP_CUDA(cudaMemcpyAsync(sums_.get(), last_.get(), sizeof(double), cudaMemcpyDeviceToDevice, s));
+    DTFLOP_CUDA(cudaEventRecordWithFlags((*events_)[0], s, cudaEventRecordExternal));
+    std::size_t e = 1;
+    for (std::int64_t k = 0; k < n; ++k) {
+      launch_step(k);
+      if ((k + 1) % chunk == 0 || k + 1 == n)
+        DTFLOP_CUDA(cudaEventRecordWithFlags((*events_)[e++], s, cudaEventRecordExternal));
+    }
+    DTFLOP_CUDA(cudaMemcpyAsync(last_.get(), sums_.get() + n, sizeof(double), cudaMemcpyDeviceToDevice, s));
+    if (sums_back)
+      DTFLOP_CUDA(cudaMemcpyAsync(host_sums_.get(), sums_.get() + 1, std::size_t(n) * sizeof(double),
+                                  cudaMemcpyDeviceToHost, s));
+  }
+
+  BackendOptions options_;
+  Shape shape_;
+  Grid grid_;
+  std::vector<std::uint8_t> mask_;
+  ResidentPlan plan_;
+  KernelArgs args_{}, xargs_{};
+  DeviceArray<float> q_[2], l_, u_, kx_, ky_;
+  DeviceArray<double> sums_, last_;
+  HostArray<double> host_sums_;
+  std::optional<Stream> stream_;
+  std::optional<Events> events_;
+  std::map<std::pair<std::int64_t, int>, GraphExec> graphs_;
+  int cur_ = 0;
+  std::int64_t steps_ = 0;
+  bool ready_ = false;
+  bool failed_ = false;
+};
+
+}  // namespace
+
+std::unique_ptr<Backend> make_cuda_resident(const BackendOptions& options) {
+  return std::make_unique<CudaResident>(options);
+}
+
+}  // namespace dtflop::rbe::detail

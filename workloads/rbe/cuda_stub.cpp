@@ -1,0 +1,41 @@
+// The CUDA backends in a build without CUDA: listed, with their exact counts, but init()
+// throws DeviceUnavailable saying dtflop was built without CUDA.
+#include "workloads/rbe/backend_counts.hpp"
+#include "workloads/rbe/detail.hpp"
+
+namespace dtflop::rbe::detail {
+namespace {
+
+class CudaUnavailable final : public Backend {
+ public:
+  CudaUnavailable(const BackendOptions& o, bool resident) : options_(o), resident_(resident) {
+    if (resident_) (void)parse_layout(to_string(o.layout));  // same option checks as with CUDA
+  }
+  std::string_view name() const override { return resident_ ? "cuda-resident" : "cuda-seed"; }
+  std::string_view description() const override { return "unavailable: dtflop was built without CUDA"; }
+  bool needs_gpu() const override { return true; }
+  const BackendOptions& options() const override { return options_; }
+  CostCounts step_counts(const Shape& s, const BackendOptions& o) const override {
+    return resident_ ? cuda_resident_counts(s, o.layout) : cuda_seed_counts(s, o.host_memory);
+  }
+  void init(const Problem&) override { fail(); }
+  RunResult run(std::int64_t) override { fail(); }
+  StepTimes step(std::span<const double>) override { fail(); }
+  std::vector<double> belief() override { fail(); }
+
+ private:
+  [[noreturn]] void fail() const {
+    throw DeviceUnavailable(std::string(name()) + ": " + cuda_unavailable_reason());
+  }
+  BackendOptions options_;
+  bool resident_;
+};
+
+}  // namespace
+
+std::unique_ptr<Backend> make_cuda_seed(const BackendOptions& o) { return std::make_unique<CudaUnavailable>(o, false); }
+std::unique_ptr<Backend> make_cuda_resident(const BackendOptions& o) {
+  return std::make_unique<CudaUnavailable>(o, true);
+}
+
+}  // namespace dtflop::rbe::detail
