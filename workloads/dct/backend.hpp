@@ -29,7 +29,7 @@ struct PipelineOptions {
   MatchOptions match;
   Interp interp = Interp::mls;
   MlsOptions mls;
-  double fe_max_gap = 1.5;        // FE: nearest dot farther than this x median spacing: invalid
+  double fe_max_gap = 2.5;        // FE: nearest dot farther than this x median spacing: invalid
   int points_x = 32, points_y = 32;
   double points_inset = 0;        // px inside the reference dots' bounding box
   std::vector<Vec2> points;       // explicit points (reference frame); overrides the grid

@@ -260,7 +260,7 @@ FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec
       // A triangle spanning a hole or a gap in the pattern interpolates across material
       // that holds no dots: not a measurement.
       auto len = [&](int i, int j) { return std::hypot(reference[i].x - reference[j].x, reference[i].y - reference[j].y); };
-      if (std::max({len(a, b), len(b, c), len(c, a)}) > 2.5 * spacing) st = PointStatus::outside_mesh;
+      if (max_gap > 0 && std::max({len(a, b), len(b, c), len(c, a)}) > 2 * max_gap * spacing) st = PointStatus::outside_mesh;
       break;
     }
     index.knn(p, 1, idx, d2);

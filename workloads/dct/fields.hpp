@@ -41,7 +41,7 @@ struct MlsOptions {
   Support support;
   int min_dots = 6;                // the quadratic basis has 6 terms
   double min_pivot_ratio = 1e-5;   // smallest / largest LDL' pivot of A
-  double max_gap = 1.5;            // nearest dot farther than this x median spacing: invalid
+  double max_gap = 2.5;            // nearest dot farther than this x median spacing: invalid
 };
 
 // MLS look-up table: for each point, the reference dots of its support (nearest first), its

@@ -1,0 +1,169 @@
+// MLS and FE on exact dot displacements: reproduction of the fields their bases contain,
+// the status of points that cannot be estimated, and the look-up table.
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "model/errors.hpp"
+#include "workloads/dct/fields.hpp"
+#include "workloads/dct/specimen.hpp"
+
+namespace dtflop::dct {
+namespace {
+
+std::vector<Vec2> random_dots(int n, std::uint64_t seed) {
+  const auto d = random_pattern({0, 0, 600, 500, {}, 0}, 3, 4, n, seed);
+  std::vector<Vec2> p;
+  for (const auto& x : d) p.push_back(x.centre);
+  return p;
+}
+
+// A quadratic displacement field with its exact derivatives.
+struct Quadratic {
+  double c[2][6];
+  Vec2 u(Vec2 p) const {
+    const double b[6] = {1, p.x, p.y, p.x * p.x, p.y * p.y, p.x * p.y};
+    Vec2 r{};
+    for (int i = 0; i < 6; ++i) { r.x += c[0][i] * b[i]; r.y += c[1][i] * b[i]; }
+    return r;
+  }
+  Gradient g(Vec2 p) const {
+    const double bx[6] = {0, 1, 0, 2 * p.x, 0, p.y}, by[6] = {0, 0, 1, 0, 2 * p.y, p.x};
+    Gradient r{};
+    for (int i = 0; i < 6; ++i) {
+      r.ux_x += c[0][i] * bx[i]; r.ux_y += c[0][i] * by[i];
+      r.uy_x += c[1][i] * bx[i]; r.uy_y += c[1][i] * by[i];
+    }
+    return r;
+  }
+};
+
+TEST(DctMls, ReproducesQuadraticFieldsExactly) {
+  const auto dots = random_dots(900, 5);
+  const Quadratic q{{{0.3, 1e-3, -2e-4, 3e-6, -1e-6, 2e-6}, {-0.7, 4e-4, -3e-4, -2e-6, 5e-6, 1e-6}}};
+  std::vector<Vec2> disp;
+  for (const auto& p : dots) disp.push_back(q.u(p));
+  const std::vector<std::uint8_t> tracked(dots.size(), 1);
+  const auto pts = grid_points(80, 80, 520, 420, 9, 7);
+  for (Weight w : {Weight::cubic_spline, Weight::quartic, Weight::gaussian})
+    for (const char* sup : {"20dots", "60dots", "70px"}) {
+      MlsOptions o;
+      o.weight = w;
+      o.support = parse_support(sup);
+      const MlsTable t = build_mls_table(dots, pts, o);
+      for (int threads : {1, 3}) {
+        const auto f = evaluate_mls(t, dots, disp, tracked, o, threads);
+        for (std::size_t m = 0; m < pts.size(); ++m) {
+          ASSERT_EQ(f[m].status, PointStatus::ok) << to_string(w) << " " << sup;
+          const Vec2 u = q.u(pts[m]);
+          const Strain e = strain_of(q.g(pts[m]));
+          EXPECT_NEAR(f[m].ux, u.x, 1e-9);
+          EXPECT_NEAR(f[m].uy, u.y, 1e-9);
+          EXPECT_NEAR(f[m].exx, e.xx, 1e-10) << to_string(w) << " " << sup;
+          EXPECT_NEAR(f[m].eyy, e.yy, 1e-10);
+          EXPECT_NEAR(f[m].exy, e.xy, 1e-10);
+        }
+      }
+    }
+}
+
+TEST(DctMls, SupportByCountHoldsExactlyThatManyDots) {
+  const auto dots = random_dots(600, 6);
+  MlsOptions o;
+  o.support = parse_support("37dots");
+  const auto pts = grid_points(50, 50, 550, 450, 5, 5);
+  const MlsTable t = build_mls_table(dots, pts, o);
+  for (std::size_t m = 0; m < pts.size(); ++m) {
+    EXPECT_EQ(t.offsets[m + 1] - t.offsets[m], 37);
+    int inside = 0;
+    for (const auto& d : dots) inside += std::hypot(d.x - pts[m].x, d.y - pts[m].y) < t.rho[m];
+    EXPECT_EQ(inside, 37);
+  }
+  const auto f = evaluate_mls(t, dots, std::vector<Vec2>(dots.size()), std::vector<std::uint8_t>(dots.size(), 1), o);
+  for (const auto& v : f) EXPECT_EQ(v.support, 37);
+}
+
+TEST(DctMls, MarksPointsItCannotEstimate) {
+  // Dots on a line: A is singular (no y information).
+  std::vector<Vec2> line;
+  for (int i = 0; i < 40; ++i) line.push_back({10.0 * i, 100});
+  MlsOptions o;
+  o.support = parse_support("55px");
+  o.max_gap = 0;  // off: only the algebra decides here
+  const auto pts = grid_points(100, 100, 300, 100, 3, 1);
+  const MlsTable t = build_mls_table(line, pts, o);
+  const auto f = evaluate_mls(t, line, std::vector<Vec2>(line.size()), std::vector<std::uint8_t>(line.size(), 1), o);
+  for (const auto& v : f) EXPECT_EQ(v.status, PointStatus::ill_conditioned);
+  // Lost dots leave too few in the support.
+  const auto dots = random_dots(400, 7);
+  o.support = parse_support("10dots");
+  o.max_gap = 2.5;
+  const auto pts2 = grid_points(300, 250, 300, 250, 1, 1);
+  const MlsTable t2 = build_mls_table(dots, pts2, o);
+  std::vector<std::uint8_t> tracked(dots.size(), 1);
+  for (int k = t2.offsets[0]; k < t2.offsets[0] + 5; ++k) tracked[t2.dots[k]] = 0;
+  const auto f2 = evaluate_mls(t2, dots, std::vector<Vec2>(dots.size()), tracked, o);
+  EXPECT_EQ(f2[0].status, PointStatus::too_few_dots);
+  EXPECT_EQ(f2[0].support, 5);
+  // A point far from every dot.
+  const auto far = build_mls_table(dots, {Vec2{5000, 5000}}, o);
+  EXPECT_EQ(far.geometry[0], PointStatus::far_from_dots);
+  EXPECT_THROW(build_mls_table(std::vector<Vec2>(dots.begin(), dots.begin() + 5), pts2, o), InputError);
+  EXPECT_THROW(parse_support("5dots"), InputError);
+  EXPECT_THROW(parse_support("-2px"), InputError);
+  EXPECT_THROW(parse_support("many"), InputError);
+}
+
+TEST(DctFe, ReproducesLinearFieldsAndMarksTheHull) {
+  const auto dots = random_dots(500, 8);
+  std::vector<Vec2> disp;
+  for (const auto& p : dots) disp.push_back({0.2 + 1e-3 * p.x - 3e-4 * p.y, -0.1 + 2e-4 * p.x - 5e-4 * p.y});
+  std::vector<Vec2> pts = grid_points(60, 60, 540, 440, 11, 9);
+  pts.push_back({-100, -100});  // outside
+  for (const auto& d : std::vector<Vec2>(dots.begin(), dots.begin() + 5)) pts.push_back(d);  // on vertices
+  const FeTable t = build_fe_table(dots, pts, 2.5);
+  EXPECT_GT(t.triangles, 500);
+  std::vector<std::uint8_t> tracked(dots.size(), 1);
+  const auto f = evaluate_fe(t, disp, tracked);
+  for (std::size_t m = 0; m < pts.size(); ++m) {
+    if (m == 99) {
+      EXPECT_NE(f[m].status, PointStatus::ok);
+      continue;
+    }
+    ASSERT_EQ(f[m].status, PointStatus::ok) << m;
+    EXPECT_NEAR(f[m].ux, 0.2 + 1e-3 * pts[m].x - 3e-4 * pts[m].y, 1e-9);
+    EXPECT_NEAR(f[m].exx, 1e-3, 1e-12);
+    EXPECT_NEAR(f[m].eyy, -5e-4, 1e-12);
+    EXPECT_NEAR(f[m].exy, 0.5 * (-3e-4 + 2e-4), 1e-12);
+  }
+  tracked[t.tri[0]] = 0;
+  EXPECT_EQ(evaluate_fe(t, disp, tracked)[0].status, PointStatus::lost_vertex);
+}
+
+TEST(DctKernels, WeightFunctionsMatchDesign) {
+  auto check = [](Weight w, double s, double expect) {
+    double v, d;
+    weight_fn<double>(w, s, v, d);
+    EXPECT_NEAR(v, expect, 1e-12) << to_string(w) << " s=" << s;
+    // W'(s)/s against a central difference.
+    const double h = 1e-6;
+    double vp, vm, dd;
+    weight_fn<double>(w, s + h, vp, dd);
+    weight_fn<double>(w, s - h, vm, dd);
+    EXPECT_NEAR(d * s, (vp - vm) / (2 * h), 1e-6);
+  };
+  for (double s : {0.1, 0.3, 0.5 - 1e-3, 0.7, 0.95}) {
+    check(Weight::cubic_spline, s, s <= 0.5 ? 2.0 / 3 - 4 * s * s + 4 * s * s * s
+                                            : 4.0 / 3 - 4 * s + 4 * s * s - 4.0 / 3 * s * s * s);
+    check(Weight::quartic, s, 1 - 6 * s * s + 8 * s * s * s - 3 * s * s * s * s);
+    const double e1 = std::exp(-1 / (kGaussAlpha * kGaussAlpha));
+    check(Weight::gaussian, s, (std::exp(-s * s / (kGaussAlpha * kGaussAlpha)) - e1) / (1 - e1));
+  }
+  double v, d;
+  weight_fn<double>(Weight::quartic, 1.0, v, d);
+  EXPECT_EQ(v, 0);
+}
+
+}  // namespace
+}  // namespace dtflop::dct
