@@ -97,6 +97,9 @@ struct BackendOptions {
   std::optional<Prediction> prediction;
   // cuda-resident: capture the step loop in a CUDA graph (default) or launch kernel by kernel.
   bool graph = true;
+  // Fill every buffer a step writes with NaN at init, so that a cell a step fails to write
+  // shows up as NaN in the belief (tests use it; it costs nothing per step).
+  bool poison = false;
 };
 
 // ---- Problem ----------------------------------------------------------------------------

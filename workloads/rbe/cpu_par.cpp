@@ -7,6 +7,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <limits>
 #include <thread>
 
 #include <fmt/format.h>
@@ -146,7 +147,8 @@ class CpuPar final : public Backend {
     q_.assign(prior.begin(), prior.end());
     scale_ = 1;
     set_likelihood(masked_likelihood(problem.likelihood, mask_, grid_.cells()));
-    pred_.assign(n, 0);
+    const float fill = options_.poison ? std::numeric_limits<float>::quiet_NaN() : 0.0f;
+    pred_.assign(n, fill);
     // Flipped kernels: out[x] = sum_a kf[a] in[x + a] over the zero-padded input.
     if (prediction_ == Prediction::separable) {
       kx_.resize(static_cast<std::size_t>(Ix_));
@@ -154,6 +156,7 @@ class CpuPar final : public Backend {
       for (std::int64_t a = 0; a < Ix_; ++a) kx_[std::size_t(a)] = float(problem.kernel.kx()[std::size_t(Ix_ - 1 - a)]);
       for (std::int64_t b = 0; b < Iy_; ++b) ky_[std::size_t(b)] = float(problem.kernel.ky()[std::size_t(Iy_ - 1 - b)]);
       upad_.assign(static_cast<std::size_t>((ny_ + Iy_ - 1) * nx_), 0.0f);
+      std::fill_n(upad_.begin() + hy_ * nx_, ny_ * nx_, fill);  // the rows the x-pass writes
       rows_.assign(static_cast<std::size_t>(threads_ * row_pitch()), 0.0f);
     } else {
       kfull_.resize(static_cast<std::size_t>(Ix_ * Iy_));

@@ -1,6 +1,8 @@
 // cpu-seq: the float64 reference backend, one thread, written for clarity: the separable
 // prediction (5.3-5.4) or the conventional 2D convolution (4.10), then the correction in the
 // seed's three steps (5.7, sum, 5.6). Its counts: cpu_seq_counts() (backend_counts.cpp).
+#include <limits>
+
 #include <fmt/format.h>
 
 #include "workloads/rbe/backend_counts.hpp"
@@ -35,9 +37,10 @@ class CpuSeq final : public Backend {
     mask_ = problem.mask;
     l_ = masked_likelihood(problem.likelihood, mask_, grid_.cells());
     const auto n = p_.size();
-    u_.assign(n, 0);
-    pred_.assign(n, 0);
-    q_.assign(n, 0);
+    const double fill = options_.poison ? std::numeric_limits<double>::quiet_NaN() : 0.0;
+    u_.assign(n, fill);
+    pred_.assign(n, fill);
+    q_.assign(n, fill);
     steps_ = 0;
     failed_ = false;
     ready_ = true;

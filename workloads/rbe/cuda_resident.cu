@@ -359,6 +359,10 @@ class CudaResident final : public Backend {
 
     std::vector<float> p(prior.begin(), prior.end());
     q_[0].upload(p);
+    if (options_.poison) {  // all bits set: a NaN in every float the steps must overwrite
+      DTFLOP_CUDA(cudaMemset(q_[1].get(), 0xff, n * sizeof(float)));
+      if (u_.get()) DTFLOP_CUDA(cudaMemset(u_.get(), 0xff, n * sizeof(float)));
+    }
     const double last = 1.0 / grid_.cell_area();  // scale 1: the prior is normalized
     last_.upload(&last, 1);
     upload_likelihood(masked_likelihood(problem.likelihood, mask_, shape_.cells()));

@@ -95,6 +95,12 @@ class CudaSeed final : public Backend {
     for (std::int64_t a = 0; a < shape_.Ix; ++a) h_kx_[std::size_t(a)] = float(problem.kernel.kx()[std::size_t(a)]);
     for (std::int64_t b = 0; b < shape_.Iy; ++b) h_ky_[std::size_t(b)] = float(problem.kernel.ky()[std::size_t(b)]);
     set_likelihood(masked_likelihood(problem.likelihood, mask_, shape_.cells()));
+    if (options_.poison) {  // all bits set: a NaN in every float the steps must overwrite
+      DTFLOP_CUDA(cudaMemset(d_u_.get(), 0xff, n * sizeof(float)));
+      DTFLOP_CUDA(cudaMemset(d_q_.get(), 0xff, n * sizeof(float)));
+      DTFLOP_CUDA(cudaMemset(d_p_.get(), 0xff, n * sizeof(float)));
+      for (std::size_t i = 0; i < n; ++i) h_q_[i] = std::nanf("");
+    }
     if (!stream_) stream_.emplace();
     steps_ = 0;
     failed_ = false;

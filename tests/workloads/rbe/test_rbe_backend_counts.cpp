@@ -1,0 +1,181 @@
+// Each backend's declared counts against formulas written out here by hand, and cpu-seq's
+// against the operations its code really performs (an operation-counting scalar).
+#include <gtest/gtest.h>
+
+#include "model/errors.hpp"
+#include "tests/workloads/rbe/support.hpp"
+#include "workloads/rbe/backend_counts.hpp"
+#include "workloads/rbe/reference.hpp"
+
+namespace dtflop::rbe {
+namespace {
+
+// A double that counts the floating-point operations done on it.
+struct Ops {
+  static inline std::int64_t add = 0, mul = 0, div = 0;
+  static void reset() { add = mul = div = 0; }
+  static std::int64_t total() { return add + mul + div; }
+};
+struct Counted {
+  double v = 0;
+  Counted() = default;
+  explicit Counted(double x) : v(x) {}
+  friend Counted operator+(Counted a, Counted b) { ++Ops::add; return Counted(a.v + b.v); }
+  friend Counted operator*(Counted a, Counted b) { ++Ops::mul; return Counted(a.v * b.v); }
+  friend Counted operator/(Counted a, Counted b) { ++Ops::div; return Counted(a.v / b.v); }
+};
+
+// One cpu-seq step through the reference algorithms with counted scalars.
+std::int64_t counted_step(const Shape& s, Prediction prediction) {
+  const std::int64_t n = s.cells();
+  const auto N = static_cast<std::size_t>(n);
+  std::vector<Counted> kx(static_cast<std::size_t>(s.Ix), Counted(0.1));
+  std::vector<Counted> ky(static_cast<std::size_t>(s.Iy), Counted(0.2));
+  std::vector<Counted> k2(static_cast<std::size_t>(s.Ix * s.Iy), Counted(0.1));
+  std::vector<Counted> p(N, Counted(1)), l(N, Counted(0.5)), u(N), pred(N), q(N);
+  Ops::reset();
+  if (prediction == Prediction::separable) {
+    reference::pass_x(s.nx, s.ny, kx.data(), s.Ix, p.data(), u.data());
+    reference::pass_y(s.nx, s.ny, ky.data(), s.Iy, u.data(), pred.data());
+  } else {
+    reference::convolve_full(s.nx, s.ny, k2.data(), s.Ix, s.Iy, p.data(), pred.data());
+  }
+  reference::multiply(n, l.data(), pred.data(), q.data());
+  const Counted sum = reference::sum(n, q.data());
+  reference::normalize(n, q.data(), Counted(0.25), sum, p.data());
+  return Ops::total();
+}
+
+TEST(RbeBackendCounts, CpuSeqCountsAreTheOperationsItsCodeDoes) {
+  for (const Shape s : {Shape{1, 1, 1, 1}, Shape{17, 12, 5, 3}, Shape{16, 9, 4, 6}, Shape{30, 30, 30, 1}}) {
+    for (const auto pr : {Prediction::separable, Prediction::full}) {
+      SCOPED_TRACE(fmt::format("{}x{} kernel {}x{} {}", s.nx, s.ny, s.Ix, s.Iy, int(pr)));
+      EXPECT_EQ(cpu_seq_counts(s, pr).N_C, counted_step(s, pr));
+    }
+  }
+}
+
+TEST(RbeBackendCounts, CpuSeqByHand) {
+  // Grid 10 x 8, kernel 3 x 4: c_x = 1, c_y = 1. S(3) = |0-1| + 0 + |2-1| = 2;
+  // S(4) = 1 + 0 + 1 + 2 = 4. Valid taps: along x per row 3*10 - 2 = 28, along y per column
+  // 4*8 - 4 = 28.
+  EXPECT_EQ(edge_taps(3), 2);
+  EXPECT_EQ(edge_taps(4), 4);
+  const Shape s{10, 8, 3, 4};
+  const auto c = cpu_seq_counts(s, Prediction::separable);
+  EXPECT_EQ(c.N_C, 2 * 8 * 28 + 2 * 10 * 28 + 3 * 80 + 1);
+  EXPECT_EQ(c.N_CC, 10 * 80 + 3 + 4);
+  EXPECT_EQ(c.P, 8);
+  EXPECT_EQ(c.cpu_threads, 1);
+  EXPECT_EQ(cpu_seq_counts(s, Prediction::full).N_C, 2 * 28 * 28 + 3 * 80 + 1);
+}
+
+TEST(RbeBackendCounts, CpuParByHand) {
+  const Shape s{1000, 1000, 33, 33};
+  const auto c = cpu_par_counts(s, Prediction::separable, 2);
+  EXPECT_EQ(c.N_C, 2LL * 1000000 * 66 + 3LL * 1000000 + 2);  // 5.5 plus the correction
+  EXPECT_EQ(c.N_CC, 7LL * 1000000 + 66);
+  EXPECT_EQ(c.P, 4);
+  EXPECT_EQ(c.cpu_threads, 2);
+  EXPECT_EQ(c.N_CG + c.N_GC + c.N_GG + c.N_G, 0);
+  EXPECT_EQ(cpu_par_counts({100, 50, 5, 7}, Prediction::full, 1).N_C, 2LL * 5000 * 35 + 3 * 5000 + 2);
+  // The backend declares the same counts, with the threads it runs on.
+  BackendOptions o;
+  o.threads = 3;
+  EXPECT_EQ(step_counts("cpu-par", s, o), cpu_par_counts(s, Prediction::separable, 3));
+}
+
+TEST(RbeBackendCounts, CudaSeedIsEquations5_10To5_16) {
+  const Shape s{1000, 800, 33, 21};
+  const std::int64_t ng = 800000;
+  for (auto mem : {HostMemory::pageable, HostMemory::pinned}) {
+    BackendOptions o;
+    o.host_memory = mem;
+    const auto c = step_counts("cuda-seed", s, o);
+    EXPECT_EQ(c.N_CG, 2 * ng + 33 + 21 + 1);        // 5.10
+    EXPECT_EQ(c.N_GC, 2 * ng);                      // 5.13
+    EXPECT_EQ(c.N_GG, 4 * ng + 33 + 21 + 1);        // 5.14
+    EXPECT_EQ(c.N_C, ng + 1);                       // 5.15, plus A_c x sum
+    EXPECT_EQ(c.N_G, 2 * ng * (33 + 21 + 1));       // 5.16
+    EXPECT_EQ(c.transfers_CG, 5);
+    EXPECT_EQ(c.transfers_GC, 2);
+    EXPECT_EQ(c.launches, 3);
+    EXPECT_EQ(c.host_memory, mem);
+  }
+}
+
+TEST(RbeBackendCounts, CudaResidentFusedByHand) {
+  // Grid 1000 x 1000, kernel 33 x 33, layout 32x8x8: tiles 32 x 64, 32 x 16 = 512 blocks (the
+  // last column of tiles is 8 wide in the grid, the last row 40 high: computed whole).
+  const Shape s{1000, 1000, 33, 33};
+  const Layout l = parse_layout("32x8x8");
+  const auto p = resident_plan(s, l);
+  EXPECT_EQ(p.passes, Layout::Passes::fused);
+  EXPECT_EQ(p.tile_w, 32);
+  EXPECT_EQ(p.tile_h, 64);
+  EXPECT_EQ(p.blocks(), 32 * 16);
+  const std::int64_t B = 512, W = 32, H = 64;
+  const auto c = cuda_resident_counts(s, l);
+  EXPECT_EQ(c.launches, 1);
+  EXPECT_EQ(c.N_G, B * (2 * 33 * W * (H + 32) + 2 * 33 * W * H + 3 * W * H + 2));
+  EXPECT_EQ(c.N_GG, 3 * 1000000 + 66 + 2 + 2 * B);
+  EXPECT_EQ(c.N_CG + c.N_GC + c.N_C, 0);
+  // Shared memory: 34 doubles; kernels 8*5 + 8*5 floats; input tile 96 rows x (32 + 40 | 1)
+  // = 73; u tile (64 + 40) rows x 33.
+  EXPECT_EQ(p.smem_bytes, 34 * 8 + 4 * (40 + 40 + 96 * 73 + 104 * 33));
+  // A run of 2500 steps: 3 segments of up to 1000, each bringing its sums back in one copy.
+  const auto r = cuda_resident_run_counts(s, l, 2500, 1000);
+  EXPECT_EQ(r.N_GC, 2 * 2500);
+  EXPECT_EQ(r.transfers_GC, 3);
+  EXPECT_EQ(r.N_G, 2500 * c.N_G);
+  EXPECT_EQ(r.N_GG, 2500 * c.N_GG + 2 * 2500 + 3 * 8);
+}
+
+TEST(RbeBackendCounts, CudaResidentSplitByHand) {
+  // Kernel 201 x 201 does not fit a fused tile: split. Layout 32x8x8: y-pass tiles 32 x 64;
+  // x-pass tiles 128 x 16 (256 threads / 16).
+  const Shape s{1000, 1000, 201, 201};
+  const Layout l = parse_layout("32x8x8");
+  const auto p = resident_plan(s, l);
+  EXPECT_EQ(p.passes, Layout::Passes::split);
+  EXPECT_EQ(p.xtile_w, 128);
+  EXPECT_EQ(p.xtile_h, 16);
+  const std::int64_t B = 32 * 16, XB = 8 * 63;
+  EXPECT_EQ(p.xblocks(), XB);
+  const auto c = cuda_resident_counts(s, l);
+  EXPECT_EQ(c.launches, 2);
+  EXPECT_EQ(c.N_G, XB * 2 * 201 * 128 * 16 + B * (2 * 201 * 32 * 64 + 3 * 32 * 64 + 2));
+  EXPECT_EQ(c.N_GG, 5 * 1000000 + 402 + 2 + 2 * B);
+  EXPECT_EQ(resident_plan(s, parse_layout("32x8x8:split")).passes, Layout::Passes::split);
+  EXPECT_THROW(resident_plan(s, parse_layout("32x8x8:fused")), InputError);  // does not fit
+}
+
+TEST(RbeLayout, ParsesAndRejectsWithAMessage) {
+  EXPECT_EQ(parse_layout("32x8"), (Layout{32, 8, 4, Layout::Passes::automatic}));
+  EXPECT_EQ(parse_layout("64x4x16:split"), (Layout{64, 4, 16, Layout::Passes::split}));
+  EXPECT_EQ(to_string(parse_layout("64x4x16:fused")), "64x4x16:fused");
+  for (const char* bad : {"", "32", "32x", "x8", "32x8x4x2", "32xq", "32x8:fast", "-32x8", "0x8"})
+    EXPECT_THROW(parse_layout(bad), InputError) << bad;
+  const Shape s{500, 500, 9, 9};
+  auto message = [&](const char* text) {
+    try {
+      resident_plan(s, parse_layout(text));
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(message("12x8").find("multiple of 8"), std::string::npos);
+  EXPECT_NE(message("64x32").find("more than 1024"), std::string::npos);
+  EXPECT_NE(message("8x3").find("whole warps"), std::string::npos);
+  EXPECT_NE(message("32x8x3").find("cells_per_thread"), std::string::npos);
+  EXPECT_EQ(message("32x1x1:fused"), "");
+  EXPECT_EQ(message("1024x1x1"), "");
+  // The backend rejects an invalid layout when it is made, before any device is touched.
+  BackendOptions o;
+  o.layout = parse_layout("20x8");
+  EXPECT_THROW(make_backend("cuda-resident", o), InputError);
+}
+
+}  // namespace
+}  // namespace dtflop::rbe
