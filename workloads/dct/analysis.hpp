@@ -41,6 +41,7 @@ cv::Rect effective_roi(const AnalysisOptions& o, cv::Size image);
 enum class DotRejection : std::uint8_t { kept = 0, area, shape, border, no_contrast };
 
 struct DotObservation {
+  DotObservation() {}  // not an aggregate: see Vec2
   double x = 0, y = 0;   // centroid, image pixels
   double weight = 0;     // sum of the background-removed intensities
   int area = 0;          // labelled pixels

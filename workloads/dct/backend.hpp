@@ -60,6 +60,9 @@ class Backend {
   virtual void set_reference(const cv::Mat& image) = 0;
   // One deformed frame. Throws InputError for a frame that does not fit the reference.
   virtual FrameOutput process(const cv::Mat& frame) = 0;
+  // A frame-sized buffer the backend uploads from fastest (pinned host memory for cuda), for
+  // a camera or a renderer to write frames into. Valid until the next call.
+  virtual cv::Mat frame_buffer(cv::Size size, int type) { return cv::Mat(size, type); }
 
   const std::vector<DotObservation>& reference_dots() const { return ref_dots_; }
   const std::vector<Vec2>& reference_positions() const { return ref_pos_; }

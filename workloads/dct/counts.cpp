@@ -66,12 +66,11 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
   c.P = 4;
   c.precision = Precision::fp32;
   c.host_memory = frame_memory;
-  const std::int64_t frame_values = (s.image_pixels * s.bytes_per_pixel + 3) / 4;
-  c.N_CG = frame_values + s.dots;
+  const std::int64_t roi_values = (s.roi_pixels * s.bytes_per_pixel + 3) / 4;
+  c.N_CG = roi_values + s.dots;  // only the region of interest is uploaded
   c.transfers_CG = 2;
   c.N_GC = 1 + 8 * s.components + 7 * s.points;
   c.transfers_GC = 3;
-  const std::int64_t roi_values = (s.roi_pixels * s.bytes_per_pixel + 3) / 4;
   c.N_GG = roi_values + s.roi_pixels      // threshold + label init
            + 5 * s.roi_pixels             // union
            + 2 * s.foreground_pixels      // compress

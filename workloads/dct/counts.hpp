@@ -59,10 +59,11 @@ struct CudaLayout {
 
 // cuda: float32 (P = 4 bytes per value; the frame counts as bytes / 4 values, the device's
 // double-precision centroid positions as 2 values each).
-//   N_CG = ceil(image bytes / 4) + n_f (reference-dot index of each match)       2 copies
+//   N_CG = ceil(roi bytes / 4) (the region of interest is uploaded, not the whole frame)
+//          + n_f (device component of each reference dot's match)                2 copies
 //   N_GC = 1 (component count) + 8 components (centroid x, y as doubles, weight, area,
 //          status, first pixel) + 7 n_m (5 fields, status, support)            3 copies
-//   N_GG = image bytes / 4 + roi (threshold + label init: read pixel, write label)
+//   N_GG = roi bytes / 4 + roi (threshold + label init: read pixel, write label)
 //          + 5 roi (union: own and 4 neighbour labels) + 2 fg (compress)
 //          + roi + components (roots to ids) + 2 roi (stats: label, root)
 //          + 2 window + 2 weighted (centroid: label and pixel, then pixel again)

@@ -19,6 +19,10 @@
 namespace dtflop::dct {
 
 struct Vec2 {
+  // Constructors (not an aggregate): nvcc 13 with libstdc++ 12 in C++20 cannot copy vectors
+  // of aggregates with default member initializers (std::construct_at).
+  constexpr Vec2() = default;
+  constexpr Vec2(double x_, double y_) : x(x_), y(y_) {}
   double x = 0;
   double y = 0;
 };

@@ -1,0 +1,96 @@
+// The backends' declared CostCounts against the formulas of counts.hpp, worked out by hand
+// for one shape, and the shape a real run reports against what the run did.
+#include <gtest/gtest.h>
+
+#include "model/errors.hpp"
+#include "workloads/dct/backend.hpp"
+#include "workloads/dct/counts.hpp"
+#include "workloads/dct/specimen.hpp"
+
+namespace dtflop::dct {
+namespace {
+
+FrameShape hand_shape() {
+  FrameShape s;
+  s.image_pixels = 6000 * 4000;
+  s.bytes_per_pixel = 1;
+  s.roi_pixels = 5000 * 4000;
+  s.foreground_pixels = 3'000'000;
+  s.components = 1700;
+  s.dots = 1600;
+  s.window_pixels = 7'000'000;
+  s.ring_pixels = 2'000'000;
+  s.weighted_pixels = 4'500'000;
+  s.points = 2048;
+  s.support_entries = 2048 * 60;
+  s.interp = Interp::mls;
+  s.otsu = true;
+  return s;
+}
+
+TEST(DctCounts, CpuMatchesFormulas) {
+  const FrameShape s = hand_shape();
+  const CostCounts c = cpu_counts(s, 16);
+  // 14 ring + 11 weighted + (44 + 4) per dot + 2 per dot + 242 per support entry + 603 per point.
+  EXPECT_EQ(c.N_C, 14LL * 2'000'000 + 11LL * 4'500'000 + 48LL * 1600 + 2LL * 1600 + 242LL * 2048 * 60 + 603LL * 2048);
+  EXPECT_EQ(c.N_CC, 4LL * 20'000'000 + 4LL * 7'000'000 + 5LL * 2048 * 60 + 8LL * 2048);
+  EXPECT_EQ(c.P, 8);
+  EXPECT_EQ(c.precision, Precision::fp64);
+  EXPECT_EQ(c.cpu_threads, 16);
+  EXPECT_EQ(c.N_CG + c.N_GC + c.N_GG + c.N_G + c.launches, 0);
+  EXPECT_EQ(cpu_counts(s, 0).cpu_threads, 1);
+}
+
+TEST(DctCounts, CudaMatchesFormulas) {
+  FrameShape s = hand_shape();
+  const CostCounts c = cuda_counts(s, HostMemory::pinned);
+  EXPECT_EQ(c.N_CG, 20'000'000 / 4 + 1600);
+  EXPECT_EQ(c.transfers_CG, 2);
+  EXPECT_EQ(c.N_GC, 1 + 8 * 1700 + 7 * 2048);
+  EXPECT_EQ(c.transfers_GC, 3);
+  const std::int64_t roi = 20'000'000, rv = roi / 4;
+  EXPECT_EQ(c.N_GG, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + 2 * 7'000'000 + 2 * 4'500'000 +
+                        6 * 1600 + 5 * 2048 * 60 + 8 * 2048 + rv + 512);
+  EXPECT_EQ(c.N_G, cpu_counts(s, 1).N_C);  // the same arithmetic, in float32
+  EXPECT_EQ(c.N_C, 0);
+  EXPECT_EQ(c.launches, 11);
+  EXPECT_EQ(c.P, 4);
+  EXPECT_EQ(c.host_memory, HostMemory::pinned);
+  s.otsu = false;
+  s.interp = Interp::fe;
+  s.support_entries = 0;
+  const CostCounts f = cuda_counts(s, HostMemory::pageable);
+  EXPECT_EQ(f.launches, 9);
+  EXPECT_EQ(f.N_G, 14LL * 2'000'000 + 11LL * 4'500'000 + 50LL * 1600 + 40LL * 2048);
+  EXPECT_EQ(f.host_memory, HostMemory::pageable);
+  // 16-bit frames: twice the bytes uploaded.
+  s.bytes_per_pixel = 2;
+  EXPECT_EQ(cuda_counts(s, HostMemory::pinned).N_CG, 20'000'000 / 2 + 1600);
+}
+
+TEST(DctCounts, EstimateIsCloseToAMeasuredRun) {
+  // The shape a cpu-seq run reports is the run's own; the estimate from dot size alone is
+  // within 15% of it on window and weighted pixels.
+  const Specimen sp = parse_specimen("uniform:size=640x480,pattern=grid,radius=8,pitch=30");
+  PipelineOptions o;
+  o.mls.support = parse_support("30dots");
+  o.points_x = 8;
+  o.points_y = 6;
+  auto b = make_backend("cpu-seq", o);
+  b->set_reference(sp.reference_image());
+  const FrameOutput out = b->process(sp.deformed_image());
+  const FrameShape& m = out.shape;
+  EXPECT_EQ(m.dots, static_cast<std::int64_t>(sp.dots.size()));
+  EXPECT_EQ(m.points, 48);
+  EXPECT_EQ(m.support_entries, 48 * 30);
+  EXPECT_EQ(m.roi_pixels, 640 * 480);
+  EXPECT_EQ(m.window_pixels, m.ring_pixels + m.weighted_pixels + 0);  // isolated dots: nothing ignored
+  EXPECT_EQ(out.counts, cpu_counts(m, 1));
+  const FrameShape e = estimate_shape(640, 480, 1, m.dots, 8, 48, 30, Interp::mls);
+  EXPECT_NEAR(static_cast<double>(e.window_pixels), static_cast<double>(m.window_pixels), 0.15 * m.window_pixels);
+  EXPECT_NEAR(static_cast<double>(e.weighted_pixels), static_cast<double>(m.weighted_pixels), 0.15 * m.weighted_pixels);
+  EXPECT_THROW(estimate_shape(0, 480, 1, 10, 8, 48, 30, Interp::mls), InputError);
+}
+
+}  // namespace
+}  // namespace dtflop::dct

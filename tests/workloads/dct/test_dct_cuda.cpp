@@ -1,0 +1,159 @@
+// The cuda backend against cpu-seq (float64) on fresh random specimens: the same dots, the
+// same matches, centroids and fields within float32 rounding; labelling against OpenCV's;
+// every statistic written; counts as declared. Skips without a device.
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "model/errors.hpp"
+#include "tests/support/gpu.hpp"
+#include "workloads/dct/backend.hpp"
+#include "workloads/dct/specimen.hpp"
+
+namespace dtflop::dct {
+namespace {
+
+std::uint64_t fresh_seed() {
+  static std::random_device rd;
+  const std::uint64_t s = (static_cast<std::uint64_t>(rd()) << 32) ^ rd();
+  std::printf("specimen seed %llu\n", static_cast<unsigned long long>(s % 1000000007ULL));
+  return s % 1000000007ULL;
+}
+
+struct Case {
+  std::string spec;
+  PipelineOptions opt;
+};
+
+void compare(const Case& c) {
+  SCOPED_TRACE(c.spec);
+  const Specimen s = parse_specimen(c.spec);
+  const cv::Mat ref = s.reference_image(), def = s.deformed_image();
+  auto cpu = make_backend("cpu-seq", c.opt);
+  auto gpu = make_backend("cuda", c.opt);
+  cpu->set_reference(ref);
+  gpu->set_reference(ref);
+  ASSERT_EQ(cpu->reference_dots().size(), gpu->reference_dots().size());
+  for (std::size_t j = 0; j < cpu->reference_dots().size(); ++j) {
+    EXPECT_NEAR(cpu->reference_dots()[j].x, gpu->reference_dots()[j].x, 2e-4);
+    EXPECT_NEAR(cpu->reference_dots()[j].y, gpu->reference_dots()[j].y, 2e-4);
+    EXPECT_EQ(cpu->reference_dots()[j].area, gpu->reference_dots()[j].area);
+  }
+  // The frame through the pinned buffer and through pageable memory: same result.
+  cv::Mat pinned = gpu->frame_buffer(def.size(), def.type());
+  def.copyTo(pinned);
+  const FrameOutput a = cpu->process(def);
+  const FrameOutput b = gpu->process(pinned);
+  ASSERT_EQ(a.dots.size(), b.dots.size());
+  EXPECT_EQ(a.stats.components, b.stats.components);
+  EXPECT_EQ(a.stats.threshold, b.stats.threshold);
+  EXPECT_EQ(a.stats.window_pixels, b.stats.window_pixels);
+  EXPECT_EQ(a.stats.ring_pixels, b.stats.ring_pixels);
+  EXPECT_EQ(a.stats.weighted_pixels, b.stats.weighted_pixels);
+  EXPECT_EQ(a.matches.ref_to_def, b.matches.ref_to_def);
+  double worst_u = 0, worst_e = 0;
+  int compared = 0;
+  for (std::size_t m = 0; m < a.fields.size(); ++m) {
+    const auto& x = a.fields[m];
+    const auto& y = b.fields[m];
+    EXPECT_EQ(x.support, y.support);
+    if (x.status != y.status) {
+      // Only a point on the conditioning limit may differ.
+      EXPECT_EQ(x.status == PointStatus::ill_conditioned || y.status == PointStatus::ill_conditioned, true) << m;
+      continue;
+    }
+    if (x.status != PointStatus::ok) continue;
+    ++compared;
+    for (auto [p, q] : {std::pair{x.ux, y.ux}, std::pair{x.uy, y.uy}}) worst_u = std::max(worst_u, std::abs(p - q));
+    for (auto [p, q] : {std::pair{x.exx, y.exx}, std::pair{x.eyy, y.eyy}, std::pair{x.exy, y.exy}})
+      worst_e = std::max(worst_e, std::abs(p - q));
+  }
+  std::printf("%s: %zu dots, %d points compared, max |du| %.2e px, max |de| %.2e\n", c.spec.c_str(), a.dots.size(),
+              compared, worst_u, worst_e);
+  EXPECT_GT(compared, static_cast<int>(a.fields.size()) / 2);
+  EXPECT_LT(worst_u, 5e-4);  // float32 centroid sums and displacements
+  EXPECT_LT(worst_e, 5e-6);  // 5 microstrain: float32 moments of a cond ~1e3 system
+  const FrameOutput c2 = gpu->process(def);
+  EXPECT_EQ(c2.counts.host_memory, HostMemory::pageable);
+  EXPECT_EQ(b.counts.host_memory, HostMemory::pinned);
+  EXPECT_EQ(b.counts, cuda_counts(b.shape, HostMemory::pinned));
+  for (std::size_t m = 0; m < b.fields.size(); ++m) {
+    EXPECT_EQ(b.fields[m].status, c2.fields[m].status);
+    if (b.fields[m].status == PointStatus::ok) EXPECT_EQ(b.fields[m].exx, c2.fields[m].exx);  // deterministic
+  }
+}
+
+TEST(DctCuda, MatchesCpuSeqOnFreshSpecimens) {
+  DTFLOP_REQUIRE_GPU();
+  const std::uint64_t seed = fresh_seed();
+  PipelineOptions o;
+  o.mls.support = parse_support("40dots");
+  o.points_x = 24;
+  o.points_y = 18;
+  compare({fmt::format("uniform:size=900x700,pattern=random,radius=7,gap=6,noise=2,seed={}", seed), o});
+  compare({fmt::format("kirsch:size=1000x800,a=90,pattern=random,radius=6,gap=5,noise=1,blur=0.7,seed={}", seed + 1), o});
+  PipelineOptions light = o;
+  light.analysis.polarity = Polarity::light_dots;
+  light.analysis.method = ThresholdMethod::fixed;
+  light.analysis.threshold = 100;
+  light.layout = {64, 32, 64};
+  compare({fmt::format("bending:size=800x600,pattern=random,radius=6,gap=6,polarity=light,bits=16,lighting=0.2,seed={}",
+                       seed + 2),
+           light});
+  PipelineOptions fe = o;
+  fe.interp = Interp::fe;
+  fe.layout = {1024, 256, 256};
+  fe.analysis.roi = cv::Rect(40, 30, 700, 500);
+  compare({fmt::format("rotation:size=800x600,deg=0.4,pattern=random,radius=5,gap=5,seed={}", seed + 3), fe});
+  PipelineOptions radius = o;
+  radius.mls.support = parse_support("45px");
+  radius.mls.weight = Weight::gaussian;
+  compare({fmt::format("translation:size=640x480,dx=1.3,dy=-0.6,pattern=random,radius=5,gap=4,noise=3,seed={}", seed + 4),
+           radius});
+}
+
+TEST(DctCuda, LabellingMatchesOpenCv) {
+  DTFLOP_REQUIRE_GPU();
+  // A random binary image with every shape of component: the union-find labels the same
+  // number of 8-connected components as OpenCV.
+  std::mt19937 rng(static_cast<unsigned>(fresh_seed()));
+  cv::Mat img(517, 733, CV_8U);
+  for (int i = 0; i < img.rows; ++i)
+    for (int j = 0; j < img.cols; ++j) img.at<std::uint8_t>(i, j) = (rng() % 100) < 45 ? 0 : 255;
+  PipelineOptions o;
+  o.analysis.method = ThresholdMethod::fixed;
+  o.analysis.min_area = 1;
+  o.analysis.max_area = 1 << 30;
+  o.analysis.max_aspect = 1e9;
+  o.analysis.min_fill = 0;
+  o.analysis.reject_border = false;
+  o.interp = Interp::fe;
+  auto gpu = make_backend("cuda", o);
+  auto cpu = make_backend("cpu-seq", o);
+  cpu->set_reference(img);
+  gpu->set_reference(img);
+  cv::Mat labels, mask = img < 128;
+  const int n = cv::connectedComponents(mask, labels, 8, CV_32S) - 1;
+  const FrameOutput a = cpu->process(img), b = gpu->process(img);
+  EXPECT_EQ(a.stats.components, n);
+  EXPECT_EQ(b.stats.components, n);
+  ASSERT_EQ(a.dots.size(), b.dots.size());
+  for (std::size_t k = 0; k < a.dots.size(); ++k) EXPECT_EQ(a.dots[k].area, b.dots[k].area);
+}
+
+TEST(DctCuda, RejectsWhatItCannotDo) {
+  DTFLOP_REQUIRE_GPU();
+  PipelineOptions o;
+  o.analysis.method = ThresholdMethod::adaptive;
+  EXPECT_THROW(make_backend("cuda", o), InputError);
+  o = PipelineOptions{};
+  o.layout.block_points = 100;
+  EXPECT_THROW(make_backend("cuda", o), InputError);
+}
+
+}  // namespace
+}  // namespace dtflop::dct

@@ -1,0 +1,364 @@
+// The cuda backend of the DCT pipeline. Per deformed frame:
+//   upload (pinned or pageable) -> [Otsu histogram] -> threshold + label init -> union-find
+//   over 8-neighbours -> compress -> roots to ids -> count to host -> per-component stats
+//   (warp-aggregated atomics) -> per-dot filter + centroid (one block per component, eq. 7.1
+//   with the shared kernels.hpp arithmetic) -> centroids to host -> matching on the host
+//   (k-d tree) -> match table up -> displacements -> MLS or FE, one thread per point, from the
+//   look-up table in device memory -> fields to host.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+
+#include <cuda_runtime.h>
+#include <fmt/format.h>
+
+#include "model/errors.hpp"
+#include "workloads/dct/backend.hpp"
+#include "workloads/dct/cuda_kernels.hpp"
+
+namespace dtflop::dct {
+namespace {
+
+using namespace gpu;
+
+template <class T>
+class DeviceBuffer {
+ public:
+  DeviceBuffer() = default;
+  DeviceBuffer(const DeviceBuffer&) = delete;
+  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
+  ~DeviceBuffer() { if (p_) cudaFree(p_); }
+  T* ensure(std::size_t n) {
+    if (n > n_) {
+      if (p_) DCT_CUDA(cudaFree(p_));
+      p_ = nullptr;
+      DCT_CUDA(cudaMalloc(&p_, std::max<std::size_t>(n, 1) * sizeof(T)));
+      n_ = n;
+    }
+    return p_;
+  }
+  T* get() const { return p_; }
+
+ private:
+  T* p_ = nullptr;
+  std::size_t n_ = 0;
+};
+
+class PinnedBuffer {
+ public:
+  PinnedBuffer() = default;
+  PinnedBuffer(const PinnedBuffer&) = delete;
+  PinnedBuffer& operator=(const PinnedBuffer&) = delete;
+  ~PinnedBuffer() { if (p_) cudaFreeHost(p_); }
+  void* ensure(std::size_t bytes) {
+    if (bytes > n_) {
+      if (p_) DCT_CUDA(cudaFreeHost(p_));
+      p_ = nullptr;
+      DCT_CUDA(cudaMallocHost(&p_, bytes));
+      n_ = bytes;
+    }
+    return p_;
+  }
+  void* get() const { return p_; }
+
+ private:
+  void* p_ = nullptr;
+  std::size_t n_ = 0;
+};
+
+double host_now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+class Events {
+ public:
+  Events() {
+    for (auto& e : e_) DCT_CUDA(cudaEventCreate(&e));
+  }
+  ~Events() {
+    for (auto& e : e_) cudaEventDestroy(e);
+  }
+  Events(const Events&) = delete;
+  Events& operator=(const Events&) = delete;
+  void record(int k, cudaStream_t s) { DCT_CUDA(cudaEventRecord(e_[k], s)); }
+  double between(int a, int b) const {
+    float ms = 0;
+    DCT_CUDA(cudaEventElapsedTime(&ms, e_[a], e_[b]));
+    return ms * 1e-3;
+  }
+
+ private:
+  cudaEvent_t e_[8]{};
+};
+
+class CudaBackend final : public Backend {
+ public:
+  explicit CudaBackend(const PipelineOptions& o) : Backend(o) {
+    if (o.analysis.method == ThresholdMethod::adaptive)
+      throw InputError("the cuda backend thresholds with a fixed or an Otsu threshold; adaptive thresholding runs "
+                       "on cpu-seq and cpu-par");
+    const auto& l = o.layout;
+    for (int b : {l.block_pixels, l.block_points, l.block_dots})
+      if (b < 32 || b > 1024 || b % 32 != 0)
+        throw InputError(fmt::format("CUDA block sizes must be multiples of 32 in 32..1024 (got {}, {}, {})",
+                                     l.block_pixels, l.block_points, l.block_dots));
+    DCT_CUDA(cudaStreamCreate(&stream_));
+  }
+  ~CudaBackend() override { if (stream_) cudaStreamDestroy(stream_); }
+
+  std::string name() const override { return "cuda"; }
+
+  cv::Mat frame_buffer(cv::Size size, int type) override {
+    void* p = pinned_.ensure(size.area() * CV_ELEM_SIZE(type));
+    return cv::Mat(size, type, p);
+  }
+
+  void set_reference(const cv::Mat& image) override {
+    validate(opt_.analysis, image.size());
+    if (image.empty() || image.channels() != 1 || (image.depth() != CV_8U && image.depth() != CV_16U))
+      throw InputError("the image must be one-channel 8- or 16-bit grey");
+    Found f = find_dots(image, nullptr);
+    accept_reference(image, f.dots, f.stats);
+    // Reference positions, the table and the points go to the device once.
+    std::vector<double2> ref(ref_pos_.size());
+    for (std::size_t j = 0; j < ref.size(); ++j) ref[j] = make_double2(ref_pos_[j].x, ref_pos_[j].y);
+    upload(d_ref_, ref);
+    std::vector<double2> pts(points_.size());
+    for (std::size_t m = 0; m < pts.size(); ++m) pts[m] = make_double2(points_[m].x, points_[m].y);
+    upload(d_pts_, pts);
+    std::vector<unsigned char> geom(points_.size());
+    if (opt_.interp == Interp::mls) {
+      std::vector<float> rho(mls_.rho.begin(), mls_.rho.end());
+      for (std::size_t m = 0; m < geom.size(); ++m) geom[m] = static_cast<unsigned char>(mls_.geometry[m]);
+      upload(d_rho_, rho);
+      upload(d_offsets_, mls_.offsets);
+      upload(d_lut_, mls_.dots);
+    } else {
+      for (std::size_t m = 0; m < geom.size(); ++m) geom[m] = static_cast<unsigned char>(fe_.geometry[m]);
+      upload(d_tri_, fe_.tri);
+      upload(d_N_, std::vector<float>(fe_.N.begin(), fe_.N.end()));
+      upload(d_Nx_, std::vector<float>(fe_.Nx.begin(), fe_.Nx.end()));
+      upload(d_Ny_, std::vector<float>(fe_.Ny.begin(), fe_.Ny.end()));
+    }
+    upload(d_geom_, geom);
+    DCT_CUDA(cudaStreamSynchronize(stream_));
+  }
+
+  FrameOutput process(const cv::Mat& frame) override {
+    check_frame(frame);
+    FrameOutput out;
+    const double t0 = host_now();
+    Found f = find_dots(frame, &out);
+    out.dots = f.dots;
+    out.stats = f.stats;
+    const double t1 = host_now();
+    std::vector<Vec2> found;
+    found.reserve(f.dots.size());
+    for (const auto& d : f.dots) found.push_back({d.x, d.y});
+    track(found, out);
+    const double t2 = host_now();
+    // Match table: reference dot -> component id on the device.
+    const std::size_t nf = ref_pos_.size(), nm = points_.size();
+    match_.resize(nf);
+    for (std::size_t j = 0; j < nf; ++j) {
+      const int k = out.matches.ref_to_def[j];
+      match_[j] = k < 0 ? -1 : f.comp_of_dot[k];
+    }
+    ev_.record(4, stream_);
+    DCT_CUDA(cudaMemcpyAsync(d_match_.ensure(nf), match_.data(), nf * sizeof(int), cudaMemcpyHostToDevice, stream_));
+    launch_displacement(static_cast<int>(nf), d_ref_.get(), d_cx_.get(), d_cy_.get(), d_match_.get(), d_U_.ensure(nf),
+                        d_valid_.ensure(nf), stream_);
+    const int bp = opt_.layout.block_points;
+    FieldValue<float>* d_out = d_fields_.ensure(nm);
+    if (opt_.interp == Interp::mls) {
+      launch_mls(static_cast<int>(nm), d_pts_.get(), d_rho_.get(), d_geom_.get(), d_offsets_.get(), d_lut_.get(),
+                 d_ref_.get(), d_U_.get(), d_valid_.get(), static_cast<int>(opt_.mls.weight), opt_.mls.min_dots,
+                 static_cast<float>(opt_.mls.min_pivot_ratio), d_out, bp, stream_);
+    } else {
+      launch_fe(static_cast<int>(nm), d_tri_.get(), d_N_.get(), d_Nx_.get(), d_Ny_.get(), d_geom_.get(), d_U_.get(),
+                d_valid_.get(), d_out, bp, stream_);
+    }
+    host_fields_.resize(nm);
+    DCT_CUDA(cudaMemcpyAsync(host_fields_.data(), d_out, nm * sizeof(FieldValue<float>), cudaMemcpyDeviceToHost, stream_));
+    ev_.record(5, stream_);
+    DCT_CUDA(cudaStreamSynchronize(stream_));
+    const double t3 = host_now();
+    out.fields.resize(nm);
+    for (std::size_t m = 0; m < nm; ++m) {
+      const auto& g = host_fields_[m];
+      out.fields[m] = {g.ux, g.uy, g.exx, g.eyy, g.exy, g.status, g.support};
+    }
+    out.seconds["analysis"] = t1 - t0;
+    out.seconds["tracking"] = t2 - t1;
+    out.seconds["fields"] = t3 - t2;
+    out.seconds["total"] = host_now() - t0;
+    out.seconds["device_upload"] = ev_.between(0, 1);
+    out.seconds["device_labelling"] = ev_.between(1, 2);
+    out.seconds["device_centroids"] = ev_.between(2, 3);
+    out.seconds["device_fields"] = ev_.between(4, 5);
+    FrameShape& s = out.shape;
+    s.image_pixels = static_cast<std::int64_t>(frame.total());
+    s.bytes_per_pixel = frame.depth() == CV_16U ? 2 : 1;
+    s.roi_pixels = f.stats.roi_pixels;
+    s.foreground_pixels = f.foreground;
+    s.components = f.stats.components;
+    s.dots = static_cast<std::int64_t>(nf);
+    s.window_pixels = f.stats.window_pixels;
+    s.ring_pixels = f.stats.ring_pixels;
+    s.weighted_pixels = f.stats.weighted_pixels;
+    s.points = static_cast<std::int64_t>(nm);
+    s.support_entries = opt_.interp == Interp::mls ? mls_.entries() : 0;
+    s.interp = opt_.interp;
+    s.otsu = opt_.analysis.method == ThresholdMethod::otsu;
+    out.counts = cuda_counts(s, f.pinned ? HostMemory::pinned : HostMemory::pageable);
+    return out;
+  }
+
+ private:
+  struct Found {
+    std::vector<DotObservation> dots;
+    std::vector<int> comp_of_dot;  // device component id of each kept dot
+    AnalysisStats stats;
+    std::int64_t foreground = 0;
+    bool pinned = false;
+  };
+
+  template <class T>
+  void upload(DeviceBuffer<T>& d, const std::vector<T>& h) {
+    DCT_CUDA(cudaMemcpyAsync(d.ensure(h.size()), h.data(), h.size() * sizeof(T), cudaMemcpyHostToDevice, stream_));
+    DCT_CUDA(cudaStreamSynchronize(stream_));  // h may go out of scope
+  }
+
+  Found find_dots(const cv::Mat& image, FrameOutput* out) {
+    if (image.depth() == CV_8U) return find_dots_t<std::uint8_t>(image, out);
+    return find_dots_t<std::uint16_t>(image, out);
+  }
+
+  template <class Pix>
+  Found find_dots_t(const cv::Mat& image, FrameOutput*) {
+    const cv::Rect r = effective_roi(opt_.analysis, image.size());
+    const Roi roi{r.x, r.y, r.width, r.height};
+    const long long n = static_cast<long long>(r.width) * r.height;
+    const int bpx = opt_.layout.block_pixels;
+    Found f;
+    // Upload the region of interest (pinned when the frame lives in our pinned buffer).
+    Pix* d_img = d_img_.template ensure<Pix>(static_cast<std::size_t>(n));
+    const std::uint8_t* lo = static_cast<const std::uint8_t*>(pinned_.get());
+    f.pinned = lo && image.data >= lo && image.data < lo + static_cast<std::ptrdiff_t>(image.total() * image.elemSize());
+    ev_.record(0, stream_);
+    DCT_CUDA(cudaMemcpy2DAsync(d_img, r.width * sizeof(Pix), image.ptr<Pix>(r.y) + r.x, image.step[0],
+                               r.width * sizeof(Pix), r.height, cudaMemcpyHostToDevice, stream_));
+    ev_.record(1, stream_);
+    int* L = d_labels_.ensure(static_cast<std::size_t>(n));
+    const int dark = opt_.analysis.polarity == Polarity::dark_dots;
+    const bool wide = sizeof(Pix) == 2;
+    int* d_T = nullptr;
+    int T_fixed = 0;
+    if (opt_.analysis.method == ThresholdMethod::otsu) {
+      d_T = d_T_.ensure(1);
+      launch_otsu(d_img, wide, r.width, r.height, d_hist_.ensure(256), d_T, bpx, stream_);
+    } else {
+      T_fixed = static_cast<int>(wide ? std::floor(opt_.analysis.threshold * 257) : std::floor(opt_.analysis.threshold));
+    }
+    int* d_count = d_count_.ensure(2);
+    launch_labels(d_img, wide, r.width, r.height, d_T, T_fixed, dark != 0, L, d_count, bpx, stream_);
+    int count = 0, T_used = T_fixed;
+    DCT_CUDA(cudaMemcpyAsync(&count, d_count, sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    if (d_T) DCT_CUDA(cudaMemcpyAsync(&T_used, d_T, sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    ev_.record(2, stream_);
+    DCT_CUDA(cudaStreamSynchronize(stream_));
+    f.stats.roi_pixels = n;
+    f.stats.components = count;
+    f.stats.threshold = T_used;
+    const std::size_t nc = static_cast<std::size_t>(count);
+    if (nc == 0) return f;
+    CompStats cs{d_area_.ensure(nc), d_minx_.ensure(nc), d_miny_.ensure(nc),
+                 d_maxx_.ensure(nc), d_maxy_.ensure(nc), d_root_.ensure(nc)};
+    launch_stats(L, r.width, r.height, cs, count, bpx, stream_);
+    const AnalysisOptions& a = opt_.analysis;
+    const DotParams dp{a.min_area, a.max_area, static_cast<float>(a.max_aspect), static_cast<float>(a.min_fill),
+                       a.margin, a.reject_border ? 1 : 0, dark};
+    const DotOut dout{d_cx_.ensure(nc), d_cy_.ensure(nc), d_weight_.ensure(nc), d_status_.ensure(nc),
+                      d_pixels_.ensure(3 * nc)};
+    if (count > 2147483647 / 2) throw std::runtime_error("too many components");
+    launch_centroids(d_img, wide, L, r.width, r.height, roi, cs, dp, dout, count, opt_.layout.block_dots, stream_);
+    h_cx_.resize(nc); h_cy_.resize(nc); h_w_.resize(nc); h_status_.resize(nc); h_area_.resize(nc);
+    h_root_.resize(nc); h_pixels_.resize(3 * nc);
+    DCT_CUDA(cudaMemcpyAsync(h_cx_.data(), dout.x, nc * sizeof(double), cudaMemcpyDeviceToHost, stream_));
+    DCT_CUDA(cudaMemcpyAsync(h_cy_.data(), dout.y, nc * sizeof(double), cudaMemcpyDeviceToHost, stream_));
+    DCT_CUDA(cudaMemcpyAsync(h_w_.data(), dout.weight, nc * sizeof(float), cudaMemcpyDeviceToHost, stream_));
+    DCT_CUDA(cudaMemcpyAsync(h_status_.data(), dout.status, nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    DCT_CUDA(cudaMemcpyAsync(h_area_.data(), cs.area, nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    DCT_CUDA(cudaMemcpyAsync(h_root_.data(), cs.root, nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    DCT_CUDA(cudaMemcpyAsync(h_pixels_.data(), dout.pixels, 3 * nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    ev_.record(3, stream_);
+    DCT_CUDA(cudaStreamSynchronize(stream_));
+    std::vector<int> kept;
+    for (std::size_t k = 0; k < nc; ++k) {
+      f.foreground += h_area_[k];
+      switch (h_status_[k]) {
+        case 0: kept.push_back(static_cast<int>(k)); break;
+        case 1: ++f.stats.rejected_area; break;
+        case 2: ++f.stats.rejected_shape; break;
+        case 3: ++f.stats.rejected_border; break;
+        default: ++f.stats.rejected_contrast; break;
+      }
+      f.stats.window_pixels += h_pixels_[3 * k];
+      f.stats.ring_pixels += h_pixels_[3 * k + 1];
+      f.stats.weighted_pixels += h_pixels_[3 * k + 2];
+    }
+    std::sort(kept.begin(), kept.end(), [&](int x, int y) { return h_root_[x] < h_root_[y]; });
+    for (int k : kept) {
+      DotObservation d;
+      d.x = h_cx_[k];
+      d.y = h_cy_[k];
+      d.weight = h_w_[k];
+      d.area = h_area_[k];
+      f.dots.push_back(d);
+      f.comp_of_dot.push_back(k);
+    }
+    return f;
+  }
+
+  cudaStream_t stream_ = nullptr;
+  Events ev_;
+  PinnedBuffer pinned_;
+  DeviceBuffer<int> d_labels_, d_count_, d_T_, d_area_, d_minx_, d_miny_, d_maxx_, d_maxy_, d_root_, d_status_,
+      d_pixels_, d_match_, d_offsets_, d_lut_, d_tri_;
+  DeviceBuffer<unsigned int> d_hist_;
+  DeviceBuffer<double> d_cx_, d_cy_;
+  DeviceBuffer<float> d_weight_, d_rho_, d_N_, d_Nx_, d_Ny_;
+  DeviceBuffer<double2> d_ref_, d_pts_;
+  DeviceBuffer<float2> d_U_;
+  DeviceBuffer<unsigned char> d_valid_, d_geom_;
+  DeviceBuffer<FieldValue<float>> d_fields_;
+  // Raw image storage; sized in pixels of the widest type.
+  struct ImgBuf {
+    DeviceBuffer<std::uint16_t> wide;
+    template <class Pix>
+    Pix* ensure(std::size_t n) { return reinterpret_cast<Pix*>(wide.ensure((n * sizeof(Pix) + 1) / 2)); }
+  } d_img_;
+  std::vector<double> h_cx_, h_cy_;
+  std::vector<float> h_w_;
+  std::vector<int> h_status_, h_area_, h_root_, h_pixels_, match_;
+  std::vector<FieldValue<float>> host_fields_;
+};
+
+}  // namespace
+
+std::unique_ptr<Backend> make_cuda_backend(const PipelineOptions& o) { return std::make_unique<CudaBackend>(o); }
+
+std::string cuda_device_check() {
+  int n = 0;
+  const cudaError_t e = cudaGetDeviceCount(&n);
+  if (e != cudaSuccess) {
+    cudaGetLastError();
+    return std::string("no usable CUDA device (") + cudaGetErrorString(e) + ")";
+  }
+  if (n == 0) return "no CUDA device found";
+  return {};
+}
+
+}  // namespace dtflop::dct

@@ -1,0 +1,396 @@
+// Kernels of the DCT cuda backend (see cuda_kernels.hpp and cuda_backend.cpp for the flow).
+// Centroid positions are kept as doubles (so that a displacement of 1e-3 px is not lost in
+// the rounding of a 6000-px coordinate); all arithmetic is float32.
+#include <algorithm>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+#include "workloads/dct/cuda_kernels.hpp"
+
+namespace dtflop::dct::gpu {
+
+void check(cudaError_t e, const char* what, const char* file, int line) {
+  if (e != cudaSuccess)
+    throw std::runtime_error(std::string("CUDA error '") + cudaGetErrorString(e) + "' in " + what + " (" + file + ":" +
+                             std::to_string(line) + ")");
+}
+#define DCT_LAUNCHED(name) check(cudaGetLastError(), "launch of " name, __FILE__, __LINE__)
+
+namespace {
+
+
+template <class Pix>
+__device__ __forceinline__ int bin256(Pix v) {
+  return sizeof(Pix) == 1 ? static_cast<int>(v) : static_cast<int>(v) / 257;
+}
+
+template <class Pix>
+__global__ void k_histogram(const Pix* img, int w, int h, unsigned int* hist) {
+  __shared__ unsigned int local[256];
+  for (int i = threadIdx.x; i < 256; i += blockDim.x) local[i] = 0;
+  __syncthreads();
+  const long long n = static_cast<long long>(w) * h;
+  for (long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x; i < n;
+       i += static_cast<long long>(gridDim.x) * blockDim.x)
+    atomicAdd(&local[bin256(img[i])], 1u);
+  __syncthreads();
+  for (int i = threadIdx.x; i < 256; i += blockDim.x)
+    if (local[i]) atomicAdd(&hist[i], local[i]);
+}
+
+// Otsu's threshold, the same double-precision loop as analysis.cpp's otsu_threshold.
+__global__ void k_otsu(const unsigned int* h, int wide, int* T) {
+  if (threadIdx.x != 0 || blockIdx.x != 0) return;
+  double total = 0, sum = 0;
+  for (int i = 0; i < 256; ++i) { total += h[i]; sum += i * static_cast<double>(h[i]); }
+  double w0 = 0, s0 = 0, best = -1;
+  int t = 0;
+  for (int i = 0; i < 256; ++i) {
+    w0 += h[i];
+    s0 += i * static_cast<double>(h[i]);
+    const double w1 = total - w0;
+    if (w0 == 0 || w1 == 0) continue;
+    const double m0 = s0 / w0, m1 = (sum - s0) / w1;
+    const double v = w0 * w1 * (m0 - m1) * (m0 - m1);
+    if (v > best) { best = v; t = i; }
+  }
+  *T = wide ? t * 257 + 256 : t;
+}
+
+// Labels: -1 background; otherwise the index of a pixel of the same component (a tree).
+template <class Pix>
+__global__ void k_init(const Pix* img, int w, int h, const int* T_dev, int T_fixed, int dark, int* L) {
+  const long long n = static_cast<long long>(w) * h;
+  const int T = T_dev ? *T_dev : T_fixed;
+  for (long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x; i < n;
+       i += static_cast<long long>(gridDim.x) * blockDim.x) {
+    const int v = img[i];
+    const bool fg = dark ? v <= T : v > T;
+    L[i] = fg ? static_cast<int>(i) : -1;
+  }
+}
+
+__device__ __forceinline__ int find_root(const volatile int* L, int x) {
+  for (;;) {
+    const int p = L[x];
+    if (p == x) return x;
+    x = p;
+  }
+}
+
+// Union of two trees by linking the larger root under the smaller (atomicMin), retried
+// until the link holds (Playne and Hawick's union-find).
+__device__ __forceinline__ void unite(int* L, int a, int b) {
+  for (;;) {
+    a = find_root(L, a);
+    b = find_root(L, b);
+    if (a == b) return;
+    if (a > b) { const int t = a; a = b; b = t; }
+    const int old = atomicMin(&L[b], a);
+    if (old == b) return;
+    b = old;
+  }
+}
+
+__global__ void k_union(int* L, int w, int h) {
+  const long long n = static_cast<long long>(w) * h;
+  for (long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x; i < n;
+       i += static_cast<long long>(gridDim.x) * blockDim.x) {
+    if (L[i] < 0) continue;
+    const int x = static_cast<int>(i % w), y = static_cast<int>(i / w);
+    const int me = static_cast<int>(i);
+    if (x > 0 && L[i - 1] >= 0) unite(L, me, me - 1);
+    if (y > 0) {
+      const int up = me - w;
+      if (L[up] >= 0) unite(L, me, up);
+      if (x > 0 && L[up - 1] >= 0) unite(L, me, up - 1);
+      if (x + 1 < w && L[up + 1] >= 0) unite(L, me, up + 1);
+    }
+  }
+}
+
+__global__ void k_compress(int* L, long long n) {
+  for (long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x; i < n;
+       i += static_cast<long long>(gridDim.x) * blockDim.x)
+    if (L[i] >= 0) L[i] = find_root(L, static_cast<int>(i));
+}
+
+// Roots take ids 0..n-1, stored as -(id + 2) in the root's own label.
+__global__ void k_ids(int* L, long long n, int* count) {
+  for (long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x; i < n;
+       i += static_cast<long long>(gridDim.x) * blockDim.x)
+    if (L[i] == static_cast<int>(i)) L[i] = -(atomicAdd(count, 1) + 2);
+}
+
+// Root (first pixel) of pixel i, or -1 for background. After k_ids a label is either -1,
+// the root's index (>= 0), or, at the root itself, -(id + 2).
+__device__ __forceinline__ int root_of_pixel(const int* L, int i) {
+  const int v = L[i];
+  return v >= 0 ? v : (v <= -2 ? i : -1);
+}
+
+
+__global__ void k_stats_init(CompStats s, int n) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  s.area[i] = 0;
+  s.minx[i] = s.miny[i] = 0x7fffffff;
+  s.maxx[i] = s.maxy[i] = -1;
+  s.root[i] = 0x7fffffff;
+}
+
+// blockDim.x == 32: each warp covers 32 consecutive pixels of one row; lanes of one component
+// are aggregated into one atomic per statistic.
+__global__ void k_stats(const int* L, int w, int h, CompStats s) {
+  const int x = blockIdx.x * 32 + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
+  int key = -1, root = -1;
+  if (x < w && y < h) {
+    const int i = y * w + x;
+    root = root_of_pixel(L, i);
+    if (root >= 0) key = -L[root] - 2;
+  }
+  const unsigned peers = __match_any_sync(0xffffffffu, key);
+  if (key < 0) return;
+  const int lane = threadIdx.x;
+  const int leader = __ffs(peers) - 1;
+  if (lane != leader) return;
+  const int last = 31 - __clz(peers);
+  atomicAdd(&s.area[key], __popc(peers));
+  atomicMin(&s.minx[key], x);
+  atomicMax(&s.maxx[key], x - lane + last);
+  atomicMin(&s.miny[key], y);
+  atomicMax(&s.maxy[key], y);
+  atomicMin(&s.root[key], root);
+}
+
+
+
+template <class T>
+__device__ T block_sum(T v, T* shared) {
+  for (int o = 16; o > 0; o >>= 1) v += __shfl_down_sync(0xffffffffu, v, o);
+  const int warp = threadIdx.x / 32, lane = threadIdx.x % 32, nw = (blockDim.x + 31) / 32;
+  __syncthreads();
+  if (lane == 0) shared[warp] = v;
+  __syncthreads();
+  T r = T(0);
+  if (threadIdx.x == 0)
+    for (int k = 0; k < nw; ++k) r += shared[k];
+  return r;  // valid in thread 0
+}
+
+// One block per component: filters, then the centroid of eq. 7.1 (kernels.hpp arithmetic).
+template <class Pix>
+__global__ void k_centroid(const Pix* img, const int* L, int w, int h, Roi roi, CompStats s, DotParams p, DotOut out) {
+  const int id = blockIdx.x;
+  const int area = s.area[id];
+  const int bx = s.minx[id], by = s.miny[id], bw = s.maxx[id] - bx + 1, bh = s.maxy[id] - by + 1;
+  const int grow = p.margin + kRingWidth;
+  int status = 0;
+  if (area < p.min_area || area > p.max_area) status = 1;
+  else if (fmaxf(bw, bh) > p.max_aspect * fminf(bw, bh) || area < p.min_fill * static_cast<float>(bw) * bh) status = 2;
+  else if (p.reject_border && (bx - grow < 0 || by - grow < 0 || bx + bw + grow > w || by + bh + grow > h)) status = 3;
+  if (status != 0) {
+    if (threadIdx.x == 0) {
+      out.status[id] = status;
+      out.pixels[3 * id] = out.pixels[3 * id + 1] = out.pixels[3 * id + 2] = 0;
+    }
+    return;
+  }
+  const int rootc = s.root[id];
+  const int wx0 = max(bx - grow, 0), wy0 = max(by - grow, 0);
+  const int wx1 = min(bx + bw - 1 + grow, w - 1), wy1 = min(by + bh - 1 + grow, h - 1);
+  const int ww = wx1 - wx0 + 1, wh = wy1 - wy0 + 1, wn = ww * wh;
+  const float cx = wx0 + 0.5f * (ww - 1), cy = wy0 + 0.5f * (wh - 1);
+  auto label = [&](int x, int y) -> int {
+    if (x < 0 || y < 0 || x >= w || y >= h) return -1;
+    return root_of_pixel(L, y * w + x);
+  };
+  __shared__ float red[32];
+  __shared__ float plane[3];
+  RingSums<float> ring;
+  int nring = 0, nweight = 0;
+  for (int k = threadIdx.x; k < wn; k += blockDim.x) {
+    const int x = wx0 + k % ww, y = wy0 + k / ww;
+    if (classify_pixel(label, x, y, rootc, p.margin) == kRing) {
+      ring.add(x - cx, y - cy, static_cast<float>(img[static_cast<long long>(y) * w + x]));
+      ++nring;
+    }
+  }
+  RingSums<float> tot;
+  tot.n = block_sum(ring.n, red); tot.x = block_sum(ring.x, red); tot.y = block_sum(ring.y, red);
+  tot.xx = block_sum(ring.xx, red); tot.xy = block_sum(ring.xy, red); tot.yy = block_sum(ring.yy, red);
+  tot.i = block_sum(ring.i, red); tot.xi = block_sum(ring.xi, red); tot.yi = block_sum(ring.yi, red);
+  if (threadIdx.x == 0) {
+    float a, b, c;
+    solve_plane(tot, a, b, c);
+    plane[0] = a; plane[1] = b; plane[2] = c;
+  }
+  __syncthreads();
+  const float a = plane[0], b = plane[1], c = plane[2];
+  WeightSums<float> ws;
+  for (int k = threadIdx.x; k < wn; k += blockDim.x) {
+    const int x = wx0 + k % ww, y = wy0 + k / ww;
+    if (classify_pixel(label, x, y, rootc, p.margin) == kWeighted) {
+      ws.add(x - cx, y - cy, static_cast<float>(img[static_cast<long long>(y) * w + x]), a, b, c, p.dark != 0);
+      ++nweight;
+    }
+  }
+  const float W = block_sum(ws.w, red), WX = block_sum(ws.wx, red), WY = block_sum(ws.wy, red);
+  const float NW = block_sum(static_cast<float>(nweight), red);
+  if (threadIdx.x == 0) {
+    const bool ok = W > 0.f && tot.n > 0.f;
+    out.status[id] = ok ? 0 : 4;
+    out.x[id] = roi.x + static_cast<double>(cx) + static_cast<double>(WX / W);
+    out.y[id] = roi.y + static_cast<double>(cy) + static_cast<double>(WY / W);
+    out.weight[id] = W;
+    out.pixels[3 * id] = wn;
+    out.pixels[3 * id + 1] = static_cast<int>(tot.n);
+    out.pixels[3 * id + 2] = static_cast<int>(NW);
+  }
+  (void)nring;
+}
+
+__global__ void k_displacement(int n, const double2* ref, const double* cx, const double* cy, const int* match,
+                               float2* U, unsigned char* valid) {
+  const int j = blockIdx.x * blockDim.x + threadIdx.x;
+  if (j >= n) return;
+  const int k = match[j];
+  if (k < 0) {
+    valid[j] = 0;
+    U[j] = make_float2(0.f, 0.f);
+    return;
+  }
+  valid[j] = 1;
+  U[j] = make_float2(static_cast<float>(cx[k] - ref[j].x), static_cast<float>(cy[k] - ref[j].y));
+}
+
+__global__ void k_mls(int n, const double2* pts, const float* rho, const unsigned char* geometry, const int* offsets,
+                      const int* dots, const double2* ref, const float2* U, const unsigned char* valid, int weight,
+                      int min_dots, float min_pivot, FieldValue<float>* out) {
+  const int m = blockIdx.x * blockDim.x + threadIdx.x;
+  if (m >= n) return;
+  FieldValue<float> f;
+  if (geometry[m] != 0) {
+    f.status = static_cast<PointStatus>(geometry[m]);
+    out[m] = f;
+    return;
+  }
+  const double2 p = pts[m];
+  const float r = rho[m], inv = 1.f / r;
+  MlsMoments<float> mo;
+  float u0x = 0.f, u0y = 0.f;
+  bool have0 = false;
+  for (int k = offsets[m]; k < offsets[m + 1]; ++k) {
+    const int j = dots[k];
+    if (!valid[j]) continue;
+    const float2 u = U[j];
+    if (!have0) { u0x = u.x; u0y = u.y; have0 = true; }
+    const double2 X = ref[j];
+    mo.add(static_cast<Weight>(weight), static_cast<float>(X.x - p.x) * inv, static_cast<float>(X.y - p.y) * inv,
+           u.x - u0x, u.y - u0y);
+  }
+  out[m] = mls_solve<float>(mo, r, u0x, u0y, min_dots, min_pivot);
+}
+
+__global__ void k_fe(int n, const int* tri, const float* N, const float* Nx, const float* Ny,
+                     const unsigned char* geometry, const float2* U, const unsigned char* valid, FieldValue<float>* out) {
+  const int m = blockIdx.x * blockDim.x + threadIdx.x;
+  if (m >= n) return;
+  FieldValue<float> f;
+  f.status = static_cast<PointStatus>(geometry[m]);
+  if (f.status == PointStatus::ok) {
+    const int a = tri[3 * m], b = tri[3 * m + 1], c = tri[3 * m + 2];
+    if (!valid[a] || !valid[b] || !valid[c]) {
+      f.status = PointStatus::lost_vertex;
+    } else {
+      const int v[3] = {a, b, c};
+      float dxx = 0, dxy = 0, dyx = 0, dyy = 0;
+      for (int k = 0; k < 3; ++k) {
+        const float2 u = U[v[k]];
+        const int q = 3 * m + k;
+        f.ux += N[q] * u.x; f.uy += N[q] * u.y;
+        dxx += Nx[q] * u.x; dxy += Ny[q] * u.x; dyx += Nx[q] * u.y; dyy += Ny[q] * u.y;
+      }
+      f.exx = dxx; f.eyy = dyy; f.exy = 0.5f * (dxy + dyx);
+      f.support = 3;
+    }
+  }
+  out[m] = f;
+}
+
+int grid_for(long long n, int block) {
+  const long long g = (n + block - 1) / block;
+  return static_cast<int>(std::min<long long>(std::max<long long>(g, 1), 65535LL * 32));
+}
+
+}  // namespace
+
+void launch_otsu(const void* img, bool wide, int w, int h, unsigned int* hist, int* T, int block, cudaStream_t s) {
+  const long long n = static_cast<long long>(w) * h;
+  DCT_CUDA(cudaMemsetAsync(hist, 0, 256 * sizeof(unsigned int), s));
+  const int g = std::min(grid_for(n, block), 1024);
+  if (wide) k_histogram<std::uint16_t><<<g, block, 0, s>>>(static_cast<const std::uint16_t*>(img), w, h, hist);
+  else k_histogram<std::uint8_t><<<g, block, 0, s>>>(static_cast<const std::uint8_t*>(img), w, h, hist);
+  DCT_LAUNCHED("k_histogram");
+  k_otsu<<<1, 1, 0, s>>>(hist, wide ? 1 : 0, T);
+  DCT_LAUNCHED("k_otsu");
+}
+
+void launch_labels(const void* img, bool wide, int w, int h, const int* T_dev, int T_fixed, bool dark, int* L,
+                   int* count, int block, cudaStream_t s) {
+  const long long n = static_cast<long long>(w) * h;
+  const int g = grid_for(n, block);
+  if (wide) k_init<std::uint16_t><<<g, block, 0, s>>>(static_cast<const std::uint16_t*>(img), w, h, T_dev, T_fixed, dark, L);
+  else k_init<std::uint8_t><<<g, block, 0, s>>>(static_cast<const std::uint8_t*>(img), w, h, T_dev, T_fixed, dark, L);
+  DCT_LAUNCHED("k_init");
+  k_union<<<g, block, 0, s>>>(L, w, h);
+  DCT_LAUNCHED("k_union");
+  k_compress<<<g, block, 0, s>>>(L, n);
+  DCT_LAUNCHED("k_compress");
+  DCT_CUDA(cudaMemsetAsync(count, 0, sizeof(int), s));
+  k_ids<<<g, block, 0, s>>>(L, n, count);
+  DCT_LAUNCHED("k_ids");
+}
+
+void launch_stats(const int* L, int w, int h, CompStats cs, int n, int block, cudaStream_t s) {
+  k_stats_init<<<grid_for(n, 256), 256, 0, s>>>(cs, n);
+  DCT_LAUNCHED("k_stats_init");
+  const dim3 sb(32, static_cast<unsigned>(block / 32));
+  const dim3 sg(static_cast<unsigned>((w + 31) / 32), static_cast<unsigned>((h + sb.y - 1) / sb.y));
+  k_stats<<<sg, sb, 0, s>>>(L, w, h, cs);
+  DCT_LAUNCHED("k_stats");
+}
+
+void launch_centroids(const void* img, bool wide, const int* L, int w, int h, Roi roi, CompStats cs, DotParams p,
+                      DotOut out, int n, int block, cudaStream_t s) {
+  if (n <= 0) return;
+  if (wide) k_centroid<std::uint16_t><<<n, block, 0, s>>>(static_cast<const std::uint16_t*>(img), L, w, h, roi, cs, p, out);
+  else k_centroid<std::uint8_t><<<n, block, 0, s>>>(static_cast<const std::uint8_t*>(img), L, w, h, roi, cs, p, out);
+  DCT_LAUNCHED("k_centroid");
+}
+
+void launch_displacement(int n, const double2* ref, const double* cx, const double* cy, const int* match, float2* U,
+                         unsigned char* valid, cudaStream_t s) {
+  if (n <= 0) return;
+  k_displacement<<<grid_for(n, 128), 128, 0, s>>>(n, ref, cx, cy, match, U, valid);
+  DCT_LAUNCHED("k_displacement");
+}
+
+void launch_mls(int n, const double2* pts, const float* rho, const unsigned char* geometry, const int* offsets,
+                const int* dots, const double2* ref, const float2* U, const unsigned char* valid, int weight,
+                int min_dots, float min_pivot, FieldValue<float>* out, int block, cudaStream_t s) {
+  if (n <= 0) return;
+  k_mls<<<grid_for(n, block), block, 0, s>>>(n, pts, rho, geometry, offsets, dots, ref, U, valid, weight, min_dots,
+                                             min_pivot, out);
+  DCT_LAUNCHED("k_mls");
+}
+
+void launch_fe(int n, const int* tri, const float* N, const float* Nx, const float* Ny, const unsigned char* geometry,
+               const float2* U, const unsigned char* valid, FieldValue<float>* out, int block, cudaStream_t s) {
+  if (n <= 0) return;
+  k_fe<<<grid_for(n, block), block, 0, s>>>(n, tri, N, Nx, Ny, geometry, U, valid, out);
+  DCT_LAUNCHED("k_fe");
+}
+
+}  // namespace dtflop::dct::gpu
