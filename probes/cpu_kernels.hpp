@@ -1,0 +1,44 @@
+// CPU kernels of the probes: FMA chains and STREAM-style copy/triad, each compiled for
+// several instruction sets (target attributes) and chosen at run time, so one binary uses
+// AVX-512 or AVX2+FMA where the CPU has them and still runs on any x86-64 (and elsewhere).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string_view>
+
+namespace dtflop::probes::cpu {
+
+enum class Isa {
+  generic,  // what the baseline target gives (SSE2 on x86-64): separate multiply and add
+  avx2,     // AVX2 + FMA: 256-bit vfmadd
+  avx512,   // AVX-512F: 512-bit vfmadd
+};
+
+std::string_view to_string(Isa isa);
+// The widest instruction set this CPU and this build both support.
+Isa best_isa();
+// Values of type float (double) that one vector register of `isa` holds.
+int lanes(Isa isa, bool fp64);
+// True when the kernels of `isa` use fused multiply-add instructions.
+bool has_fma(Isa isa);
+
+// Independent accumulator chains one call of fma_chains() advances: 12 vector registers'
+// worth, enough to cover FMA latency x FMA units on current x86 cores (4 cycles x 2 units).
+int fma_chain_count(Isa isa, bool fp64);
+
+// Runs `iterations` steps of acc[j] = acc[j] * a + b on every chain j < fma_chain_count(),
+// with fused multiply-adds where the ISA has them: 2 * chains * iterations FLOPs. `acc` holds
+// the chains' start values on entry and their end values on return (the caller checks them,
+// so the work cannot be optimised away). Throws std::invalid_argument when `isa` is not
+// supported by this CPU.
+void fma_chains(Isa isa, std::int64_t iterations, float a, float b, float* acc);
+void fma_chains(Isa isa, std::int64_t iterations, double a, double b, double* acc);
+
+// STREAM kernels over n doubles. copy: a[i] = b[i] (16 bytes per element read + written);
+// triad: a[i] = b[i] + s * c[i] (24 bytes per element read + written). Write-allocate
+// traffic is not counted, as in STREAM.
+void stream_copy(Isa isa, double* a, const double* b, std::size_t n);
+void stream_triad(Isa isa, double* a, const double* b, const double* c, double s, std::size_t n);
+
+}  // namespace dtflop::probes::cpu

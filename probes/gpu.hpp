@@ -1,0 +1,93 @@
+// The CUDA side of the probes, callable from plain C++: device identity and the timed
+// operations (transfers, device copies, FMA kernels, launches). Implemented in gpu_*.cu
+// when dtflop is built with CUDA, and by gpu_none.cpp (every device reported unusable)
+// when it is not. All timing is by CUDA events on a dedicated stream; every CUDA call is
+// checked, and the last error after each launch.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace dtflop::probes::gpu {
+
+// A CUDA call failed; the message names the call, where, and CUDA's error string.
+class GpuError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct DeviceInfo {
+  bool usable = false;
+  std::string reason;  // why not, when !usable
+  int device = 0;
+  std::string name;                 // "NVIDIA H200"
+  int sm_count = 0;
+  int cc_major = 0, cc_minor = 0;   // compute capability
+  std::int64_t total_bytes = 0;     // device memory
+  std::int64_t free_bytes = 0;
+  std::optional<double> sm_clock_ghz;  // the device's reported peak SM clock
+  std::string driver_version;       // "580.159.04" (from /proc/driver/nvidia), else the API version
+  std::string runtime_version;      // CUDA runtime this binary uses, "13.0"
+  std::string driver_cuda_version;  // highest CUDA version the driver supports, "13.0"
+};
+
+// Device 0 of this process (CUDA_VISIBLE_DEVICES applies). Never throws.
+DeviceInfo device_info();
+
+enum class Direction { host_to_device, device_to_host };
+enum class HostMemory { pinned, pageable };
+
+struct SizeTiming {
+  std::int64_t bytes = 0;
+  std::vector<double> seconds;  // one entry per timed copy
+};
+
+// Times cudaMemcpyAsync copies of each size (multiples of 4 bytes) between one host buffer
+// (pinned: cudaMallocHost; pageable: ordinary, already touched) and one device buffer, both
+// as large as the largest size. `reps[i]` timed copies of sizes[i] follow `warmup` untimed
+// ones. The destination is poisoned before each size and checked word by word after it;
+// a difference throws ValidationError.
+std::vector<SizeTiming> time_transfers(Direction dir, HostMemory mem,
+                                       std::span<const std::int64_t> sizes,
+                                       std::span<const int> reps, int warmup);
+
+// Device buffers are capped to a quarter of the free device memory; this says what a
+// request for `bytes` per buffer becomes (rounded down to 1 MiB, at least 1 MiB).
+std::int64_t fit_device_buffer(std::int64_t bytes, int buffers);
+
+// Times cudaMemcpyAsync device->device of `bytes` (`reps` copies after `warmup`); checks the
+// destination. Returns seconds per copy.
+std::vector<double> time_d2d_memcpy(std::int64_t bytes, int reps, int warmup);
+
+// Times a copy kernel (16-byte loads and stores, 4 in flight per thread) over `bytes`;
+// checks the destination. Returns seconds per kernel.
+std::vector<double> time_copy_kernel(std::int64_t bytes, int reps, int warmup);
+
+struct FmaTiming {
+  std::vector<double> seconds;  // per kernel
+  double flops = 0;             // per kernel: 2 x threads x chains x steps
+  int blocks = 0, threads_per_block = 0, chains = 0;
+  std::int64_t steps = 0;       // FMA steps per chain per kernel
+};
+
+// Times a kernel of independent FMA chains (x = x * a + b; fp32 or fp64) filling every SM,
+// sized to run about `target_seconds`; `chains` per thread is 4, 8 (the probe's) or 16.
+// Every chain's end value is copied back and compared with its exact expected value
+// (ValidationError on any difference).
+FmaTiming time_fma(bool fp64, double target_seconds, int reps, int chains = 8);
+
+struct LaunchTiming {
+  std::vector<double> per_launch;  // seconds per launch, back to back (events around a batch)
+  std::vector<double> round_trip;  // seconds for launch + cudaStreamSynchronize (host clock)
+  int batch = 0;
+};
+
+// Empty-kernel launch overhead: `reps` batches of `batch` back-to-back launches, and
+// 10 x `reps` single launch + synchronize round trips.
+LaunchTiming time_launches(int batch, int reps);
+
+}  // namespace dtflop::probes::gpu

@@ -1,0 +1,98 @@
+// Internal to the gpu_*.cu files: checked CUDA calls, RAII owners, the data pattern the
+// probes copy and check.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include <cuda_runtime.h>
+
+#include "probes/gpu.hpp"
+#include "probes/gpu_errors.hpp"
+
+namespace dtflop::probes::gpu::detail {
+
+#define DTFLOP_CUDA(call)                                                      \
+  do {                                                                         \
+    const cudaError_t dtflop_e_ = (call);                                      \
+    if (dtflop_e_ != cudaSuccess)                                              \
+      ::dtflop::probes::gpu::detail::fail(static_cast<int>(dtflop_e_), #call, __FILE__, __LINE__); \
+  } while (0)
+
+// After every kernel launch: a bad configuration shows up here, not at the next sync.
+#define DTFLOP_CUDA_LAUNCHED() DTFLOP_CUDA(cudaGetLastError())
+
+class DeviceBuffer {
+ public:
+  explicit DeviceBuffer(std::size_t bytes);
+  ~DeviceBuffer();
+  DeviceBuffer(const DeviceBuffer&) = delete;
+  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
+  template <typename T = void>
+  T* get() const { return static_cast<T*>(p_); }
+  std::size_t bytes() const { return bytes_; }
+
+ private:
+  void* p_ = nullptr;
+  std::size_t bytes_ = 0;
+};
+
+class PinnedBuffer {
+ public:
+  explicit PinnedBuffer(std::size_t bytes);
+  ~PinnedBuffer();
+  PinnedBuffer(const PinnedBuffer&) = delete;
+  PinnedBuffer& operator=(const PinnedBuffer&) = delete;
+  void* get() const { return p_; }
+
+ private:
+  void* p_ = nullptr;
+};
+
+class Stream {
+ public:
+  Stream();
+  ~Stream();
+  Stream(const Stream&) = delete;
+  Stream& operator=(const Stream&) = delete;
+  cudaStream_t get() const { return s_; }
+  void sync() const;
+
+ private:
+  cudaStream_t s_ = nullptr;
+};
+
+class Event {
+ public:
+  Event();
+  ~Event();
+  Event(const Event&) = delete;
+  Event& operator=(const Event&) = delete;
+  void record(const Stream& s);
+  cudaEvent_t get() const { return e_; }
+
+ private:
+  cudaEvent_t e_ = nullptr;
+};
+
+// Seconds between two recorded events (synchronizes on `stop`).
+double elapsed(const Event& start, const Event& stop);
+
+// The pattern: word i of a buffer filled with `seed` holds pattern_word(i, seed). A cheap
+// integer hash, so stale data from another size or seed never passes a check.
+__host__ __device__ inline std::uint32_t pattern_word(std::uint64_t i, std::uint32_t seed) {
+  std::uint64_t x = i * 0x9E3779B97F4A7C15ull + seed;
+  x ^= x >> 31;
+  x *= 0xBF58476D1CE4E5B9ull;
+  x ^= x >> 29;
+  return static_cast<std::uint32_t>(x);
+}
+
+// Fills `words` 32-bit words of device memory with the pattern (asynchronous on `s`).
+void fill_pattern_device(std::uint32_t* p, std::size_t words, std::uint32_t seed, const Stream& s);
+// Number of words of device memory that differ from the pattern (synchronizes on `s`).
+std::uint64_t count_mismatches_device(const std::uint32_t* p, std::size_t words,
+                                      std::uint32_t seed, const Stream& s);
+
+}  // namespace dtflop::probes::gpu::detail

@@ -1,0 +1,239 @@
+// On-device probes: device->device copies (cudaMemcpy and a copy kernel), FMA rate, launch
+// overhead. Timed with events on a dedicated stream; every result checked.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <vector>
+
+#include "probes/gpu_common.cuh"
+#include "probes/probe.hpp"
+
+namespace dtflop::probes::gpu {
+
+namespace {
+
+using detail::DeviceBuffer;
+using detail::Event;
+using detail::Stream;
+
+constexpr int kCopyThreads = 256;
+constexpr int kCopyUnroll = 4;  // 16-byte loads in flight per thread
+
+// Each block copies one tile of kCopyUnroll * blockDim 16-byte words: all loads first, then
+// all stores, so four loads per thread are in flight; consecutive threads touch consecutive
+// words (coalesced).
+__global__ void __launch_bounds__(kCopyThreads)
+    copy_kernel(const uint4* __restrict__ in, uint4* __restrict__ out, std::size_t n) {
+  const std::size_t base =
+      static_cast<std::size_t>(blockIdx.x) * blockDim.x * kCopyUnroll + threadIdx.x;
+  uint4 v[kCopyUnroll];
+#pragma unroll
+  for (int u = 0; u < kCopyUnroll; ++u) {
+    const std::size_t i = base + static_cast<std::size_t>(u) * blockDim.x;
+    if (i < n) v[u] = in[i];
+  }
+#pragma unroll
+  for (int u = 0; u < kCopyUnroll; ++u) {
+    const std::size_t i = base + static_cast<std::size_t>(u) * blockDim.x;
+    if (i < n) out[i] = v[u];
+  }
+}
+
+constexpr int kFmaThreads = 256;
+constexpr int kFmaUnroll = 32;
+
+// Chains independent recurrences x = fma(x, a, b) per thread, kFmaUnroll steps per loop trip
+// (Chains * kFmaUnroll FMAs between two loop branches). Every end value is stored, so the
+// compiler must compute them, and the host checks them.
+template <typename T, int Chains>
+__global__ void __launch_bounds__(kFmaThreads)
+    fma_kernel(T* __restrict__ out, long long trips, T a, T b) {
+  const unsigned tid = blockIdx.x * blockDim.x + threadIdx.x;
+  T x[Chains];
+#pragma unroll
+  for (int j = 0; j < Chains; ++j) x[j] = static_cast<T>((tid & 1023u) + j);
+  for (long long i = 0; i < trips; ++i) {
+#pragma unroll
+    for (int u = 0; u < kFmaUnroll; ++u) {
+#pragma unroll
+      for (int j = 0; j < Chains; ++j) x[j] = fma(x[j], a, b);
+    }
+  }
+#pragma unroll
+  for (int j = 0; j < Chains; ++j) out[static_cast<std::size_t>(tid) * Chains + j] = x[j];
+}
+
+__global__ void empty_kernel() {}
+
+// Checks `bytes` of `dst` against the pattern `seed`; throws ValidationError naming `what`.
+void check_pattern(const DeviceBuffer& dst, std::size_t bytes, std::uint32_t seed,
+                   const Stream& s, const char* what) {
+  const std::size_t words = bytes / 4;
+  const auto bad = detail::count_mismatches_device(dst.get<std::uint32_t>(), words, seed, s);
+  if (bad != 0) detail::mismatch(what, bytes, bad, words);
+}
+
+template <typename T, int Chains>
+FmaTiming run_fma(double target_seconds, int reps) {
+  detail::use_device();
+  int sms = 0, per_sm = 0;
+  DTFLOP_CUDA(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, 0));
+  DTFLOP_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, fma_kernel<T, Chains>,
+                                                             kFmaThreads, 0));
+  FmaTiming r;
+  r.blocks = sms * std::max(per_sm, 1);
+  r.threads_per_block = kFmaThreads;
+  r.chains = Chains;
+  const std::size_t threads = static_cast<std::size_t>(r.blocks) * kFmaThreads;
+  DeviceBuffer out(threads * Chains * sizeof(T));
+  Stream s;
+  Event start, stop;
+  // a = -1 and b = 3 arrive as kernel arguments, unknown to the compiler: each step is a real
+  // FMA, and the exact result alternates between x0 and b - x0 (small integers, no rounding).
+  const T a = T(-1), b = T(3);
+
+  auto launch = [&](long long trips) {
+    start.record(s);
+    fma_kernel<T, Chains><<<r.blocks, kFmaThreads, 0, s.get()>>>(out.get<T>(), trips, a, b);
+    DTFLOP_CUDA_LAUNCHED();
+    stop.record(s);
+    return detail::elapsed(start, stop);
+  };
+  // Warm-up, then size the kernel to the target time from a calibration run.
+  launch(16);
+  long long trips = 64;
+  double t = launch(trips);
+  while (t < target_seconds / 20 && trips < (1LL << 36)) {
+    trips *= 8;
+    t = launch(trips);
+  }
+  if (t > 0) {
+    const double scaled = static_cast<double>(trips) * target_seconds / t;
+    trips = std::clamp(static_cast<long long>(scaled), 1LL, 1LL << 40);
+  }
+  r.steps = trips * kFmaUnroll;
+  r.flops = 2.0 * static_cast<double>(threads) * Chains * static_cast<double>(r.steps);
+  DTFLOP_CUDA(cudaMemsetAsync(out.get(), 0xFF, out.bytes(), s.get()));  // poison (NaN)
+  for (int i = 0; i < reps; ++i) r.seconds.push_back(launch(trips));
+
+  std::vector<T> host(threads * Chains);
+  DTFLOP_CUDA(cudaMemcpyAsync(host.data(), out.get(), out.bytes(), cudaMemcpyDeviceToHost, s.get()));
+  s.sync();
+  const bool odd = (r.steps % 2) != 0;
+  std::size_t bad = 0;
+  for (std::size_t t = 0; t < threads; ++t)
+    for (int j = 0; j < Chains; ++j) {
+      const T x0 = static_cast<T>((t & 1023u) + static_cast<unsigned>(j));
+      const T expect = odd ? b - x0 : x0;
+      bad += host[t * Chains + static_cast<std::size_t>(j)] != expect;
+    }
+  if (bad != 0)
+    detail::mismatch(sizeof(T) == 8 ? "GPU fp64 FMA kernel: chain end values"
+                                    : "GPU fp32 FMA kernel: chain end values",
+                     out.bytes(), bad, threads * Chains);
+  return r;
+}
+
+}  // namespace
+
+std::vector<double> time_d2d_memcpy(std::int64_t bytes, int reps, int warmup) {
+  if (bytes <= 0 || bytes % 4 != 0 || reps < 1)
+    throw std::invalid_argument("time_d2d_memcpy: bytes must be a positive multiple of 4, reps >= 1");
+  detail::use_device();
+  const auto n = static_cast<std::size_t>(bytes);
+  DeviceBuffer src(n), dst(n);
+  Stream s;
+  Event start, stop;
+  const std::uint32_t seed = 0xD2D0u;
+  detail::fill_pattern_device(src.get<std::uint32_t>(), n / 4, seed, s);
+  for (int i = 0; i < warmup; ++i)
+    DTFLOP_CUDA(cudaMemcpyAsync(dst.get(), src.get(), n, cudaMemcpyDeviceToDevice, s.get()));
+  DTFLOP_CUDA(cudaMemsetAsync(dst.get(), 0xA5, n, s.get()));
+  std::vector<double> t;
+  for (int i = 0; i < reps; ++i) {
+    start.record(s);
+    DTFLOP_CUDA(cudaMemcpyAsync(dst.get(), src.get(), n, cudaMemcpyDeviceToDevice, s.get()));
+    stop.record(s);
+    t.push_back(detail::elapsed(start, stop));
+  }
+  check_pattern(dst, n, seed, s, "device->device cudaMemcpy");
+  return t;
+}
+
+std::vector<double> time_copy_kernel(std::int64_t bytes, int reps, int warmup) {
+  if (bytes <= 0 || bytes % 16 != 0 || reps < 1)
+    throw std::invalid_argument("time_copy_kernel: bytes must be a positive multiple of 16, reps >= 1");
+  detail::use_device();
+  const auto n = static_cast<std::size_t>(bytes);
+  const std::size_t words16 = n / 16;
+  DeviceBuffer src(n), dst(n);
+  Stream s;
+  Event start, stop;
+  const std::uint32_t seed = 0xC0B1u;
+  detail::fill_pattern_device(src.get<std::uint32_t>(), n / 4, seed, s);
+  const std::size_t per_block = static_cast<std::size_t>(kCopyThreads) * kCopyUnroll;
+  const auto blocks = static_cast<unsigned>((words16 + per_block - 1) / per_block);
+  auto launch = [&] {
+    copy_kernel<<<blocks, kCopyThreads, 0, s.get()>>>(src.get<const uint4>(), dst.get<uint4>(),
+                                                      words16);
+    DTFLOP_CUDA_LAUNCHED();
+  };
+  for (int i = 0; i < warmup; ++i) launch();
+  DTFLOP_CUDA(cudaMemsetAsync(dst.get(), 0xA5, n, s.get()));
+  std::vector<double> t;
+  for (int i = 0; i < reps; ++i) {
+    start.record(s);
+    launch();
+    stop.record(s);
+    t.push_back(detail::elapsed(start, stop));
+  }
+  check_pattern(dst, n, seed, s, "device copy kernel");
+  return t;
+}
+
+FmaTiming time_fma(bool fp64, double target_seconds, int reps, int chains) {
+  if (!(target_seconds > 0) || reps < 1)
+    throw std::invalid_argument("time_fma: target_seconds must be > 0 and reps >= 1");
+  switch (chains) {
+    case 4: return fp64 ? run_fma<double, 4>(target_seconds, reps) : run_fma<float, 4>(target_seconds, reps);
+    case 8: return fp64 ? run_fma<double, 8>(target_seconds, reps) : run_fma<float, 8>(target_seconds, reps);
+    case 16: return fp64 ? run_fma<double, 16>(target_seconds, reps) : run_fma<float, 16>(target_seconds, reps);
+  }
+  throw std::invalid_argument("time_fma: chains must be 4, 8 or 16");
+}
+
+LaunchTiming time_launches(int batch, int reps) {
+  if (batch < 1 || reps < 1) throw std::invalid_argument("time_launches: batch and reps must be >= 1");
+  detail::use_device();
+  Stream s;
+  Event start, stop;
+  LaunchTiming r;
+  r.batch = batch;
+  // Warm-up: module load and the first launch's set-up stay out of the figures.
+  for (int i = 0; i < 100; ++i) {
+    empty_kernel<<<1, 32, 0, s.get()>>>();
+    DTFLOP_CUDA_LAUNCHED();
+  }
+  s.sync();
+  for (int k = 0; k < reps; ++k) {
+    start.record(s);
+    for (int i = 0; i < batch; ++i) {
+      empty_kernel<<<1, 32, 0, s.get()>>>();
+      DTFLOP_CUDA_LAUNCHED();
+    }
+    stop.record(s);
+    r.per_launch.push_back(detail::elapsed(start, stop) / batch);
+  }
+  // Round trips are cheap: ten times as many, for a steady median.
+  for (int k = 0; k < 10 * reps; ++k) {
+    const auto t0 = std::chrono::steady_clock::now();
+    empty_kernel<<<1, 32, 0, s.get()>>>();
+    DTFLOP_CUDA_LAUNCHED();
+    s.sync();
+    const auto t1 = std::chrono::steady_clock::now();
+    r.round_trip.push_back(std::chrono::duration<double>(t1 - t0).count());
+  }
+  return r;
+}
+
+}  // namespace dtflop::probes::gpu

@@ -1,0 +1,31 @@
+// Who the machine is: CPU model, cores, threads, clock, caches, host name, time of
+// measurement (the GPU part comes from probes/gpu.hpp).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "model/profile.hpp"
+
+namespace dtflop::probes {
+
+struct CpuInfo {
+  std::string model;        // "AMD EPYC 7763 64-Core Processor"; "unknown CPU" when unreadable
+  int cores = 0;            // physical cores (distinct physical id + core id), >= 1
+  int threads = 0;          // hardware threads this process may use, >= 1
+  std::optional<double> clock_ghz;  // nominal clock when the system says it
+  std::string clock_source;         // where clock_ghz came from, e.g. "/proc/cpuinfo 'cpu MHz'"
+  std::optional<std::int64_t> llc_bytes;  // last-level cache size, when known
+};
+
+// Reads /proc/cpuinfo and /sys (Linux); elsewhere fills what the standard library knows.
+CpuInfo cpu_info();
+
+// Host name, CPU part and the current time (ISO 8601 UTC); GPU fields left empty.
+MachineIdentity host_identity();
+
+// The current UTC time as "2026-11-21T03:11:00Z".
+std::string utc_now_iso8601();
+
+}  // namespace dtflop::probes

@@ -1,0 +1,143 @@
+// Host memory bandwidth: STREAM copy and triad over arrays several times the last-level
+// cache, one thread and all threads (each thread streams its own slice, first touched by
+// itself). Bytes counted are those read plus written (write-allocate traffic not counted,
+// as in STREAM). B_host_1 / B_host are the triad figures.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "probes/cpu_kernels.hpp"
+#include "probes/identity.hpp"
+#include "probes/measure.hpp"
+#include "probes/probe.hpp"
+#include "probes/team.hpp"
+
+namespace dtflop::probes {
+namespace {
+
+struct Plan {
+  std::int64_t array_bytes;
+  int reps;
+  int warmup;
+};
+
+Plan plan(Effort e, std::optional<std::int64_t> llc) {
+  const std::int64_t mib = 1 << 20;
+  const std::int64_t cache = llc.value_or(32 * mib);
+  switch (e) {
+    case Effort::smoke: return {4 * mib, 3, 1};
+    case Effort::quick: return {std::clamp(2 * cache, 64 * mib, 256 * mib), 8, 1};
+    case Effort::full: return {std::clamp(4 * cache, 256 * mib, 1024 * mib), 20, 2};
+  }
+  return {64 * mib, 5, 1};
+}
+
+// Value at index i of the input arrays: small integers and halves, so b + s*c is exact.
+double b_value(std::size_t i) { return static_cast<double>(i % 1024); }
+double c_value(std::size_t i) { return 0.5 * static_cast<double>(i % 256); }
+constexpr double kScalar = 3.0;
+
+std::vector<Measurement> stream(int threads, const Plan& p, cpu::Isa isa, const ProbeOptions& o) {
+  const std::size_t n = static_cast<std::size_t>(p.array_bytes) / sizeof(double);
+  // Not value-initialised: every page is first touched by the thread that streams it.
+  std::unique_ptr<double[]> a(new double[n]), b(new double[n]), c(new double[n]);
+  Team team(threads);
+  auto slice = [&](int w) {
+    const std::size_t per = (n + static_cast<std::size_t>(threads) - 1) / static_cast<std::size_t>(threads);
+    const std::size_t lo = std::min(n, per * static_cast<std::size_t>(w));
+    return std::pair<std::size_t, std::size_t>(lo, std::min(n, lo + per));
+  };
+  team.run([&](int w) {
+    const auto [lo, hi] = slice(w);
+    for (std::size_t i = lo; i < hi; ++i) {
+      a[i] = 0;
+      b[i] = b_value(i);
+      c[i] = c_value(i);
+    }
+  });
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  auto poison = [&] {
+    team.run([&](int w) {
+      const auto [lo, hi] = slice(w);
+      std::fill(a.get() + lo, a.get() + hi, nan);
+    });
+  };
+
+  const std::string who = threads == 1 ? "1 thread" : fmt::format("{} threads", threads);
+  const std::string what = fmt::format("arrays of {}, {}, {} kernels, median of {} runs",
+                                       size_label(p.array_bytes), who, cpu::to_string(isa), p.reps);
+  std::vector<Measurement> out;
+
+  // Copy: a = b.
+  auto copy = [&](int w) {
+    const auto [lo, hi] = slice(w);
+    cpu::stream_copy(isa, a.get() + lo, b.get() + lo, hi - lo);
+  };
+  for (int i = 0; i < p.warmup; ++i) team.run(copy);
+  poison();
+  std::vector<double> t;
+  for (int i = 0; i < p.reps; ++i) t.push_back(team.run(copy));
+  for (std::size_t i = 0; i < n; ++i)
+    if (a[i] != b[i])
+      throw ValidationError(fmt::format("host copy ({}): element {} is {}, expected {}", who, i,
+                                        a[i], b[i]));
+  const std::string k = threads == 1 ? "1" : "all";
+  out.push_back(rate_measurement(fmt::format("copy_{}", k), fmt::format("STREAM copy, {}", who),
+                                 "B/s", 16.0 * static_cast<double>(n), t, std::nullopt,
+                                 fmt::format("a[i] = b[i], 16 B/element; {}", what)));
+
+  // Triad: a = b + s * c.
+  auto triad = [&](int w) {
+    const auto [lo, hi] = slice(w);
+    cpu::stream_triad(isa, a.get() + lo, b.get() + lo, c.get() + lo, kScalar, hi - lo);
+  };
+  for (int i = 0; i < p.warmup; ++i) team.run(triad);
+  poison();
+  t.clear();
+  for (int i = 0; i < p.reps; ++i) t.push_back(team.run(triad));
+  for (std::size_t i = 0; i < n; ++i) {
+    const double expect = b_value(i) + kScalar * c_value(i);
+    if (a[i] != expect)
+      throw ValidationError(fmt::format("host triad ({}): element {} is {}, expected {}", who, i,
+                                        a[i], expect));
+  }
+  out.push_back(rate_measurement(
+      fmt::format("triad_{}", k), fmt::format("STREAM triad, {}", who), "B/s",
+      24.0 * static_cast<double>(n), t, threads == 1 ? Param::B_host_1 : Param::B_host,
+      fmt::format("triad a[i] = b[i] + s*c[i], 24 B/element read+written; {}", what)));
+  o.say(fmt::format("  host memory, {}: copy {:.1f} GB/s, triad {:.1f} GB/s", who,
+                    out[0].value / 1e9, out[1].value / 1e9));
+  return out;
+}
+
+ProbeReport run(const ProbeOptions& o) {
+  ProbeReport r;
+  const CpuInfo ci = cpu_info();
+  const Plan p = plan(o.effort, ci.llc_bytes);
+  const cpu::Isa isa = cpu::best_isa();
+  r.measurements = stream(1, p, isa, o);
+  if (ci.threads > 1) {
+    auto all = stream(ci.threads, p, isa, o);
+    r.measurements.insert(r.measurements.end(), all.begin(), all.end());
+  } else {
+    // One CPU: the all-threads figure is the one-thread figure.
+    Measurement all = r.measurements.back();
+    all.key = "triad_all";
+    all.param = Param::B_host;
+    all.note += " (only one CPU is available to this process)";
+    r.measurements.push_back(all);
+  }
+  return r;
+}
+
+}  // namespace
+}  // namespace dtflop::probes
+
+DTFLOP_PROBE_UNIT(probe_cpu_memory) {
+  registry.add({"cpu-memory",
+                "host memory bandwidth: STREAM copy and triad, one thread and all threads", false,
+                10, dtflop::probes::run});
+}

@@ -1,0 +1,41 @@
+// Kernel launch overhead: back-to-back launches of an empty kernel (events around a batch,
+// L_launch), and a single launch + synchronize round trip (host clock, reported beside it).
+#include <fmt/format.h>
+
+#include "probes/gpu.hpp"
+#include "probes/measure.hpp"
+#include "probes/probe.hpp"
+
+namespace dtflop::probes {
+namespace {
+
+ProbeReport run(const ProbeOptions& o) {
+  ProbeReport r;
+  const auto dev = gpu::device_info();
+  if (!dev.usable) {
+    r.skipped = dev.reason;
+    return r;
+  }
+  const int batch = o.effort == Effort::full ? 2000 : o.effort == Effort::quick ? 1000 : 100;
+  const int reps = o.effort == Effort::full ? 15 : o.effort == Effort::quick ? 7 : 3;
+  const auto t = gpu::time_launches(batch, reps);
+  r.measurements.push_back(time_measurement(
+      "launch", "empty kernel, back-to-back launches", t.per_launch, Param::L_launch,
+      fmt::format("events around {} launches of an empty kernel on one stream, per launch, "
+                  "median of {}",
+                  batch, reps)));
+  r.measurements.push_back(time_measurement(
+      "launch_sync", "empty kernel, launch + cudaStreamSynchronize", t.round_trip, std::nullopt,
+      fmt::format("host clock around one launch and its synchronize, median of {}", t.round_trip.size())));
+  o.say(fmt::format("  launch: {:.2f} us back to back, {:.2f} us with synchronize",
+                    r.measurements[0].value * 1e6, r.measurements[1].value * 1e6));
+  return r;
+}
+
+}  // namespace
+}  // namespace dtflop::probes
+
+DTFLOP_PROBE_UNIT(probe_gpu_launch) {
+  registry.add({"gpu-launch", "kernel launch overhead (empty kernel)", true, 60,
+                dtflop::probes::run});
+}

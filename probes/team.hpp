@@ -1,0 +1,42 @@
+// A fixed team of threads that run one function together, started and stopped at barriers,
+// so that the time of one parallel repetition is measured from the moment every thread is
+// released to the moment the last one finishes (thread creation stays out of the timing).
+#pragma once
+
+#include <barrier>
+#include <functional>
+#include <thread>
+#include <vector>
+
+namespace dtflop::probes {
+
+class Team {
+ public:
+  // `threads` >= 1 workers; the calling thread is worker 0, so threads - 1 are started.
+  explicit Team(int threads);
+  ~Team();
+  Team(const Team&) = delete;
+  Team& operator=(const Team&) = delete;
+
+  int size() const { return size_; }
+
+  // Runs fn(worker) on every worker at once; returns the wall time in seconds from the
+  // common start to the end of the slowest worker. An exception thrown by a worker is
+  // re-thrown here (the first one).
+  double run(const std::function<void(int worker)>& fn);
+
+ private:
+  void worker_loop(int index);
+  int size_;
+  std::barrier<> start_;
+  std::barrier<> done_;
+  const std::function<void(int)>* job_ = nullptr;
+  bool quit_ = false;
+  std::vector<std::exception_ptr> errors_;
+  std::vector<std::jthread> threads_;
+};
+
+// CPUs this process may run on (the affinity mask; hardware_concurrency as fallback).
+int usable_cpus();
+
+}  // namespace dtflop::probes

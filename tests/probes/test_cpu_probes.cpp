@@ -1,0 +1,90 @@
+// The CPU probes, run at smoke effort: positive finite figures for the right parameters,
+// with their results validated inside the probe.
+#include <cmath>
+#include <regex>
+#include <set>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "probes/identity.hpp"
+#include "probes/probe.hpp"
+
+namespace dtflop::probes {
+namespace {
+
+const Probe& probe(const std::string& name) {
+  for (const auto& p : all_probes())
+    if (p.name == name) return p;
+  throw std::runtime_error("no probe " + name);
+}
+
+void expect_sane(const ProbeReport& r) {
+  EXPECT_FALSE(r.skipped.has_value());
+  EXPECT_FALSE(r.error.has_value());
+  std::set<std::string> keys;
+  for (const auto& m : r.measurements) {
+    EXPECT_TRUE(keys.insert(m.key).second) << "duplicate key " << m.key;
+    EXPECT_TRUE(std::isfinite(m.value) && m.value > 0) << m.key << " = " << m.value;
+    EXPECT_FALSE(m.label.empty());
+    EXPECT_FALSE(m.unit.empty());
+    if (m.param) {
+      EXPECT_EQ(m.unit, info(*m.param).unit) << m.key;
+    }
+  }
+}
+
+const Measurement* find(const ProbeReport& r, Param p) {
+  for (const auto& m : r.measurements)
+    if (m.param == p) return &m;
+  return nullptr;
+}
+
+TEST(CpuProbes, MemoryGivesBothBandwidths) {
+  ProbeOptions o;
+  o.effort = Effort::smoke;
+  const ProbeReport r = probe("cpu-memory").run(o);
+  expect_sane(r);
+  const auto* one = find(r, Param::B_host_1);
+  const auto* all = find(r, Param::B_host);
+  ASSERT_NE(one, nullptr);
+  ASSERT_NE(all, nullptr);
+  EXPECT_EQ(one->stats.n, 3u);  // the smoke plan's repetitions
+  // Between 100 MB/s and 10 TB/s: catches a unit slip by 1e3 either way.
+  EXPECT_GT(one->value, 1e8);
+  EXPECT_LT(all->value, 1e13);
+}
+
+TEST(CpuProbes, FmaGivesFourRates) {
+  ProbeOptions o;
+  o.effort = Effort::smoke;
+  const ProbeReport r = probe("cpu-fma").run(o);
+  expect_sane(r);
+  for (Param p : {Param::V_C1_fp32, Param::V_C1_fp64, Param::V_C_fp32, Param::V_C_fp64}) {
+    const auto* m = find(r, p);
+    ASSERT_NE(m, nullptr) << info(p).name;
+    EXPECT_GT(m->value, 1e8) << info(p).name;   // any CPU of this century
+    EXPECT_LT(m->value, 1e14) << info(p).name;
+    EXPECT_EQ(m->stats.n, 2u);
+  }
+  // A CPU does at least as many FP32 as FP64 operations per second (same vector width):
+  // allow 40% for timing noise on a shared machine.
+  EXPECT_GT(find(r, Param::V_C1_fp32)->value, 0.6 * find(r, Param::V_C1_fp64)->value);
+}
+
+TEST(Identity, DescribesThisCpu) {
+  const CpuInfo c = cpu_info();
+  EXPECT_FALSE(c.model.empty());
+  EXPECT_GE(c.cores, 1);
+  EXPECT_GE(c.threads, c.cores);
+  if (c.clock_ghz) {
+    EXPECT_GT(*c.clock_ghz, 0.1);
+    EXPECT_LT(*c.clock_ghz, 10.0);
+    EXPECT_FALSE(c.clock_source.empty());
+  }
+  const std::string now = utc_now_iso8601();
+  EXPECT_TRUE(std::regex_match(now, std::regex(R"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ)"))) << now;
+}
+
+}  // namespace
+}  // namespace dtflop::probes

@@ -1,0 +1,113 @@
+// The CUDA probes on a real device (skipped without one). The probes check their own data;
+// these tests check that they run, validate, and give figures of the right size.
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "probes/fit.hpp"
+#include "probes/gpu.hpp"
+#include "probes/probe.hpp"
+#include "probes/stats.hpp"
+#include "tests/support/gpu.hpp"
+
+namespace dtflop::probes {
+namespace {
+
+TEST(GpuProbes, DeviceIsDescribed) {
+  DTFLOP_REQUIRE_GPU();
+  const auto d = gpu::device_info();
+  ASSERT_TRUE(d.usable) << d.reason;
+  EXPECT_FALSE(d.name.empty());
+  EXPECT_GT(d.sm_count, 0);
+  EXPECT_GT(d.total_bytes, 0);
+  EXPECT_FALSE(d.runtime_version.empty());
+  EXPECT_FALSE(d.driver_version.empty());
+}
+
+TEST(GpuProbes, TransfersMoveTheDataBothWays) {
+  DTFLOP_REQUIRE_GPU();
+  const std::vector<std::int64_t> sizes = {4096, 1 << 20, 16 << 20};
+  const std::vector<int> reps = {5, 5, 3};
+  for (auto dir : {gpu::Direction::host_to_device, gpu::Direction::device_to_host})
+    for (auto mem : {gpu::HostMemory::pinned, gpu::HostMemory::pageable}) {
+      // time_transfers checks every word of every size and throws ValidationError otherwise.
+      const auto t = gpu::time_transfers(dir, mem, sizes, reps, 1);
+      ASSERT_EQ(t.size(), sizes.size());
+      std::vector<TransferPoint> pts;
+      for (std::size_t i = 0; i < t.size(); ++i) {
+        ASSERT_EQ(t[i].seconds.size(), static_cast<std::size_t>(reps[i]));
+        for (double s : t[i].seconds) EXPECT_GT(s, 0);
+        pts.push_back({static_cast<double>(t[i].bytes), summarize(t[i].seconds).median});
+      }
+      // 16 MiB takes longer than 4 KiB, and the fitted bandwidth is between 100 MB/s and
+      // 1 TB/s (PCIe / NVLink-C2C territory).
+      EXPECT_GT(pts.back().seconds, pts.front().seconds);
+      const auto f = fit_latency_bandwidth(pts);
+      EXPECT_GT(f.bandwidth, 1e8);
+      EXPECT_LT(f.bandwidth, 1e12);
+    }
+}
+
+TEST(GpuProbes, TransferArgumentsAreChecked) {
+  DTFLOP_REQUIRE_GPU();
+  const std::vector<std::int64_t> odd = {4097};
+  const std::vector<int> one = {1};
+  EXPECT_THROW(gpu::time_transfers(gpu::Direction::host_to_device, gpu::HostMemory::pinned, odd,
+                                   one, 0),
+               std::invalid_argument);
+}
+
+TEST(GpuProbes, DeviceCopiesAreCheckedAndFast) {
+  DTFLOP_REQUIRE_GPU();
+  const std::int64_t bytes = 64 << 20;
+  const auto a = gpu::time_d2d_memcpy(bytes, 5, 1);
+  const auto b = gpu::time_copy_kernel(bytes, 5, 1);
+  ASSERT_EQ(a.size(), 5u);
+  ASSERT_EQ(b.size(), 5u);
+  // Read + write of 64 MiB: faster than 10 GB/s on any CUDA GPU.
+  EXPECT_GT(2.0 * bytes / summarize(a).median, 1e10);
+  EXPECT_GT(2.0 * bytes / summarize(b).median, 1e10);
+}
+
+TEST(GpuProbes, FmaKernelsValidateAndCountFlops) {
+  DTFLOP_REQUIRE_GPU();
+  for (bool fp64 : {false, true}) {
+    const auto t = gpu::time_fma(fp64, 0.002, 3);
+    ASSERT_EQ(t.seconds.size(), 3u);
+    EXPECT_GT(t.blocks, 0);
+    EXPECT_DOUBLE_EQ(t.flops, 2.0 * t.blocks * t.threads_per_block * t.chains *
+                                  static_cast<double>(t.steps));
+    EXPECT_GT(t.flops / summarize(t.seconds).median, 1e10);
+  }
+}
+
+TEST(GpuProbes, LaunchOverheadIsMicroseconds) {
+  DTFLOP_REQUIRE_GPU();
+  const auto t = gpu::time_launches(200, 3);
+  ASSERT_EQ(t.per_launch.size(), 3u);
+  ASSERT_EQ(t.round_trip.size(), 30u);
+  const double l = summarize(t.per_launch).median;
+  EXPECT_GT(l, 1e-8);
+  EXPECT_LT(l, 1e-3);
+  // A launch that waits for its kernel takes at least as long as one in a stream of launches.
+  EXPECT_GT(summarize(t.round_trip).median, 0.5 * l);
+}
+
+TEST(GpuProbes, EveryGpuProbeRunsAtSmokeEffort) {
+  DTFLOP_REQUIRE_GPU();
+  ProbeOptions o;
+  o.effort = Effort::smoke;
+  for (const auto& p : all_probes()) {
+    if (!p.needs_gpu) continue;
+    const ProbeReport r = p.run(o);
+    EXPECT_FALSE(r.skipped.has_value()) << p.name;
+    EXPECT_FALSE(r.measurements.empty()) << p.name;
+    for (const auto& m : r.measurements)
+      EXPECT_TRUE(std::isfinite(m.value) && m.value > 0) << p.name << " " << m.key;
+  }
+}
+
+}  // namespace
+}  // namespace dtflop::probes

@@ -1,0 +1,131 @@
+// The whole probe run at smoke effort and the profile made from it.
+#include <filesystem>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "model/errors.hpp"
+#include "model/json_io.hpp"
+#include "probes/gpu.hpp"
+#include "probes/machine.hpp"
+
+namespace dtflop::probes {
+namespace {
+
+const std::vector<Param> kGpuParams = {
+    Param::B_CG_pinned,   Param::B_GC_pinned,   Param::B_CG_pageable, Param::B_GC_pageable,
+    Param::L_CG_pinned,   Param::L_GC_pinned,   Param::L_CG_pageable, Param::L_GC_pageable,
+    Param::B_GG,          Param::B_GG_copy,     Param::V_G_fp32,      Param::V_G_fp64,
+    Param::L_launch};
+const std::vector<Param> kCpuParams = {Param::B_host_1,  Param::B_host,    Param::V_C1_fp32,
+                                       Param::V_C_fp32,  Param::V_C1_fp64, Param::V_C_fp64};
+
+TEST(Registry, HoldsEveryProbeOnceInOrder) {
+  std::set<std::string> names;
+  int last = -1;
+  for (const auto& p : all_probes()) {
+    EXPECT_TRUE(names.insert(p.name).second) << p.name;
+    EXPECT_GE(p.order, last);
+    last = p.order;
+  }
+  for (const char* n : {"cpu-memory", "cpu-fma", "gpu-transfers", "gpu-memory", "gpu-fma", "gpu-launch"})
+    EXPECT_TRUE(names.count(n)) << n << " is not registered";
+}
+
+TEST(Registry, RefusesDuplicates) {
+  Registry r;
+  r.add({"x", "a probe", false, 0, [](const ProbeOptions&) { return ProbeReport{}; }});
+  EXPECT_THROW(r.add({"x", "again", false, 0, [](const ProbeOptions&) { return ProbeReport{}; }}),
+               std::logic_error);
+}
+
+TEST(ProbeMachine, UnknownProbeNameIsAnInputError) {
+  ProbeOptions o;
+  o.effort = Effort::smoke;
+  const std::vector<std::string> only = {"cpu-fma", "warp-drive"};
+  try {
+    probe_machine(o, only);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("warp-drive"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("cpu-memory"), std::string::npos) << "should list the probes: " << msg;
+  }
+}
+
+TEST(ProbeMachine, ProfileHoldsWhatWasMeasuredAndNothingElse) {
+  ProbeOptions o;
+  o.effort = Effort::smoke;
+  std::vector<std::string> lines;
+  o.progress = [&lines](const std::string& l) { lines.push_back(l); };
+  const MachineReport rep = probe_machine(o);
+  EXPECT_FALSE(rep.failed());
+  EXPECT_FALSE(lines.empty());
+  const MachineProfile prof = make_profile(rep);
+
+  EXPECT_FALSE(prof.identity.cpu_model.empty());
+  EXPECT_GE(prof.identity.cpu_cores, 1);
+  EXPECT_GE(prof.identity.cpu_threads, prof.identity.cpu_cores);
+  EXPECT_FALSE(prof.identity.measured_at.empty());
+  for (Param p : kCpuParams) {
+    ASSERT_TRUE(prof.has(p)) << info(p).name;
+    EXPECT_EQ(prof.get(p).provenance, Provenance::probed);
+    EXPECT_TRUE(prof.get(p).spread.has_value()) << info(p).name;
+    EXPECT_FALSE(prof.get(p).note.empty());
+  }
+  const bool gpu = gpu::device_info().usable;
+  if (gpu) {
+    EXPECT_FALSE(prof.identity.gpu_name.empty());
+    EXPECT_FALSE(prof.identity.cuda_version.empty());
+    for (Param p : kGpuParams) EXPECT_TRUE(prof.has(p)) << info(p).name;
+  } else {
+    // No device: the GPU parameters are absent (never zero), and the reason is recorded.
+    EXPECT_TRUE(prof.identity.gpu_name.empty());
+    for (Param p : kGpuParams) EXPECT_FALSE(prof.has(p)) << info(p).name;
+    EXPECT_EQ(prof.metadata.count("probe.gpu"), 1u);
+    bool said = false;
+    for (const auto& l : lines) said = said || l.find("GPU probes skipped") != std::string::npos;
+    EXPECT_TRUE(said) << "no message that the GPU probes were skipped";
+  }
+
+  // Round trip through the file format.
+  const auto path = std::filesystem::temp_directory_path() / "dtflop_test_probe_profile.json";
+  save_profile(prof, path);
+  const MachineProfile back = load_profile(path);
+  std::filesystem::remove(path);
+  EXPECT_EQ(back.params().size(), prof.params().size());
+  for (const auto& [p, v] : prof.params()) {
+    ASSERT_TRUE(back.has(p));
+    EXPECT_DOUBLE_EQ(back.get(p).value, v.value);
+  }
+  EXPECT_EQ(back.identity.cpu_model, prof.identity.cpu_model);
+  EXPECT_EQ(back.identity.measured_at, prof.identity.measured_at);
+}
+
+TEST(ProbeMachine, AFailingProbeLeavesItsParametersOut) {
+  // make_profile takes measurements from sound reports only.
+  MachineReport rep;
+  ProbeReport ok, bad;
+  ok.probe = "a";
+  Measurement m;
+  m.key = "x";
+  m.unit = "B/s";
+  m.value = 1e10;
+  m.param = Param::B_host;
+  ok.measurements.push_back(m);
+  bad.probe = "b";
+  m.param = Param::B_host_1;
+  bad.measurements.push_back(m);
+  bad.error = "result did not validate";
+  rep.reports = {ok, bad};
+  EXPECT_TRUE(rep.failed());
+  const MachineProfile prof = make_profile(rep);
+  EXPECT_TRUE(prof.has(Param::B_host));
+  EXPECT_FALSE(prof.has(Param::B_host_1));
+  EXPECT_NE(prof.metadata.at("probe.failed").find("did not validate"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace dtflop::probes
