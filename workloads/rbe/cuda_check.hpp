@@ -10,6 +10,7 @@
 namespace dtflop::rbe::detail {
 
 [[noreturn]] inline void cuda_fail(cudaError_t e, const char* call, const char* file, int line) {
+  cudaGetLastError();  // clear a non-sticky error so that it is not reported again by a later call
   throw std::runtime_error(std::string("CUDA error ") + cudaGetErrorName(e) + " (" + cudaGetErrorString(e) +
                            ") in " + call + " at " + file + ":" + std::to_string(line));
 }

@@ -50,6 +50,27 @@ struct KernelArgs {
   double cell_area;
 };
 
+// Asynchronous 4-byte copy global -> shared (cp.async, sm_80+); when !valid the destination
+// is filled with zero and nothing is read. Every load of a tile is in flight at once instead
+// of one round trip per loop iteration.
+__device__ __forceinline__ void copy_async(float* dst, const float* src, bool valid) {
+  const unsigned d = static_cast<unsigned>(__cvta_generic_to_shared(dst));
+  asm volatile("cp.async.ca.shared.global [%0], [%1], 4, %2;\n" ::"r"(d), "l"(src), "r"(valid ? 4 : 0));
+}
+__device__ __forceinline__ void copy_async_wait() { asm volatile("cp.async.wait_all;\n" ::); }
+
+// The likelihood of the R cells a thread corrects, loaded at the start of the kernel so that
+// its latency hides behind the passes.
+template <int R>
+__device__ __forceinline__ void load_likelihood(const KernelArgs& a, int x0, int y0, float (&lv)[R]) {
+  const int gx = x0 + threadIdx.x;
+#pragma unroll
+  for (int j = 0; j < R; ++j) {
+    const int gy = y0 + threadIdx.y * R + j;
+    lv[j] = (gx < a.nx && gy < a.ny) ? __ldg(a.l + std::size_t(gy) * std::size_t(a.nx) + gx) : 0.f;
+  }
+}
+
 // 1 / (A_c S), or 0 when S is zero, not finite or the scale would overflow float (the host
 // reports the error from the sums; the belief turns to zeros, never NaN).
 __device__ inline double scale_from(double S, double area) {
@@ -142,7 +163,7 @@ __device__ __forceinline__ void y_window(const float* col, int pitch, const floa
 // share of S_k. `red` holds 32 warp partials; red[32] the scale.
 template <int R>
 __device__ __forceinline__ void y_correct(const KernelArgs& a, const float* u, const float* ky, int x0, int y0,
-                                          double* red) {
+                                          const float (&lv)[R], double* red) {
   const int tx = threadIdx.x, ty = threadIdx.y;
   const int tid = ty * blockDim.x + tx, T = blockDim.x * blockDim.y;
   float acc[R];
@@ -155,8 +176,7 @@ __device__ __forceinline__ void y_correct(const KernelArgs& a, const float* u, c
     const int gy = y0 + ty * R + j;
     const bool inside = gx < a.nx && gy < a.ny;
     const std::size_t i = std::size_t(gy) * std::size_t(a.nx) + std::size_t(gx);
-    const float lv = inside ? __ldg(a.l + i) : 0.f;
-    const float qv = lv * (s * acc[j]);
+    const float qv = lv[j] * (s * acc[j]);
     if (inside) a.q_next[i] = qv;
     part += qv;
   }
@@ -186,21 +206,26 @@ __global__ void rbe_resident_fused(KernelArgs a) {
   const int tx = threadIdx.x, ty = threadIdx.y, bx = blockDim.x, by = blockDim.y;
   const int tid = ty * bx + tx, T = bx * by;
   const int x0 = blockIdx.x * bx, y0 = blockIdx.y * by * R;
-  if (tid == 0) red[32] = scale_from(*a.sum_in, a.cell_area);
-  for (int i = tid; i < a.kx_len; i += T) kx[i] = a.kx[i];
-  for (int i = tid; i < a.ky_len; i += T) ky[i] = a.ky[i];
   const int gx0 = x0 - a.hx, gy0 = y0 - a.hy;
   for (int r = ty; r < a.in_rows; r += by) {
     const int gy = gy0 + r;
     const bool row_in = gy >= 0 && gy < a.ny;
     float* dst = in + r * a.in_pitch;
+    const float* src = a.q_prev + (row_in ? std::size_t(gy) * std::size_t(a.nx) : 0);
     for (int c = tx; c < a.in_cols; c += bx) {
       const int gx = gx0 + c;
-      dst[c] = (row_in && gx >= 0 && gx < a.nx) ? __ldg(a.q_prev + std::size_t(gy) * std::size_t(a.nx) + gx) : 0.f;
+      const bool valid = row_in && gx >= 0 && gx < a.nx;
+      copy_async(dst + c, valid ? src + gx : a.q_prev, valid);
     }
   }
+  for (int i = tid; i < a.kx_len; i += T) copy_async(kx + i, a.kx + i, true);
+  for (int i = tid; i < a.ky_len; i += T) copy_async(ky + i, a.ky + i, true);
+  float lv[R];
+  load_likelihood<R>(a, x0, y0, lv);
+  if (tid == 0) red[32] = scale_from(*a.sum_in, a.cell_area);
   // u rows below the x-pass's are read only by taps the y-pass skips: keep them finite.
   for (int i = tid; i < (a.u_rows - a.in_rows) * a.u_pitch; i += T) u[a.in_rows * a.u_pitch + i] = 0.f;
+  copy_async_wait();
   __syncthreads();
   const int segs = bx / kRx;
   const int tasks = a.in_rows * segs;
@@ -213,7 +238,7 @@ __global__ void rbe_resident_fused(KernelArgs a) {
     for (int j = 0; j < kRx; ++j) dst[j] = acc[j];
   }
   __syncthreads();
-  y_correct<R>(a, u, ky, x0, y0, red);
+  y_correct<R>(a, u, ky, x0, y0, lv, red);
 }
 
 // Split x-pass: tile of 128 x (T / 16) outputs, one 8-wide segment per thread; writes u.
@@ -224,14 +249,21 @@ __global__ void rbe_resident_xpass(KernelArgs a) {
   const int tid = threadIdx.y * blockDim.x + threadIdx.x, T = blockDim.x * blockDim.y;
   const int rows = a.in_rows;  // T / 16
   const int x0 = blockIdx.x * resident::kXpassWidth, y0 = blockIdx.y * rows;
-  for (int i = tid; i < a.kx_len; i += T) kx[i] = a.kx[i];
+  for (int i = tid; i < a.kx_len; i += T) copy_async(kx + i, a.kx + i, true);
   const int gx0 = x0 - a.hx;
-  for (int i = tid; i < rows * a.in_cols; i += T) {
-    const int r = i / a.in_cols, c = i - r * a.in_cols;
-    const int gy = y0 + r, gx = gx0 + c;
-    in[r * a.in_pitch + c] =
-        (gy < a.ny && gx >= 0 && gx < a.nx) ? __ldg(a.q_prev + std::size_t(gy) * std::size_t(a.nx) + gx) : 0.f;
+  // Warps stride over rows, lanes over columns (coalesced).
+  const int lane = tid & 31, warp = tid >> 5, warps = T >> 5;
+  for (int r = warp; r < rows; r += warps) {
+    const int gy = y0 + r;
+    const bool row_in = gy < a.ny;
+    const float* src = a.q_prev + (row_in ? std::size_t(gy) * std::size_t(a.nx) : 0);
+    for (int c = lane; c < a.in_cols; c += 32) {
+      const int gx = gx0 + c;
+      const bool valid = row_in && gx >= 0 && gx < a.nx;
+      copy_async(in + r * a.in_pitch + c, valid ? src + gx : a.q_prev, valid);
+    }
   }
+  copy_async_wait();
   __syncthreads();
   const int r = tid % rows, seg = tid / rows;
   float acc[kRx];
@@ -255,17 +287,19 @@ __global__ void rbe_resident_ypass(KernelArgs a) {
   const int tx = threadIdx.x, ty = threadIdx.y, bx = blockDim.x, by = blockDim.y;
   const int tid = ty * bx + tx, T = bx * by;
   const int x0 = blockIdx.x * bx, y0 = blockIdx.y * by * R;
-  if (tid == 0) red[32] = scale_from(*a.sum_in, a.cell_area);
-  for (int i = tid; i < a.ky_len; i += T) ky[i] = a.ky[i];
+  for (int i = tid; i < a.ky_len; i += T) copy_async(ky + i, a.ky + i, true);
   const int gy0 = y0 - a.hy, gx = x0 + tx;
   for (int r = ty; r < a.u_rows; r += by) {
     const int gy = gy0 + r;
-    u[r * a.u_pitch + tx] = (gy >= 0 && gy < a.ny && gx < a.nx)
-                                ? __ldg(a.u + std::size_t(gy) * std::size_t(a.nx) + gx)
-                                : 0.f;
+    const bool valid = gy >= 0 && gy < a.ny && gx < a.nx;
+    copy_async(u + r * a.u_pitch + tx, valid ? a.u + std::size_t(gy) * std::size_t(a.nx) + gx : a.u, valid);
   }
+  float lv[R];
+  load_likelihood<R>(a, x0, y0, lv);
+  if (tid == 0) red[32] = scale_from(*a.sum_in, a.cell_area);
+  copy_async_wait();
   __syncthreads();
-  y_correct<R>(a, u, ky, x0, y0, red);
+  y_correct<R>(a, u, ky, x0, y0, lv, red);
 }
 
 template <int R>
@@ -580,12 +614,20 @@ class CudaResident final : public Backend {
     const cudaStream_t s = stream_->get();
     DTFLOP_CUDA(cudaMemsetAsync(sums_.get() + 1, 0, std::size_t(n) * sizeof(double), s));
     DTFLOP_CUDA(cudaMemcpyAsync(sums_.get(), last_.get(), sizeof(double), cudaMemcpyDeviceToDevice, s));
-    DTFLOP_CUDA(cudaEventRecordWithFlags((*events_)[0], s, cudaEventRecordExternal));
+    // Inside a capture, an event must be recorded as an external node to time the graph.
+    cudaStreamCaptureStatus capture = cudaStreamCaptureStatusNone;
+    DTFLOP_CUDA(cudaStreamIsCapturing(s, &capture));
+    auto record = [&](std::size_t e) {
+      if (capture == cudaStreamCaptureStatusActive)
+        DTFLOP_CUDA(cudaEventRecordWithFlags((*events_)[e], s, cudaEventRecordExternal));
+      else
+        DTFLOP_CUDA(cudaEventRecord((*events_)[e], s));
+    };
+    record(0);
     std::size_t e = 1;
     for (std::int64_t k = 0; k < n; ++k) {
       launch_step(k);
-      if ((k + 1) % chunk == 0 || k + 1 == n)
-        DTFLOP_CUDA(cudaEventRecordWithFlags((*events_)[e++], s, cudaEventRecordExternal));
+      if ((k + 1) % chunk == 0 || k + 1 == n) record(e++);
     }
     DTFLOP_CUDA(cudaMemcpyAsync(last_.get(), sums_.get() + n, sizeof(double), cudaMemcpyDeviceToDevice, s));
     if (sums_back)
