@@ -52,6 +52,8 @@ void Backend::accept_reference(const cv::Mat& image, std::vector<DotObservation>
                                 : opt_.points;
   if (opt_.interp == Interp::mls) mls_ = build_mls_table(ref_pos_, points_, opt_.mls);
   else fe_ = build_fe_table(ref_pos_, points_, opt_.fe_max_gap);
+  // The matching radius depends on the reference alone: fix it once, not per frame.
+  match_radius_ = opt_.match.search_radius > 0 ? opt_.match.search_radius : 0.4 * median_spacing(ref_pos_);
   last_disp_.assign(ref_pos_.size(), {});
   last_tracked_.assign(ref_pos_.size(), 0);
 }
@@ -63,7 +65,9 @@ void Backend::track(const std::vector<Vec2>& found, FrameOutput& out) {
     for (std::size_t j = 0; j < ref_pos_.size(); ++j)
       if (last_tracked_[j]) predicted[j] = {ref_pos_[j].x + last_disp_[j].x, ref_pos_[j].y + last_disp_[j].y};
   }
-  out.matches = match_dots(ref_pos_, found, opt_.match, predicted);
+  MatchOptions mo = opt_.match;
+  mo.search_radius = match_radius_;
+  out.matches = match_dots(ref_pos_, found, mo, predicted);
   if (out.matches.matched < static_cast<int>(std::min<std::size_t>(ref_pos_.size(), 3)))
     throw InputError(fmt::format("the frame's dots cannot be matched to the reference: {}. The motion may exceed "
                                  "the search radius; pass a larger search radius or frames closer in time",

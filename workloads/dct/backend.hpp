@@ -87,6 +87,7 @@ class Backend {
   std::vector<Vec2> points_;
   MlsTable mls_;
   FeTable fe_;
+  double match_radius_ = 0;
   std::vector<Vec2> last_disp_;
   std::vector<std::uint8_t> last_tracked_;
 };

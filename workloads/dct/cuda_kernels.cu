@@ -25,15 +25,24 @@ __device__ __forceinline__ int bin256(Pix v) {
   return sizeof(Pix) == 1 ? static_cast<int>(v) : static_cast<int>(v) / 257;
 }
 
+// Lanes of a warp that fall in one bin add once (the background fills one bin: without the
+// aggregation its shared-memory atomics serialize).
 template <class Pix>
 __global__ void k_histogram(const Pix* img, int w, int h, unsigned int* hist) {
   __shared__ unsigned int local[256];
   for (int i = threadIdx.x; i < 256; i += blockDim.x) local[i] = 0;
   __syncthreads();
   const long long n = static_cast<long long>(w) * h;
-  for (long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x; i < n;
-       i += static_cast<long long>(gridDim.x) * blockDim.x)
-    atomicAdd(&local[bin256(img[i])], 1u);
+  const long long stride = static_cast<long long>(gridDim.x) * blockDim.x;
+  // Every lane runs the same number of iterations, so the whole warp meets in the match.
+  const long long rounds = (n + stride - 1) / stride;
+  for (long long r = 0; r < rounds; ++r) {
+    const long long i = r * stride + blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+    const int bin = i < n ? bin256(img[i]) : -1;
+    const unsigned peers = __match_any_sync(0xffffffffu, bin);
+    if (bin >= 0 && (threadIdx.x % 32) == static_cast<unsigned>(__ffs(peers) - 1))
+      atomicAdd(&local[bin], static_cast<unsigned>(__popc(peers)));
+  }
   __syncthreads();
   for (int i = threadIdx.x; i < 256; i += blockDim.x)
     if (local[i]) atomicAdd(&hist[i], local[i]);
@@ -93,6 +102,9 @@ __device__ __forceinline__ void unite(int* L, int a, int b) {
   }
 }
 
+// Unions by the 8-connectivity decision tree (Wu et al.) over the pixels above and to the
+// left, a (up-left), b (up), c (up-right), d (left): pairs that are neighbours of each other
+// are united by those pixels' own steps, so about one union per pixel suffices.
 __global__ void k_union(int* L, int w, int h) {
   const long long n = static_cast<long long>(w) * h;
   for (long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x; i < n;
@@ -100,12 +112,23 @@ __global__ void k_union(int* L, int w, int h) {
     if (L[i] < 0) continue;
     const int x = static_cast<int>(i % w), y = static_cast<int>(i / w);
     const int me = static_cast<int>(i);
-    if (x > 0 && L[i - 1] >= 0) unite(L, me, me - 1);
-    if (y > 0) {
-      const int up = me - w;
-      if (L[up] >= 0) unite(L, me, up);
-      if (x > 0 && L[up - 1] >= 0) unite(L, me, up - 1);
-      if (x + 1 < w && L[up + 1] >= 0) unite(L, me, up + 1);
+    const bool d = x > 0 && L[i - 1] >= 0;
+    if (y == 0) {
+      if (d) unite(L, me, me - 1);
+      continue;
+    }
+    const int up = me - w;
+    const bool a = x > 0 && L[up - 1] >= 0, b = L[up] >= 0, c = x + 1 < w && L[up + 1] >= 0;
+    if (b) {
+      unite(L, me, up);
+    } else if (c) {
+      unite(L, me, up + 1);
+      if (a) unite(L, me, up - 1);
+      else if (d) unite(L, me, me - 1);
+    } else if (a) {
+      unite(L, me, up - 1);
+    } else if (d) {
+      unite(L, me, me - 1);
     }
   }
 }

@@ -83,7 +83,9 @@ void compare(const Case& c) {
   EXPECT_EQ(b.counts, cuda_counts(b.shape, HostMemory::pinned));
   for (std::size_t m = 0; m < b.fields.size(); ++m) {
     EXPECT_EQ(b.fields[m].status, c2.fields[m].status);
-    if (b.fields[m].status == PointStatus::ok) EXPECT_EQ(b.fields[m].exx, c2.fields[m].exx);  // deterministic
+    if (b.fields[m].status == PointStatus::ok) {
+      EXPECT_EQ(b.fields[m].exx, c2.fields[m].exx);  // deterministic
+    }
   }
 }
 
@@ -118,12 +120,29 @@ TEST(DctCuda, MatchesCpuSeqOnFreshSpecimens) {
 
 TEST(DctCuda, LabellingMatchesOpenCv) {
   DTFLOP_REQUIRE_GPU();
-  // A random binary image with every shape of component: the union-find labels the same
-  // number of 8-connected components as OpenCV.
+  // Random shapes, convex and not (discs, rings, L's, bars, specks), one per 40 px cell with
+  // background between cells: the union-find labels the same 8-connected components as
+  // OpenCV, with the same areas, in the same order.
   std::mt19937 rng(static_cast<unsigned>(fresh_seed()));
-  cv::Mat img(517, 733, CV_8U);
-  for (int i = 0; i < img.rows; ++i)
-    for (int j = 0; j < img.cols; ++j) img.at<std::uint8_t>(i, j) = (rng() % 100) < 45 ? 0 : 255;
+  cv::Mat img(521, 733, CV_8U, cv::Scalar(255));
+  for (int cy = 0; cy + 40 <= img.rows; cy += 40)
+    for (int cx = 0; cx + 40 <= img.cols; cx += 40) {
+      const cv::Point c(cx + 20 + static_cast<int>(rng() % 5) - 2, cy + 20 + static_cast<int>(rng() % 5) - 2);
+      switch (rng() % 6) {
+        case 0: cv::circle(img, c, 3 + static_cast<int>(rng() % 10), cv::Scalar(0), cv::FILLED); break;
+        case 1: cv::circle(img, c, 8 + static_cast<int>(rng() % 5), cv::Scalar(0), 2); break;  // ring
+        case 2:
+          cv::line(img, {c.x - 10, c.y - 10}, {c.x - 10, c.y + 10}, cv::Scalar(0), 2);
+          cv::line(img, {c.x - 10, c.y + 10}, {c.x + 10, c.y + 10}, cv::Scalar(0), 2);
+          break;
+        case 3: cv::line(img, {c.x - 12, c.y + 8}, {c.x + 12, c.y - 8}, cv::Scalar(0), 1); break;  // 8-connected
+        case 4: img.at<std::uint8_t>(c) = 0; break;
+        default: {  // two specks touching at a corner: one 8-connected component
+          img.at<std::uint8_t>(c) = 0;
+          img.at<std::uint8_t>(c + cv::Point(1, 1)) = 0;
+        }
+      }
+    }
   PipelineOptions o;
   o.analysis.method = ThresholdMethod::fixed;
   o.analysis.min_area = 1;
