@@ -265,8 +265,8 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
         const double ratio = f.value / *f.probed;
         if (ratio > o.flag_ratio || ratio < 1.0 / o.flag_ratio) {
           f.flagged = true;
-          f.note = fmt::format("fitted is {:.2f}x the probed value: the probe and the workload see "
-                               "different machines here (e.g. a probe at another size)",
+          f.note = fmt::format("fitted is {:.2f}x the probed value: the workload does not run at the "
+                               "rate the probe measured (the fitted value is the workload's)",
                                ratio);
         }
       } else {
@@ -383,9 +383,9 @@ VariantChoice choose_variant(const std::vector<CvResult>& cv) {
   const int k = cv.front().folds;
   if (chosen == best)
     out.reason = fmt::format(
-        "{}-fold cross-validated mean relative error of the total: {}. Chose {}: lowest error, and "
-        "no simpler variant is within one standard error of it.",
-        k, table, to_string(chosen->variant));
+        "{}-fold cross-validated mean relative error of the total: {}. Chose {}: lowest error{}.", k, table,
+        to_string(chosen->variant),
+        chosen->variant == all_variants().front() ? "" : ", and no simpler variant is within one standard error of it");
   else
     out.reason = fmt::format(
         "{}-fold cross-validated mean relative error of the total: {}. Chose {}, the simplest "

@@ -1,6 +1,9 @@
 #include "calibrate/machine.hpp"
 
+#include <sched.h>
 #include <unistd.h>
+
+#include <algorithm>
 
 #include <fstream>
 #include <set>
@@ -54,6 +57,17 @@ CpuInfo read_cpuinfo() {
 
 std::string normalized(const std::string& s) { return trim(s); }
 
+// Hardware threads this process may run on (its affinity mask), as `dtflop probe` counts them.
+int usable_cpus() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (::sched_getaffinity(0, sizeof set, &set) == 0) {
+    const int n = CPU_COUNT(&set);
+    if (n > 0) return n;
+  }
+  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
 }  // namespace
 
 MachineIdentity this_machine() {
@@ -62,7 +76,7 @@ MachineIdentity this_machine() {
   if (::gethostname(host, sizeof host - 1) == 0) id.hostname = host;
   const CpuInfo cpu = read_cpuinfo();
   id.cpu_model = cpu.model.empty() ? "unknown CPU" : cpu.model;
-  id.cpu_threads = static_cast<int>(std::thread::hardware_concurrency());
+  id.cpu_threads = usable_cpus();
   id.cpu_cores = cpu.cores > 0 ? cpu.cores : id.cpu_threads;
 #if DTFLOP_HAVE_CUDA
   int count = 0;

@@ -5,6 +5,7 @@
 #include "calibrate/validate.hpp"
 #include "model/errors.hpp"
 #include "tests/calibrate/synthetic.hpp"
+#include "tests/support/gpu.hpp"
 
 namespace dtflop::calib {
 namespace {
@@ -120,6 +121,15 @@ TEST(CalibProfiler, AggregatesTheRecordsInsideTheRange) {
   const auto j = a.to_json();
   EXPECT_EQ(j["to_device"]["bytes"], 500);
   EXPECT_EQ(j["kernel_by_name"]["pass"]["count"], 2);
+}
+
+TEST(CalibProfiler, WithoutADeviceThereIsNoProfilerAndAReason) {
+  if (test::gpu_unavailable_reason().empty()) GTEST_SKIP() << "a GPU is present; test_calibrate_gpu covers CUPTI";
+  const ProfilerOpen p = open_cupti_profiler();
+  EXPECT_EQ(p.profiler, nullptr);
+  EXPECT_FALSE(p.why_not.empty());
+  EXPECT_TRUE(p.why_not.find("CUDA") != std::string::npos || p.why_not.find("device") != std::string::npos)
+      << p.why_not;
 }
 
 }  // namespace

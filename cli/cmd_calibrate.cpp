@@ -1,0 +1,228 @@
+// `dtflop calibrate`: fit the DTFLOP model's parameters to measured samples (Ceres), with 95%
+// intervals, a comparison with the probed values, and the model variant chosen by k-fold
+// cross-validation; writes the fitted machine profile.
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "calibrate/fit.hpp"
+#include "calibrate/machine.hpp"
+#include "calibrate/store.hpp"
+#include "cli/command.hpp"
+#include "cli/table.hpp"
+#include "model/errors.hpp"
+#include "model/json_io.hpp"
+#include "model/units.hpp"
+
+namespace dtflop::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace dtflop::calib;
+
+struct CalibrateOptions {
+  std::vector<std::string> stores;
+  std::string machine;
+  std::string output;
+  std::string variant = "all";
+  int folds = 5;
+  std::string loss = "huber";
+  double loss_scale = 0.05;
+  double flag_ratio = 1.5;
+  std::vector<std::string> backends;
+  bool total_only = false;
+  std::uint64_t seed = 1;
+};
+
+std::vector<Sample> load_samples(const std::vector<std::string>& stores, const std::vector<std::string>& backends) {
+  std::vector<Sample> all;
+  for (const auto& path : stores) {
+    if (!fs::exists(path))
+      throw InputError(fmt::format("sample store '{}' does not exist; measure one with `dtflop sweep rbe "
+                                   "--plan seed-test1 --backend ... --store {}`",
+                                   path, path));
+    StoreContents c = read_store(path);
+    for (const auto& w : c.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
+    if (c.samples.empty())
+      throw InputError(fmt::format("sample store '{}' holds no samples; measure some with `dtflop sweep`", path));
+    for (auto& s : c.samples)
+      if (backends.empty() || std::find(backends.begin(), backends.end(), s.backend) != backends.end())
+        all.push_back(std::move(s));
+  }
+  if (all.empty()) {
+    std::string list;
+    for (const auto& b : backends) list += (list.empty() ? "" : ", ") + b;
+    throw InputError(fmt::format("the stores hold no samples of backend {}; drop --backend or name one the "
+                                 "stores hold",
+                                 list));
+  }
+  return all;
+}
+
+void check_machine(const std::vector<Sample>& samples, const MachineProfile& profile, const std::string& file) {
+  int foreign = 0;
+  const Sample* first = nullptr;
+  std::string why;
+  for (const auto& s : samples) {
+    std::string w;
+    if (!same_machine(s.machine, profile.identity, &w)) {
+      if (foreign++ == 0) {
+        first = &s;
+        why = w;
+      }
+    }
+  }
+  if (foreign > 0)
+    throw InputError(fmt::format(
+        "{} of {} samples were measured on another machine than profile '{}' describes (first: '{}' on {}; "
+        "{}). Fit samples against the profile of the machine that measured them",
+        foreign, samples.size(), file, first->key, describe(first->machine), why));
+}
+
+std::string value_text(double v, Param p) { return format_quantity(v, info(p).unit); }
+
+void run(const CalibrateOptions& o) {
+  if (o.stores.empty()) throw InputError("name at least one --store");
+  if (o.output.empty()) throw InputError("name the fitted profile to write with -o fitted.json");
+  std::error_code ec;
+  if (fs::exists(o.output, ec) && fs::exists(o.machine, ec) && fs::equivalent(o.output, o.machine, ec))
+    throw InputError(fmt::format("-o '{}' is the --machine profile itself; write the fit to another file so "
+                                 "the probed values stay",
+                                 o.output));
+  if (o.folds < 2) throw InputError(fmt::format("--folds must be at least 2, got {}", o.folds));
+  if (!(o.loss_scale > 0)) throw InputError("--loss-scale must be positive, e.g. 0.05 (5%)");
+  if (!(o.flag_ratio > 1)) throw InputError("--flag-ratio must be above 1, e.g. 1.5");
+  std::vector<Variant> variants;
+  if (o.variant == "all") variants = all_variants();
+  else if (auto v = variant_from_string(o.variant)) variants = {*v};
+  else throw InputError(fmt::format("--variant '{}' is unknown; use seed, latency, extended or all", o.variant));
+
+  FitOptions fo;
+  if (o.loss == "huber") fo.loss = Loss::huber;
+  else if (o.loss == "cauchy") fo.loss = Loss::cauchy;
+  else if (o.loss == "none") fo.loss = Loss::none;
+  else throw InputError(fmt::format("--loss '{}' is unknown; use huber, cauchy or none", o.loss));
+  fo.loss_scale = o.loss_scale;
+  fo.flag_ratio = o.flag_ratio;
+  if (o.total_only) fo.components.clear();
+
+  const MachineProfile probed = load_profile(o.machine);
+  const std::vector<Sample> samples = load_samples(o.stores, o.backends);
+  check_machine(samples, probed, o.machine);
+
+  // Variant: cross-validated when there is a choice (and reported when there is not).
+  std::vector<CvResult> cv;
+  VariantChoice choice;
+  const bool can_cv = static_cast<int>(samples.size()) >= 2 * o.folds;
+  if (variants.size() > 1) {
+    if (!can_cv)
+      throw InputError(fmt::format("choosing a model variant by {}-fold cross-validation needs at least {} "
+                                   "samples, the stores hold {}; measure more or name one --variant",
+                                   o.folds, 2 * o.folds, samples.size()));
+    cv = cross_validate(samples, probed, fo, variants, o.folds, o.seed);
+    choice = choose_variant(cv);
+  } else {
+    choice.chosen = variants.front();
+    choice.reason = fmt::format("variant {} named by --variant", to_string(choice.chosen));
+    if (can_cv) {
+      cv = cross_validate(samples, probed, fo, variants, o.folds, o.seed);
+      if (cv.front().failed_folds == 0)
+        choice.reason += fmt::format("; its {}-fold cross-validated mean relative error of the total is {:.2f}% "
+                                     "(max {:.1f}%)",
+                                     o.folds, 100 * cv.front().mean_rel, 100 * cv.front().max_rel);
+    }
+  }
+  fo.variant = choice.chosen;
+  FitResult r = fit(samples, probed, fo);
+
+  // Report.
+  std::map<std::string, int> per_backend;
+  for (const auto& s : samples) per_backend[s.backend] += 1;
+  std::string backends;
+  for (const auto& [b, n] : per_backend) backends += fmt::format("{}{} {}", backends.empty() ? "" : ", ", n, b);
+  fmt::print("Fitted {} samples ({}) from {} to the {} variant: {} residuals, {} free parameters, "
+             "rms relative residual {:.2f}%, {} iterations.\n",
+             samples.size(), backends, describe(probed.identity), to_string(r.variant), r.residuals,
+             r.free_parameters, 100 * r.rms_relative, r.iterations);
+  fmt::print("Solver: {}\n", r.termination);
+  if (!cv.empty()) {
+    fmt::print("\nModel variants by {}-fold cross-validation (relative error of the total on held-out folds):\n",
+               o.folds);
+    Table t({"variant", "mean", "std. error", "max", "note"}, "lrrrl");
+    for (const auto& c : cv)
+      t.row({std::string(to_string(c.variant)), c.failed_folds ? "-" : fmt::format("{:.2f}%", 100 * c.mean_rel),
+             c.failed_folds ? "-" : fmt::format("{:.2f}%", 100 * c.se),
+             c.failed_folds ? "-" : fmt::format("{:.1f}%", 100 * c.max_rel),
+             c.failed_folds ? fmt::format("fit failed in {} fold(s): {}", c.failed_folds, c.failure)
+                            : (c.variant == choice.chosen ? "chosen" : "")});
+    fmt::print("{}", t.str());
+  }
+  fmt::print("{}\n\nParameters:\n", choice.reason);
+  Table t({"parameter", "probed", "fitted", "95% interval", "fitted/probed", "note"}, "lrrrrl");
+  int flagged = 0;
+  for (const auto& f : r.params) {
+    if (f.flagged) ++flagged;
+    t.row({std::string(info(f.id).name), f.probed ? value_text(*f.probed, f.id) : "-",
+           f.fitted ? value_text(f.value, f.id) : "(kept)",
+           f.has_interval ? fmt::format("{} .. {}", value_text(f.lo95, f.id), value_text(f.hi95, f.id)) : "-",
+           f.fitted && f.probed ? fmt::format("{:.2f}", f.value / *f.probed) : "-",
+           (f.flagged ? "FLAG: " : "") + f.note});
+  }
+  fmt::print("{}", t.str());
+  if (!r.covariance_ok) fmt::print("No intervals: {}\n", r.covariance_note);
+  if (flagged)
+    fmt::print("{} parameter{} disagree with the probed value by more than {:.2f}x (flagged above).\n", flagged,
+               flagged == 1 ? "" : "s", o.flag_ratio);
+
+  MachineProfile out = r.profile;
+  std::string stores;
+  for (const auto& s : o.stores) stores += (stores.empty() ? "" : ";") + fs::absolute(s).lexically_normal().string();
+  out.metadata["model_variant"] = std::string(to_string(r.variant));
+  out.metadata["model_variant_reason"] = choice.reason;
+  out.metadata["fit_samples"] = std::to_string(samples.size());
+  out.metadata["fit_stores"] = stores;
+  out.metadata["fit_rms_relative"] = fmt::format("{:.4g}", r.rms_relative);
+  out.metadata["fit_loss"] = fmt::format("{} (scale {})", to_string(fo.loss), fo.loss_scale);
+  out.metadata["fit_from"] = fs::absolute(o.machine).lexically_normal().string();
+  out.metadata["fitted_at"] = utc_now();
+  std::string kept;
+  for (const auto& f : r.params)
+    if (!f.fitted) kept += (kept.empty() ? "" : ", ") + std::string(info(f.id).name);
+  if (!kept.empty()) out.metadata["fit_not_identifiable"] = kept;
+  save_profile(out, o.output);
+  fmt::print("\nWrote {} (model variant {}).\n", o.output, to_string(r.variant));
+}
+
+Registrar reg(40, [](CLI::App& root) {
+  auto* app = root.add_subcommand(
+      "calibrate",
+      "Fit the model's bandwidths, rates, latencies and launch overhead to measured samples (Ceres, "
+      "relative residuals, robust loss), with 95% intervals, a comparison with the probed profile, and "
+      "the model variant chosen by k-fold cross-validation. Writes the fitted profile.");
+  auto o = std::make_shared<CalibrateOptions>();
+  app->add_option("--store,-s", o->stores, "Sample store(s) written by `dtflop sweep` (repeatable)")->required();
+  app->add_option("--machine,-m", o->machine, "Probed machine profile: start values and the comparison")
+      ->required()
+      ->check(CLI::ExistingFile);
+  app->add_option("--output,-o", o->output, "Fitted profile to write (written only when the fit succeeds)")
+      ->required();
+  app->add_option("--variant", o->variant, "seed, latency, extended, or all (choose by cross-validation)")
+      ->capture_default_str();
+  app->add_option("--folds", o->folds, "Folds of the cross-validation")->capture_default_str();
+  app->add_option("--backend", o->backends, "Fit only samples of these backends (repeatable)");
+  app->add_option("--loss", o->loss, "Robust loss: huber, cauchy or none")->capture_default_str();
+  app->add_option("--loss-scale", o->loss_scale, "Relative residual where the robust loss bends")
+      ->capture_default_str();
+  app->add_option("--flag-ratio", o->flag_ratio, "Flag a fitted value this many times off the probed one")
+      ->capture_default_str();
+  app->add_flag("--total-only", o->total_only, "Fit totals only, not the measured components");
+  app->add_option("--seed", o->seed, "Seed of the fold assignment")->capture_default_str();
+  app->callback([o] { run(*o); });
+});
+
+}  // namespace
+}  // namespace dtflop::cli

@@ -1,0 +1,214 @@
+// `dtflop validate`: predicted against measured on held-out samples, per component and total,
+// mean and maximum error like the seed's Tables 5.2-5.3, with the worst samples named.
+#include <algorithm>
+#include <cstdlib>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "calibrate/machine.hpp"
+#include "calibrate/store.hpp"
+#include "calibrate/validate.hpp"
+#include "cli/command.hpp"
+#include "cli/table.hpp"
+#include "model/errors.hpp"
+#include "model/json_io.hpp"
+#include "model/units.hpp"
+
+namespace dtflop::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace dtflop::calib;
+
+struct ValidateOptions {
+  std::vector<std::string> stores;
+  std::string machine;
+  std::string variant;
+  std::vector<std::string> backends;
+  bool by_plan = false;
+  double target_mean = 3;
+  double target_max = 8;
+  int worst = 5;
+  bool strict = false;
+  bool json = false;
+};
+
+const char* component_label(Component c) {
+  switch (c) {
+    case Component::total: return "total";
+    case Component::CG: return "dt_CG host->device";
+    case Component::GC: return "dt_GC device->host";
+    case Component::G: return "dt_G  kernels";
+    case Component::C: return "dt_C  CPU";
+  }
+  return "?";
+}
+
+nlohmann::json stats_json(const ErrorStats& e) {
+  return {{"n", e.n},           {"mean_abs_s", e.mean_abs}, {"max_abs_s", e.max_abs}, {"mean_rel", e.mean_rel},
+          {"max_rel", e.max_rel}, {"bias", e.bias},         {"worst", e.worst}};
+}
+
+std::string params_text(const Sample& s) {
+  const auto& p = s.parameters;
+  if (p.contains("nx") && p.contains("Ix"))
+    return fmt::format("grid {}x{}, kernel {}x{}", p["nx"].get<long long>(), p["ny"].get<long long>(),
+                       p["Ix"].get<long long>(), p["Iy"].get<long long>());
+  return s.key;
+}
+
+int run(const ValidateOptions& o) {
+  if (o.stores.empty()) throw InputError("name at least one --store of held-out samples");
+  if (!(o.target_mean > 0) || !(o.target_max > 0)) throw InputError("--target-mean and --target-max are percentages > 0");
+  const MachineProfile profile = load_profile(o.machine);
+  Variant variant = Variant::extended;
+  std::string variant_from = "default";
+  if (!o.variant.empty()) {
+    auto v = variant_from_string(o.variant);
+    if (!v) throw InputError(fmt::format("--variant '{}' is unknown; use seed, latency or extended", o.variant));
+    variant = *v;
+    variant_from = "--variant";
+  } else if (auto it = profile.metadata.find("model_variant"); it != profile.metadata.end()) {
+    auto v = variant_from_string(it->second);
+    if (!v)
+      throw InputError(fmt::format("profile '{}' names model variant '{}', which this dtflop does not know; pass "
+                                   "--variant",
+                                   o.machine, it->second));
+    variant = *v;
+    variant_from = "the profile's fit";
+  }
+
+  std::vector<Sample> samples;
+  std::string fit_stores;
+  if (auto it = profile.metadata.find("fit_stores"); it != profile.metadata.end()) fit_stores = it->second;
+  for (const auto& path : o.stores) {
+    if (!fs::exists(path))
+      throw InputError(fmt::format("sample store '{}' does not exist; measure held-out samples with `dtflop sweep "
+                                   "rbe --plan random:50 ... --store {}`",
+                                   path, path));
+    StoreContents c = read_store(path);
+    for (const auto& w : c.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
+    if (c.samples.empty()) throw InputError(fmt::format("sample store '{}' holds no samples", path));
+    const std::string abs = fs::absolute(path).lexically_normal().string();
+    if (!fit_stores.empty() && (";" + fit_stores + ";").find(";" + abs + ";") != std::string::npos)
+      fmt::print(stderr,
+                 "dtflop: warning: '{}' was used to fit this profile, so these errors are not held-out errors\n",
+                 path);
+    for (auto& s : c.samples)
+      if (o.backends.empty() || std::find(o.backends.begin(), o.backends.end(), s.backend) != o.backends.end())
+        samples.push_back(std::move(s));
+  }
+  if (samples.empty()) throw InputError("no sample of the named --backend in the stores");
+  for (const auto& s : samples) {
+    std::string why;
+    if (!same_machine(s.machine, profile.identity, &why))
+      throw InputError(fmt::format("sample '{}' was measured on another machine ({}) than profile '{}' describes "
+                                   "({}): {}. Validate against the profile of the machine that measured it",
+                                   s.key, describe(s.machine), o.machine, describe(profile.identity), why));
+  }
+
+  const Validation v = validate(samples, profile, variant);
+  const double tmean = o.target_mean / 100, tmax = o.target_max / 100;
+  std::vector<std::string> groups = {"all"};
+  for (const auto& [g, comps] : v.groups) {
+    if (g == "all") continue;
+    const bool is_plan = g.find(" / ") != std::string::npos;
+    if (!is_plan || o.by_plan) groups.push_back(g);
+  }
+  if (v.groups.size() <= 3) groups = {"all"};  // one backend, one plan: the rest repeats "all"
+
+  bool all_met = true;
+  nlohmann::json out = {{"machine", o.machine},        {"variant", to_string(variant)},
+                        {"samples", samples.size()},   {"targets", {{"mean_rel", tmean}, {"max_rel", tmax}}},
+                        {"groups", nlohmann::json::object()}};
+  for (const auto& g : groups) {
+    const auto& comps = v.groups.at(g);
+    nlohmann::json gj = nlohmann::json::object();
+    for (const auto& [c, e] : comps) gj[std::string(to_string(c))] = stats_json(e);
+    const auto& tot = comps.at(Component::total);
+    const bool met = tot.mean_rel <= tmean && tot.max_rel <= tmax;
+    all_met = all_met && met;
+    gj["total_target_met"] = met;
+    out["groups"][g] = gj;
+    if (o.json) continue;
+    fmt::print("\n{} ({} samples, model variant {} from {}):\n", g, tot.n, to_string(variant), variant_from);
+    Table t({"component", "n", "mean abs error", "mean rel", "max abs error", "max rel", "bias"}, "lrrrrrr");
+    for (Component c : all_components()) {
+      auto it = comps.find(c);
+      if (it == comps.end()) continue;
+      const auto& e = it->second;
+      t.row({component_label(c), std::to_string(e.n), format_duration(e.mean_abs), fmt::format("{:.2f}%", 100 * e.mean_rel),
+             format_duration(e.max_abs), fmt::format("{:.2f}%", 100 * e.max_rel), fmt::format("{:+.2f}%", 100 * e.bias)});
+    }
+    fmt::print("{}", t.str());
+    fmt::print("total: mean {:.2f}% (target <= {:.0f}%) {}, max {:.2f}% (target <= {:.0f}%) {}\n", 100 * tot.mean_rel,
+               o.target_mean, tot.mean_rel <= tmean ? "MET" : "MISSED", 100 * tot.max_rel, o.target_max,
+               tot.max_rel <= tmax ? "MET" : "MISSED");
+  }
+
+  // The worst samples, with the component that misses most: where the model fails, and why.
+  std::vector<const SampleError*> rows;
+  for (const auto& r : v.rows) rows.push_back(&r);
+  std::sort(rows.begin(), rows.end(), [](auto* a, auto* b) {
+    return std::abs(a->rel(Component::total)) > std::abs(b->rel(Component::total));
+  });
+  nlohmann::json worst = nlohmann::json::array();
+  const int n_worst = std::min<int>(o.worst, static_cast<int>(rows.size()));
+  Table t({"backend", "configuration", "measured/step", "predicted/step", "total error", "largest component error"},
+          "llrrrl");
+  for (int i = 0; i < n_worst; ++i) {
+    const auto& r = *rows[i];
+    Component wc = Component::total;
+    for (const auto& [c, pm] : r.per_step)
+      if (c != Component::total && std::abs(r.rel(c)) > std::abs(r.rel(wc))) wc = c;
+    const auto& tot = r.per_step.at(Component::total);
+    t.row({r.sample->backend, params_text(*r.sample), format_duration(tot.second), format_duration(tot.first),
+           fmt::format("{:+.2f}%", 100 * r.rel(Component::total)),
+           wc == Component::total ? "-" : fmt::format("{} {:+.1f}%", to_string(wc), 100 * r.rel(wc))});
+    worst.push_back({{"key", r.sample->key}, {"total_rel", r.rel(Component::total)}});
+  }
+  out["worst"] = worst;
+  if (o.json) {
+    fmt::print("{}\n", out.dump(2));
+  } else if (n_worst > 0) {
+    fmt::print("\nWorst {} samples by total error:\n{}", n_worst, t.str());
+  }
+  return o.strict && !all_met ? 3 : 0;
+}
+
+Registrar reg(50, [](CLI::App& root) {
+  auto* app = root.add_subcommand(
+      "validate",
+      "Compare a fitted profile's predictions with held-out samples: per component and total, mean and "
+      "maximum absolute and relative error (like the seed's Tables 5.2-5.3), against the targets.");
+  auto o = std::make_shared<ValidateOptions>();
+  app->add_option("--store,-s", o->stores, "Held-out sample store(s) (repeatable)")->required();
+  app->add_option("--machine,-m", o->machine, "Fitted machine profile (`dtflop calibrate -o`)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  app->add_option("--variant", o->variant, "Model variant (default: the one the fit chose)");
+  app->add_option("--backend", o->backends, "Only samples of these backends (repeatable)");
+  app->add_flag("--by-plan", o->by_plan, "Also break the errors down by sweep plan");
+  app->add_option("--target-mean", o->target_mean, "Target for the mean relative error of the total [%]")
+      ->capture_default_str();
+  app->add_option("--target-max", o->target_max, "Target for the maximum relative error of the total [%]")
+      ->capture_default_str();
+  app->add_option("--worst", o->worst, "Show this many worst samples")->capture_default_str();
+  app->add_flag("--strict", o->strict, "Exit with status 3 when a target is missed");
+  app->add_flag("--json", o->json, "Print JSON instead of tables");
+  app->callback([o] {
+    if (run(*o) != 0) {
+      std::fflush(stdout);
+      std::exit(3);  // --strict and a target missed; the tables above say which
+    }
+  });
+});
+
+}  // namespace
+}  // namespace dtflop::cli
