@@ -335,7 +335,12 @@ void cover_disc(const Deformation& def, Vec2 Xc, double r, int n, cv::Rect box, 
       const double lx = (f11 * dx - f01 * dy) / det, ly = (-f10 * dx + f00 * dy) / det;
       if (std::hypot(lx, ly) > r + 3) continue;
       const auto X = def.inverse(p);
-      if (!X) continue;
+      if (!X) {
+        // No pre-image (Kirsch's field is singular at the hole's centre): deep inside by the
+        // centre's Jacobian is inside.
+        if (std::hypot(lx, ly) < r - 3) tile.at<float>(i, j) = 1.f;
+        continue;
+      }
       const Gradient g = def.gradient(*X);
       const double a00 = 1 + g.ux_x, a01 = g.ux_y, a10 = g.uy_x, a11 = 1 + g.uy_y;
       const double dt = a00 * a11 - a01 * a10;
