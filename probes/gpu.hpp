@@ -55,6 +55,12 @@ std::vector<SizeTiming> time_transfers(Direction dir, HostMemory mem,
                                        std::span<const std::int64_t> sizes,
                                        std::span<const int> reps, int warmup);
 
+// Times blocking cudaMemcpy calls of `bytes` (a multiple of 4) between pinned host memory and
+// the device, with the host clock around each call: what a program that copies and waits
+// pays per copy, launch and completion included. `reps` timed calls after 10 untimed ones;
+// the data is checked.
+std::vector<double> time_blocking_copies(Direction dir, std::int64_t bytes, int reps);
+
 // Device buffers are capped to a quarter of the free device memory; this says what a
 // request for `bytes` per buffer becomes (rounded down to 1 MiB, at least 1 MiB).
 std::int64_t fit_device_buffer(std::int64_t bytes, int buffers);

@@ -10,6 +10,7 @@
 
 #include "probes/gpu.hpp"
 #include "probes/gpu_errors.hpp"
+#include "probes/identity.hpp"
 #include "probes/probe.hpp"
 
 namespace dtflop::probes::gpu {
@@ -50,17 +51,11 @@ namespace {
 
 std::string version_string(int v) { return fmt::format("{}.{}", v / 1000, (v % 1000) / 10); }
 
-// The kernel module's version, e.g. "580.159.04", from /proc/driver/nvidia/version.
 std::string kernel_module_version() {
   std::ifstream f("/proc/driver/nvidia/version");
   std::string line;
   if (!std::getline(f, line)) return {};
-  const auto k = line.find("Kernel Module");
-  if (k == std::string::npos) return {};
-  std::istringstream in(line.substr(k + 13));
-  std::string v;
-  in >> v;
-  return v;
+  return nvidia_driver_version(line);
 }
 
 void check(cudaError_t e, const char* call) {

@@ -21,6 +21,7 @@ std::vector<SizeTiming> time_transfers(Direction, HostMemory, std::span<const st
                                        std::span<const int>, int) {
   no_cuda();
 }
+std::vector<double> time_blocking_copies(Direction, std::int64_t, int) { no_cuda(); }
 std::int64_t fit_device_buffer(std::int64_t, int) { no_cuda(); }
 std::vector<double> time_d2d_memcpy(std::int64_t, int, int) { no_cuda(); }
 std::vector<double> time_copy_kernel(std::int64_t, int, int) { no_cuda(); }

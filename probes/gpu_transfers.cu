@@ -1,5 +1,6 @@
 // Host<->device copies timed with events, pinned and pageable host memory.
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <memory>
 #include <new>
@@ -114,6 +115,45 @@ std::vector<SizeTiming> time_transfers(Direction dir, HostMemory mem,
     out.push_back(std::move(t));
   }
   return out;
+}
+
+std::vector<double> time_blocking_copies(Direction dir, std::int64_t bytes, int reps) {
+  if (bytes <= 0 || bytes % 4 != 0 || reps < 1)
+    throw std::invalid_argument("time_blocking_copies: bytes must be a positive multiple of 4, reps >= 1");
+  detail::use_device();
+  const auto n = static_cast<std::size_t>(bytes);
+  DeviceBuffer dev(n);
+  PinnedBuffer host(n);
+  auto* words = static_cast<std::uint32_t*>(host.get());
+  const bool h2d = dir == Direction::host_to_device;
+  const std::uint32_t seed = h2d ? 0xB10C1u : 0xB10C2u;
+  Stream s;
+  if (h2d) {
+    fill_pattern_host(words, n / 4, seed);
+  } else {
+    detail::fill_pattern_device(dev.get<std::uint32_t>(), n / 4, seed, s);
+    s.sync();
+  }
+  void* dst = h2d ? dev.get() : host.get();
+  const void* src = h2d ? static_cast<const void*>(host.get()) : static_cast<const void*>(dev.get());
+  const cudaMemcpyKind kind = h2d ? cudaMemcpyHostToDevice : cudaMemcpyDeviceToHost;
+  for (int i = 0; i < 10; ++i) DTFLOP_CUDA(cudaMemcpy(dst, src, n, kind));
+  if (h2d)
+    DTFLOP_CUDA(cudaMemset(dev.get(), 0xA5, n));
+  else
+    std::memset(host.get(), 0xA5, n);
+  std::vector<double> t;
+  t.reserve(static_cast<std::size_t>(reps));
+  for (int i = 0; i < reps; ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    DTFLOP_CUDA(cudaMemcpy(dst, src, n, kind));
+    t.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  const std::size_t bad = h2d ? detail::count_mismatches_device(dev.get<std::uint32_t>(), n / 4, seed, s)
+                              : count_mismatches_host(words, n / 4, seed);
+  if (bad != 0)
+    detail::mismatch(h2d ? "blocking host->device copy" : "blocking device->host copy", n, bad, n / 4);
+  return t;
 }
 
 }  // namespace dtflop::probes::gpu

@@ -98,6 +98,15 @@ CpuInfo cpu_info() {
   return c;
 }
 
+std::string nvidia_driver_version(const std::string& first_line) {
+  const auto k = first_line.find("Kernel Module");
+  if (k == std::string::npos) return {};
+  std::istringstream in(first_line.substr(k + 13));
+  for (std::string w; in >> w;)
+    if (w[0] >= '0' && w[0] <= '9' && w.find('.') != std::string::npos) return w;
+  return {};
+}
+
 std::string utc_now_iso8601() {
   const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
   std::tm utc{};

@@ -25,6 +25,13 @@ CpuInfo cpu_info();
 // Host name, CPU part and the current time (ISO 8601 UTC); GPU fields left empty.
 MachineIdentity host_identity();
 
+// The NVIDIA kernel module's version ("580.159.04") from the first line of
+// /proc/driver/nvidia/version, which reads "NVRM version: NVIDIA UNIX x86_64 Kernel Module
+// 580.159.04 ..." or, for the open modules, "... Open Kernel Module for x86_64  580.159.04
+// ...": the first word after "Kernel Module" that starts with a digit and holds a dot.
+// Empty when the line has none.
+std::string nvidia_driver_version(const std::string& first_line);
+
 // The current UTC time as "2026-11-21T03:11:00Z".
 std::string utc_now_iso8601();
 

@@ -138,6 +138,18 @@ ProbeReport run(const ProbeOptions& o) {
                       f.latency * 1e6, size_label(p.sizes.front()), small.value * 1e6));
     for (auto& m : per_size) r.measurements.push_back(std::move(m));
   }
+  // What a program that copies and waits pays for a small copy (host clock, blocking call).
+  const std::int64_t small = p.sizes.front();
+  const int sync_reps = o.effort == Effort::smoke ? 5 : 200;
+  for (auto dir : {gpu::Direction::host_to_device, gpu::Direction::device_to_host}) {
+    const bool h2d = dir == gpu::Direction::host_to_device;
+    r.measurements.push_back(time_measurement(
+        fmt::format("{}_pinned_blocking_{}", h2d ? "h2d" : "d2h", size_key(small)),
+        fmt::format("{}, pinned, one blocking cudaMemcpy of {}", h2d ? "host->device" : "device->host",
+                    size_label(small)),
+        gpu::time_blocking_copies(dir, small, sync_reps), std::nullopt,
+        fmt::format("host clock around cudaMemcpy (call, copy and wait), median of {}", sync_reps)));
+  }
   return r;
 }
 

@@ -86,5 +86,17 @@ TEST(Identity, DescribesThisCpu) {
   EXPECT_TRUE(std::regex_match(now, std::regex(R"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ)"))) << now;
 }
 
+TEST(Identity, ReadsTheNvidiaDriverVersion) {
+  // As the proprietary and the open kernel modules write it (the latter on the lent H200).
+  EXPECT_EQ(nvidia_driver_version("NVRM version: NVIDIA UNIX x86_64 Kernel Module  550.54.14  "
+                                  "Thu Feb 22 01:44:30 UTC 2024"),
+            "550.54.14");
+  EXPECT_EQ(nvidia_driver_version("NVRM version: NVIDIA UNIX Open Kernel Module for x86_64  "
+                                  "580.159.04  Release Build  (dvs-builder@U22)"),
+            "580.159.04");
+  EXPECT_EQ(nvidia_driver_version("something else entirely"), "");
+  EXPECT_EQ(nvidia_driver_version("Kernel Module for x86_64"), "");
+}
+
 }  // namespace
 }  // namespace dtflop::probes

@@ -50,6 +50,20 @@ TEST(GpuProbes, TransfersMoveTheDataBothWays) {
     }
 }
 
+TEST(GpuProbes, BlockingCopiesTakeLongerThanTheCopyAlone) {
+  DTFLOP_REQUIRE_GPU();
+  for (auto dir : {gpu::Direction::host_to_device, gpu::Direction::device_to_host}) {
+    const auto blocking = gpu::time_blocking_copies(dir, 4096, 20);
+    const std::vector<std::int64_t> size = {4096};
+    const std::vector<int> reps = {20};
+    const auto events = gpu::time_transfers(dir, gpu::HostMemory::pinned, size, reps, 2);
+    ASSERT_EQ(blocking.size(), 20u);
+    // The call, the copy and the wait, against the copy as the device's events see it: the
+    // blocking call cannot be much faster (allow 20% for clock granularity).
+    EXPECT_GT(summarize(blocking).median, 0.8 * summarize(events[0].seconds).median);
+  }
+}
+
 TEST(GpuProbes, TransferArgumentsAreChecked) {
   DTFLOP_REQUIRE_GPU();
   const std::vector<std::int64_t> odd = {4097};
