@@ -71,3 +71,62 @@ PredictRegistrar conventional({"rbe-conventional",
 
 }  // namespace
 }  // namespace dtflop::cli
+
+// The backends of workloads/rbe, each with its exact counts (backend_counts.hpp).
+#include "workloads/rbe/backend.hpp"
+
+namespace dtflop::cli {
+namespace {
+
+struct BackendShapeOptions {
+  std::string grid = "1000x1000";
+  std::string kernel = "33x33";
+  std::string layout;
+  int threads = 0;
+  bool full = false;
+};
+
+CountsFn backend_target(CLI::App& app, const std::string& backend) {
+  auto o = std::make_shared<BackendShapeOptions>();
+  app.add_option("--grid", o->grid, "Grid size n_x x n_y, e.g. 1000x1000")->capture_default_str();
+  app.add_option("--kernel", o->kernel, "Motion-model kernel size I_x x I_y, e.g. 33x33")->capture_default_str();
+  if (backend == "cuda-resident")
+    app.add_option("--layout", o->layout, "Block layout BXxBY[xCELLS][:fused|:split], e.g. 32x8x16");
+  if (backend == "cpu-par") app.add_option("--threads", o->threads, "CPU threads (0: all)")->capture_default_str();
+  if (backend != "cuda-resident") app.add_flag("--full", o->full, "The full 2D convolution (4.10) instead of the separable one");
+  return [o, backend] {
+    const auto g = parse_size2(o->grid, "--grid", 1 << 20);
+    const auto k = parse_size2(o->kernel, "--kernel", 1 << 20);
+    const rbe::Shape s{g.x, g.y, k.x, k.y};
+    rbe::validate(s);
+    rbe::BackendOptions opts;
+    opts.threads = o->threads;
+    if (!o->layout.empty()) opts.layout = rbe::parse_layout(o->layout);
+    if (o->full) opts.prediction = rbe::Prediction::full;
+    const CostCounts c = rbe::step_counts(backend, s, opts);
+    nlohmann::json params = {{"nx", s.nx}, {"ny", s.ny}, {"Ix", s.Ix}, {"Iy", s.Iy}, {"backend", backend}};
+    std::string extra;
+    if (backend == "cuda-resident") {
+      params["layout"] = rbe::to_string(opts.layout);
+      extra = ", layout " + rbe::to_string(opts.layout);
+    }
+    if (backend == "cpu-par") {
+      params["threads"] = c.cpu_threads;
+      extra = fmt::format(", {} threads", c.cpu_threads);
+    }
+    return CountsResult{c, params,
+                        fmt::format("rbe-{}: one RBE step on {}, grid {}x{}, kernel {}x{}{}", backend, backend, s.nx,
+                                    s.ny, s.Ix, s.Iy, extra)};
+  };
+}
+
+PredictRegistrar cpu_seq_target({"rbe-cpu-seq", "One RBE step on cpu-seq (float64, one thread)",
+                                 [](CLI::App& app) { return backend_target(app, "cpu-seq"); }});
+PredictRegistrar cpu_par_target({"rbe-cpu-par", "One RBE step on cpu-par (float32, every CPU thread)",
+                                 [](CLI::App& app) { return backend_target(app, "cpu-par"); }});
+PredictRegistrar resident_target({"rbe-cuda-resident",
+                                  "One RBE step on cuda-resident (belief resident on the GPU, fused kernel)",
+                                  [](CLI::App& app) { return backend_target(app, "cuda-resident"); }});
+
+}  // namespace
+}  // namespace dtflop::cli

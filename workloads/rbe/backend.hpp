@@ -66,10 +66,12 @@ std::string cuda_device_name();
 // block_x x block_y threads; each thread computes cells_per_thread consecutive cells along y,
 // so one block covers a tile of block_x x (block_y * cells_per_thread) cells.
 // Invalid layouts are rejected by validate_layout() with a message, never by a crash.
+// The default, 32x8x16, was the best single layout over the three target configurations on the
+// H200 (docs/PERFORMANCE.md); the tuner searches the rest.
 struct Layout {
   int block_x = 32;
   int block_y = 8;
-  int cells_per_thread = 4;
+  int cells_per_thread = 16;
   // fused: one kernel per step (x-pass and y-pass through a shared-memory tile with halo,
   //        multiplied by the likelihood, block-reduced);
   // split: two kernels (x-pass to device memory, then y-pass + correction), for kernels whose

@@ -59,6 +59,24 @@ __device__ __forceinline__ void copy_async(float* dst, const float* src, bool va
 }
 __device__ __forceinline__ void copy_async_wait() { asm volatile("cp.async.wait_all;\n" ::); }
 
+// Copies rows [r0, rows) step dr of tile column c from global column gx (rows start at global
+// row gy0 + r0), zero outside the grid. One thread walks one column with running pointers, so
+// each element costs a compare, a select and the copy.
+__device__ __forceinline__ void copy_column_async(float* tile, int pitch, int c, int r0, int rows, int dr,
+                                                  const float* base, int nx, int ny, int gx, int gy0) {
+  const bool col_in = unsigned(gx) < unsigned(nx);
+  int gy = gy0 + r0;
+  const float* src = base + (std::ptrdiff_t(gy) * nx + gx);
+  const std::ptrdiff_t src_step = std::ptrdiff_t(dr) * nx;
+  unsigned dst = static_cast<unsigned>(__cvta_generic_to_shared(tile + r0 * pitch + c));
+  const unsigned dst_step = unsigned(dr * pitch) * 4u;
+  for (int r = r0; r < rows; r += dr, gy += dr, src += src_step, dst += dst_step) {
+    const bool valid = col_in && unsigned(gy) < unsigned(ny);
+    asm volatile("cp.async.ca.shared.global [%0], [%1], 4, %2;\n" ::"r"(dst), "l"(valid ? src : base),
+                 "r"(valid ? 4 : 0));
+  }
+}
+
 // The likelihood of the R cells a thread corrects, loaded at the start of the kernel so that
 // its latency hides behind the passes.
 template <int R>
@@ -207,17 +225,8 @@ __global__ void rbe_resident_fused(KernelArgs a) {
   const int tid = ty * bx + tx, T = bx * by;
   const int x0 = blockIdx.x * bx, y0 = blockIdx.y * by * R;
   const int gx0 = x0 - a.hx, gy0 = y0 - a.hy;
-  for (int r = ty; r < a.in_rows; r += by) {
-    const int gy = gy0 + r;
-    const bool row_in = gy >= 0 && gy < a.ny;
-    float* dst = in + r * a.in_pitch;
-    const float* src = a.q_prev + (row_in ? std::size_t(gy) * std::size_t(a.nx) : 0);
-    for (int c = tx; c < a.in_cols; c += bx) {
-      const int gx = gx0 + c;
-      const bool valid = row_in && gx >= 0 && gx < a.nx;
-      copy_async(dst + c, valid ? src + gx : a.q_prev, valid);
-    }
-  }
+  for (int c = tx; c < a.in_cols; c += bx)
+    copy_column_async(in, a.in_pitch, c, ty, a.in_rows, by, a.q_prev, a.nx, a.ny, gx0 + c, gy0);
   for (int i = tid; i < a.kx_len; i += T) copy_async(kx + i, a.kx + i, true);
   for (int i = tid; i < a.ky_len; i += T) copy_async(ky + i, a.ky + i, true);
   float lv[R];
@@ -288,12 +297,7 @@ __global__ void rbe_resident_ypass(KernelArgs a) {
   const int tid = ty * bx + tx, T = bx * by;
   const int x0 = blockIdx.x * bx, y0 = blockIdx.y * by * R;
   for (int i = tid; i < a.ky_len; i += T) copy_async(ky + i, a.ky + i, true);
-  const int gy0 = y0 - a.hy, gx = x0 + tx;
-  for (int r = ty; r < a.u_rows; r += by) {
-    const int gy = gy0 + r;
-    const bool valid = gy >= 0 && gy < a.ny && gx < a.nx;
-    copy_async(u + r * a.u_pitch + tx, valid ? a.u + std::size_t(gy) * std::size_t(a.nx) + gx : a.u, valid);
-  }
+  copy_column_async(u, a.u_pitch, tx, ty, a.u_rows, by, a.u, a.nx, a.ny, x0 + tx, y0 - a.hy);
   float lv[R];
   load_likelihood<R>(a, x0, y0, lv);
   if (tid == 0) red[32] = scale_from(*a.sum_in, a.cell_area);

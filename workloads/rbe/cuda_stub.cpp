@@ -9,7 +9,7 @@ namespace {
 class CudaUnavailable final : public Backend {
  public:
   CudaUnavailable(const BackendOptions& o, bool resident) : options_(o), resident_(resident) {
-    if (resident_) (void)parse_layout(to_string(o.layout));  // same option checks as with CUDA
+    if (resident_) (void)resident_plan({1024, 1024, 1, 1}, o.layout);  // same layout checks as with CUDA
   }
   std::string_view name() const override { return resident_ ? "cuda-resident" : "cuda-seed"; }
   std::string_view description() const override { return "unavailable: dtflop was built without CUDA"; }

@@ -151,7 +151,7 @@ TEST(RbeBackendCounts, CudaResidentSplitByHand) {
 }
 
 TEST(RbeLayout, ParsesAndRejectsWithAMessage) {
-  EXPECT_EQ(parse_layout("32x8"), (Layout{32, 8, 4, Layout::Passes::automatic}));
+  EXPECT_EQ(parse_layout("32x8"), (Layout{32, 8, Layout{}.cells_per_thread, Layout::Passes::automatic}));
   EXPECT_EQ(parse_layout("64x4x16:split"), (Layout{64, 4, 16, Layout::Passes::split}));
   EXPECT_EQ(to_string(parse_layout("64x4x16:fused")), "64x4x16:fused");
   for (const char* bad : {"", "32", "32x", "x8", "32x8x4x2", "32xq", "32x8:fast", "-32x8", "0x8"})
