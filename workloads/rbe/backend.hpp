@@ -185,7 +185,8 @@ class Backend {
     return step_counts(shape, options).scaled(steps);
   }
   // Stable names of the device kernels the backend launches (for CUPTI attribution); host
-  // backends return none. With CUDA, each step component is an NVTX range "rbe/<component>".
+  // backends return none. In a CUDA build, each host-timed component of a step is an NVTX range
+  // "rbe/<component>" (cuda-resident's steps run inside a graph: its kernels carry the names).
   virtual std::vector<std::string_view> kernel_names() const { return {}; }
 
   // Allocates, uploads and normalizes the prior. Throws InputError for an invalid problem or
