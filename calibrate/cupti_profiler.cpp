@@ -101,22 +101,6 @@ void CUPTIAPI buffer_completed(CUcontext ctx, uint32_t stream_id, uint8_t* buffe
   g_dropped += dropped;
 }
 
-// Runtime API functions whose host-side time the profiler records: kernel and graph launches
-// and copies. Everything else stays untraced (less overhead).
-const std::vector<CUpti_CallbackId>& traced_runtime_calls() {
-  static const std::vector<CUpti_CallbackId> ids = [] {
-    std::vector<CUpti_CallbackId> v;
-    for (uint32_t id = 1; id < CUPTI_RUNTIME_TRACE_CBID_SIZE; ++id) {
-      const char* name = nullptr;
-      if (cuptiGetCallbackName(CUPTI_CB_DOMAIN_RUNTIME_API, id, &name) != CUPTI_SUCCESS || !name) continue;
-      const std::string n = name;
-      if (n.find("Launch") != std::string::npos || n.find("Memcpy") != std::string::npos) v.push_back(id);
-    }
-    return v;
-  }();
-  return ids;
-}
-
 void check_cuda(cudaError_t e, const char* what) {
   if (e != cudaSuccess)
     throw std::runtime_error(fmt::format("{} failed: {}", what, cudaGetErrorString(e)));
@@ -173,15 +157,19 @@ class CuptiProfiler final : public ActivityProfiler {
   void start() {
     check_cupti(cuptiActivityEnable(CUPTI_ACTIVITY_KIND_MEMCPY), "enabling CUPTI memcpy records");
     check_cupti(cuptiActivityEnable(CUPTI_ACTIVITY_KIND_CONCURRENT_KERNEL), "enabling CUPTI kernel records");
-    for (auto id : traced_runtime_calls()) cuptiActivityEnableRuntimeApi(id, 1);
+    // Runtime API records (the host side of launches and copies). Selecting single functions
+    // with cuptiActivityEnableRuntimeApi delivered nothing on CUDA 13 (seen on an H200), so
+    // the whole kind is enabled; only traced repetitions pay for it.
+    runtime_ = cuptiActivityEnable(CUPTI_ACTIVITY_KIND_RUNTIME) == CUPTI_SUCCESS;
     tracing_ = true;
   }
   void stop() {
     cuptiActivityDisable(CUPTI_ACTIVITY_KIND_MEMCPY);
     cuptiActivityDisable(CUPTI_ACTIVITY_KIND_CONCURRENT_KERNEL);
-    for (auto id : traced_runtime_calls()) cuptiActivityEnableRuntimeApi(id, 0);
+    if (runtime_) cuptiActivityDisable(CUPTI_ACTIVITY_KIND_RUNTIME);
     tracing_ = false;
   }
+  bool runtime_ = false;
   std::uint64_t t0_ = 0;
   bool tracing_ = false;
 };

@@ -8,6 +8,7 @@
 #include <random>
 
 #include <ceres/ceres.h>
+#include <glog/logging.h>
 #include <fmt/format.h>
 
 #include "model/errors.hpp"
@@ -26,6 +27,7 @@ std::string_view to_string(Loss l) {
 namespace {
 
 constexpr double kZ95 = 1.959963984540054;  // two-sided 95% normal quantile
+const double kLogBound = std::log(1e6);      // how far from its start a fitted value may go
 
 // Start value for a parameter the start profile lacks: an order of magnitude typical of
 // today's machines. Log-space steps make a factor of ten off harmless.
@@ -104,10 +106,22 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
     for (Param p : required_params(s.counts, o.variant))
       if (std::find(ids.begin(), ids.end(), p) == ids.end()) ids.push_back(p);
   std::sort(ids.begin(), ids.end());
+  // Start values: the latency variant's fit for extended (see FitOptions::warm_start), else
+  // the start profile's values.
+  MachineProfile from = start;
+  if (o.variant == Variant::extended && o.warm_start) {
+    FitOptions lo = o;
+    lo.variant = Variant::latency;
+    try {
+      from = fit(samples, start, lo).profile;
+    } catch (const InputError&) {
+      // No warm start: the extended fit below reports its own problem, if any.
+    }
+  }
   std::vector<double> starts(ids.size());
   MachineProfile base = start;
   for (std::size_t i = 0; i < ids.size(); ++i) {
-    const Parameter* p = start.find(ids[i]);
+    const Parameter* p = from.find(ids[i]);
     starts[i] = p ? p->value : default_start(ids[i]);
     if (!p) base.set(ids[i], Parameter{starts[i], Provenance::user, {}, {}, "fit start guess"});
   }
@@ -163,8 +177,12 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
   }
   int free = 0;
   for (std::size_t i = 0; i < ids.size(); ++i) {
-    if (identifiable[i]) ++free;
-    else problem.SetParameterBlockConstant(&theta[i]);
+    if (identifiable[i]) {
+      ++free;
+    } else {
+      problem.SetParameterBlockConstant(&theta[i]);
+      if (const Parameter* p = start.find(ids[i])) starts[i] = p->value;  // held at the probed value
+    }
   }
   const int n_samples = static_cast<int>(samples.size());
   if (free == 0)
@@ -175,6 +193,15 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
         "{} sample{} cannot determine {} parameters; measure at least {} configurations (e.g. "
         "`dtflop sweep rbe --plan seed-test2`)",
         n_samples, n_samples == 1 ? "" : "s", free, free));
+
+  // A parameter whose term the samples barely feel would run off to zero or infinity (in log
+  // space) without changing the cost; bound it to a million-fold either way and, if it ends on a
+  // bound, report it as not determined.
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    if (identifiable[i]) {
+      problem.SetParameterLowerBound(&theta[i], 0, -kLogBound);
+      problem.SetParameterUpperBound(&theta[i], 0, kLogBound);
+    }
 
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
@@ -202,6 +229,13 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
   if (summary.termination_type != ceres::CONVERGENCE || !summary.IsSolutionUsable())
     throw InputError(fmt::format("the {} fit failed: {}", to_string(o.variant), summary.message));
 
+  std::vector<bool> at_bound(ids.size(), false);
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    if (identifiable[i] && std::abs(theta[i]) > kLogBound - 1e-3) {
+      at_bound[i] = true;
+      problem.SetParameterBlockConstant(&theta[i]);  // out of the covariance
+    }
+
   // Unrobustified residuals at the solution: their variance scales the covariance, since
   // relative residuals have no known standard deviation of their own.
   double ss = 0;
@@ -223,13 +257,21 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
     ceres::Covariance cov(co);
     std::vector<std::pair<const double*, const double*>> blocks;
     for (std::size_t i = 0; i < ids.size(); ++i)
-      if (identifiable[i]) blocks.emplace_back(&theta[i], &theta[i]);
+      if (identifiable[i] && !at_bound[i]) blocks.emplace_back(&theta[i], &theta[i]);
     if (dof <= 0) {
       out.covariance_note = "no degrees of freedom left for an uncertainty estimate (as many residuals as parameters)";
-    } else if (cov.Compute(blocks, &problem)) {
+    } else if ([&] {
+                 // Ceres logs a rank-deficient covariance as an error through glog; the report
+                 // below says it in words, so keep glog quiet meanwhile.
+                 const int level = FLAGS_minloglevel;
+                 FLAGS_minloglevel = google::GLOG_FATAL;
+                 const bool ok = cov.Compute(blocks, &problem);
+                 FLAGS_minloglevel = level;
+                 return ok;
+               }()) {
       out.covariance_ok = true;
       for (std::size_t i = 0; i < ids.size(); ++i) {
-        if (!identifiable[i]) continue;
+        if (!identifiable[i] || at_bound[i]) continue;
         double c = 0;
         cov.GetCovarianceBlock(&theta[i], &theta[i], &c);
         log_var[i] = std::max(0.0, c * s2);
@@ -248,12 +290,15 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
     FittedParameter f;
     f.id = ids[i];
     if (const Parameter* p = start.find(ids[i])) f.probed = p->value;
-    f.fitted = identifiable[i];
+    f.fitted = identifiable[i] && !at_bound[i];
     f.value = starts[i] * std::exp(theta[i]);
     if (!f.fitted) {
-      f.value = starts[i];
-      f.note = f.probed ? "not identifiable from these samples (it moves no prediction); kept the probed value"
-                        : "not identifiable from these samples and absent from the profile; left out";
+      const std::string why = at_bound[i] ? fmt::format("not determined by these samples (the fit drove it {} a "
+                                                        "million-fold away: its term is negligible in every sample)",
+                                                        theta[i] > 0 ? "up" : "down")
+                                          : "not identifiable from these samples (it moves no prediction)";
+      f.value = f.probed ? *f.probed : starts[i];
+      f.note = why + (f.probed ? "; kept the probed value" : "; absent from the profile, left out");
     } else {
       if (out.covariance_ok) {
         f.log_sigma = std::sqrt(log_var[i]);

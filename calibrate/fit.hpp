@@ -32,6 +32,10 @@ struct FitOptions {
   std::vector<Component> components = {Component::CG, Component::GC, Component::G, Component::C};
   int max_iterations = 200;
   double flag_ratio = 1.5;       // fitted / probed outside [1/r, r] is flagged
+  // The extended variant's max() terms have kinks: started from probed peaks, a term that
+  // never wins has no gradient and could never be fitted. So extended starts from the latency
+  // variant's fit to the same samples (the start profile stays the reference for the flags).
+  bool warm_start = true;
 };
 
 struct FittedParameter {

@@ -1,6 +1,6 @@
 #include "calibrate/rbe_sweep.hpp"
 
-#include <sys/resource.h>
+#include <time.h>
 
 #include <algorithm>
 #include <fstream>
@@ -17,8 +17,8 @@ using nlohmann::json;
 
 RbeSweepSettings with_defaults(RbeSweepSettings s, bool device) {
   if (s.steps <= 0) s.steps = device ? 10 : 1;
-  if (s.repetitions <= 0) s.repetitions = 5;
-  if (s.warmup < 0) s.warmup = 1;
+  if (s.repetitions <= 0) s.repetitions = device ? 7 : 5;
+  if (s.warmup < 0) s.warmup = device ? 2 : 1;
   return s;
 }
 
@@ -175,12 +175,12 @@ rbe::RunResult run_checked(rbe::Backend& b, const rbe::Problem& problem, std::in
   }
 }
 
-// CPU time this process has used (all threads), seconds.
+// CPU time this process has used (all threads), seconds. The scheduler's own clock (ns
+// resolution); getrusage() counts in scheduler ticks, too coarse for a run of a millisecond.
 double process_cpu_seconds() {
-  rusage u{};
-  ::getrusage(RUSAGE_SELF, &u);
-  auto sec = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
-  return sec(u.ru_utime) + sec(u.ru_stime);
+  timespec t{};
+  ::clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
 }  // namespace
@@ -213,62 +213,93 @@ Sample measure_rbe(const PlanItem& item, const RbeSweepSettings& st, const Plan&
     if (traced) profiler->end();
   }
 
-  std::vector<double> total, cg, gc, g, c, total_traced;
+  using C = rbe::Component;
+  // Traced repetitions: CUPTI's device-side durations (and the runtime API's host-side ones).
+  std::vector<double> dev_cg, dev_gc, dev_g, api_launch, api_copy, total_traced;
   json activity;
   if (traced) {
     for (int r = 0; r < st.repetitions; ++r) {
       profiler->begin();
       const rbe::RunResult rr = run_checked(*backend, problem, st.steps, item.key);
       const DeviceActivity a = profiler->end();
-      cg.push_back(a.to_device.seconds);
-      gc.push_back(a.to_host.seconds);
-      g.push_back(a.kernel_seconds);
-      c.push_back(host_parts(rr, {rbe::Component::host_sum}));
+      dev_cg.push_back(a.to_device.seconds);
+      dev_gc.push_back(a.to_host.seconds);
+      dev_g.push_back(a.kernel_seconds);
+      api_launch.push_back(a.launch_api_seconds);
+      api_copy.push_back(a.copy_api_seconds);
       total_traced.push_back(rr.wall_seconds);
       if (r == st.repetitions - 1) activity = a.to_json();
     }
   }
+  // Untraced repetitions: the total, and the backend's host-clock time of each phase.
+  std::vector<double> total, host_cg, host_gc, host_g, host_c, device_step;
   std::vector<double> utilization;  // CPU time / (wall time x threads) of host backends
   for (int r = 0; r < st.repetitions; ++r) {
     const double cpu0 = process_cpu_seconds();
     const rbe::RunResult rr = run_checked(*backend, problem, st.steps, item.key);
     const double cpu = process_cpu_seconds() - cpu0;
     total.push_back(rr.wall_seconds);
-    if (!device && rr.wall_seconds > 0)
-      utilization.push_back(cpu / (rr.wall_seconds * std::max(1, s.counts.cpu_threads)));
-    if (traced) continue;
-    using C = rbe::Component;
-    if (device) {
-      cg.push_back(host_parts(rr, {C::to_device}));
-      gc.push_back(host_parts(rr, {C::to_host}));
-      g.push_back(host_parts(rr, {C::predict, C::correct, C::normalize, C::device_step}));
-      c.push_back(host_parts(rr, {C::host_sum}));
-    } else {
-      c.push_back(host_parts(rr, {C::predict, C::correct, C::normalize, C::host_sum}));
+    if (!device) {
+      if (rr.wall_seconds > 0) utilization.push_back(cpu / (rr.wall_seconds * std::max(1, s.counts.cpu_threads)));
+      host_c.push_back(host_parts(rr, {C::predict, C::correct, C::normalize, C::host_sum}));
+      continue;
     }
+    host_cg.push_back(host_parts(rr, {C::to_device}));
+    host_gc.push_back(host_parts(rr, {C::to_host}));
+    host_g.push_back(host_parts(rr, {C::predict, C::correct, C::normalize}));
+    host_c.push_back(host_parts(rr, {C::host_sum}));
+    device_step.push_back(host_parts(rr, {C::device_step}));
   }
 
-  auto put = [&s](Component comp, const std::vector<double>& v) {
-    if (v.empty()) return;
-    if (std::all_of(v.begin(), v.end(), [](double x) { return x == 0; })) return;  // not measured
-    s.components[comp] = summarize(v);
+  auto measured = [](const std::vector<double>& v) {
+    return !v.empty() && std::any_of(v.begin(), v.end(), [](double x) { return x != 0; });
+  };
+  auto put = [&s, &measured](Component comp, const std::vector<double>& v) {
+    if (measured(v)) s.components[comp] = summarize(v);
+  };
+  // A phase the backend brackets with host clocks (issue .. completion) is what the step pays
+  // for it: the device-side part CUPTI sees plus the latency part (API calls, host staging of
+  // pageable memory, synchronization). Where the backend has no such phase (cuda-resident runs a
+  // CUDA graph), the component is CUPTI's device-side time.
+  std::string sources;
+  auto choose = [&](Component comp, const std::vector<double>& host, const std::vector<double>& dev) {
+    if (measured(host)) {
+      put(comp, host);
+      sources += fmt::format("{}{}: host clock around the phase", sources.empty() ? "" : "; ", to_string(comp));
+    } else if (measured(dev)) {
+      put(comp, dev);
+      sources += fmt::format("{}{}: CUPTI device-side durations", sources.empty() ? "" : "; ", to_string(comp));
+    }
   };
   put(Component::total, total);
-  put(Component::CG, cg);
-  put(Component::GC, gc);
-  put(Component::G, g);
-  put(Component::C, c);
+  if (device) {
+    choose(Component::CG, host_cg, dev_cg);
+    choose(Component::GC, host_gc, dev_gc);
+    choose(Component::G, host_g, measured(dev_g) ? dev_g : device_step);
+  }
+  put(Component::C, host_c);
   if (!s.find(Component::total))
     throw std::runtime_error(fmt::format("{}: the backend reported no wall time", item.key));
 
   // Below ~0.9 the process waited for the CPU: another process shared the machine while this
   // sample was measured (its time is then the machine's, not the workload's alone).
   if (!utilization.empty()) s.detail["cpu_utilization"] = summarize(utilization).median;
+  auto med = [&measured](const std::vector<double>& v) { return measured(v) ? summarize(v).median : 0.0; };
+  if (device)
+    s.detail["host_phases"] = {{"to_device", med(host_cg)}, {"to_host", med(host_gc)}, {"kernels", med(host_g)},
+                               {"host_sum", med(host_c)}, {"device_step", med(device_step)}};
   s.source = traced ? TimingSource::cupti : TimingSource::host;
   if (device && !traced)
-    s.timing_note = "CUPTI unavailable (" + no_profiler +
-                    "): copies and kernels timed by the backend's host clocks instead";
+    s.timing_note = "CUPTI unavailable (" + no_profiler + "): " + sources;
   if (traced) {
+    s.detail["device"] = {{"to_device", med(dev_cg)}, {"to_host", med(dev_gc)}, {"kernels", med(dev_g)},
+                          {"launch_api", med(api_launch)}, {"copy_api", med(api_copy)}};
+    // The latency parts: what a phase costs beyond its device-side duration.
+    json lat = json::object();
+    if (measured(host_cg) && measured(dev_cg)) lat["to_device"] = med(host_cg) - med(dev_cg);
+    if (measured(host_gc) && measured(dev_gc)) lat["to_host"] = med(host_gc) - med(dev_gc);
+    if (measured(host_g) && measured(dev_g)) lat["kernels"] = med(host_g) - med(dev_g);
+    s.detail["latency_parts"] = lat;
     const Stats tt = summarize(total_traced);
     s.detail["total_traced"] = {{"median", tt.median}, {"p25", tt.p25}, {"p75", tt.p75}};
     s.detail["activity_last_repetition"] = activity;
@@ -287,8 +318,8 @@ Sample measure_rbe(const PlanItem& item, const RbeSweepSettings& st, const Plan&
     check("device->host bytes", k.P * k.N_GC, to_host["bytes"].get<std::int64_t>());
     check("kernels", k.launches, activity["kernels"].get<std::int64_t>());
     if (!mismatch.empty()) s.detail["counts_mismatch"] = mismatch;
-    s.timing_note = "copies and kernels: CUPTI activity records (device-side durations); CPU work: host "
-                    "clock; total: host clock over untraced repetitions";
+    s.timing_note = "CUPTI traced repetitions give the device-side durations and check the counts; " + sources +
+                    "; C: host clock; total: host clock over untraced repetitions";
   }
   s.measured_at = utc_now();
   return s;

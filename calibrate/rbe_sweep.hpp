@@ -24,8 +24,9 @@ struct RbeSweepSettings {
 };
 
 // Fills steps / repetitions / warmup left at their "default" values: device backends run 10
-// steps per repetition, 5 repetitions (each profiled, then 5 more unprofiled for the total),
-// 1 warm-up; host backends 1 step, 5 repetitions, 1 warm-up (their steps take up to a second).
+// steps per repetition, 7 repetitions traced by CUPTI then 7 untraced (the total and the host
+// clocks), after 2 warm-up runs; host backends 1 step, 5 repetitions, 1 warm-up (their steps
+// take up to a second).
 RbeSweepSettings with_defaults(RbeSweepSettings s, bool device_backend);
 
 // Builds a plan:

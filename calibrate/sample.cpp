@@ -43,8 +43,9 @@ double predicted(const Prediction& p, Component c) {
     case Component::CG: return p.dt_CG + p.lat_CG;
     case Component::GC: return p.dt_GC + p.lat_GC;
     case Component::G:
-      // The extended variant overlaps a kernel's memory traffic with its arithmetic.
-      return p.variant == Variant::extended ? std::max(p.dt_GG, p.dt_G) : p.dt_GG + p.dt_G;
+      // Kernels and what each launch costs; the extended variant overlaps a kernel's memory
+      // traffic with its arithmetic.
+      return (p.variant == Variant::extended ? std::max(p.dt_GG, p.dt_G) : p.dt_GG + p.dt_G) + p.lat_launch;
     case Component::C: return p.dt_C;
   }
   return 0;

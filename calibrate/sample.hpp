@@ -26,11 +26,13 @@ inline constexpr const char* kSampleSchema = "dtflop.sample";
 inline constexpr int kSampleSchemaVersion = 1;
 
 // The measured components the model predicts, each tied to model terms:
-//   total - wall time of the run                      <-> Prediction::total
-//   CG    - host->device copies (device-side duration) <-> dt_CG + lat_CG
-//   GC    - device->host copies                        <-> dt_GC + lat_GC
-//   G     - kernels (device-side duration)             <-> dt_GG + dt_G (extended: max of them)
-//   C     - CPU work, host clock                       <-> dt_C
+//   total - wall time of the run                 <-> Prediction::total
+//   CG    - host->device copies                   <-> dt_CG + lat_CG
+//   GC    - device->host copies                   <-> dt_GC + lat_GC
+//   G     - kernels                               <-> dt_GG + dt_G (extended: max of them) + lat_launch
+//   C     - CPU work, host clock                  <-> dt_C
+// So with the latency variant the components add up to the total. How each is measured (a
+// host clock around the phase, or CUPTI's device-side durations) is in the sample's timing note.
 enum class Component { total, CG, GC, G, C };
 
 std::string_view to_string(Component c);

@@ -34,11 +34,19 @@ struct CalibrateOptions {
   double loss_scale = 0.05;
   double flag_ratio = 1.5;
   std::vector<std::string> backends;
+  std::vector<std::string> match;  // sample keys must contain each
   bool total_only = false;
   std::uint64_t seed = 1;
 };
 
-std::vector<Sample> load_samples(const std::vector<std::string>& stores, const std::vector<std::string>& backends) {
+bool matches(const Sample& s, const std::vector<std::string>& match) {
+  for (const auto& m : match)
+    if (s.key.find(m) == std::string::npos) return false;
+  return true;
+}
+
+std::vector<Sample> load_samples(const std::vector<std::string>& stores, const std::vector<std::string>& backends,
+                                 const std::vector<std::string>& match) {
   std::vector<Sample> all;
   for (const auto& path : stores) {
     if (!fs::exists(path))
@@ -50,15 +58,16 @@ std::vector<Sample> load_samples(const std::vector<std::string>& stores, const s
     if (c.samples.empty())
       throw InputError(fmt::format("sample store '{}' holds no samples; measure some with `dtflop sweep`", path));
     for (auto& s : c.samples)
-      if (backends.empty() || std::find(backends.begin(), backends.end(), s.backend) != backends.end())
+      if ((backends.empty() || std::find(backends.begin(), backends.end(), s.backend) != backends.end()) &&
+          matches(s, match))
         all.push_back(std::move(s));
   }
   if (all.empty()) {
     std::string list;
     for (const auto& b : backends) list += (list.empty() ? "" : ", ") + b;
-    throw InputError(fmt::format("the stores hold no samples of backend {}; drop --backend or name one the "
-                                 "stores hold",
-                                 list));
+    throw InputError(fmt::format("the stores hold no samples of backend {}{}; drop --backend / --match or name "
+                                 "what the stores hold",
+                                 list.empty() ? "(any)" : list, match.empty() ? "" : " matching --match"));
   }
   return all;
 }
@@ -111,7 +120,7 @@ void run(const CalibrateOptions& o) {
   if (o.total_only) fo.components.clear();
 
   const MachineProfile probed = load_profile(o.machine);
-  const std::vector<Sample> samples = load_samples(o.stores, o.backends);
+  const std::vector<Sample> samples = load_samples(o.stores, o.backends, o.match);
   check_machine(samples, probed, o.machine);
 
   // Variant: cross-validated when there is a choice (and reported when there is not).
@@ -213,6 +222,7 @@ Registrar reg(40, [](CLI::App& root) {
   app->add_option("--variant", o->variant, "seed, latency, extended, or all (choose by cross-validation)")
       ->capture_default_str();
   app->add_option("--folds", o->folds, "Folds of the cross-validation")->capture_default_str();
+  app->add_option("--match", o->match, "Only samples whose key contains this text, e.g. /pinned/ (repeatable: all must match)");
   app->add_option("--backend", o->backends, "Fit only samples of these backends (repeatable)");
   app->add_option("--loss", o->loss, "Robust loss: huber, cauchy or none")->capture_default_str();
   app->add_option("--loss-scale", o->loss_scale, "Relative residual where the robust loss bends")

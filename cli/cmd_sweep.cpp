@@ -77,9 +77,18 @@ void run(const SweepOptions& o) {
                describe(here), st.steps, st.repetitions,
                prof.profiler ? " traced by CUPTI + the same untraced for the total" : "", st.warmup);
   }
+  // The first configuration a process measures runs slower (clocks ramping up, first
+  // allocations, lazy loading of the device's modules): measure it once, unrecorded, first.
+  bool warmed = false;
   const SweepReport r = run_sweep(
       plan, o.store, here,
-      [&](const PlanItem& item) { return measure_rbe(item, st, plan, here, prof.profiler.get(), prof.why_not); },
+      [&](const PlanItem& item) {
+        if (!warmed) {
+          measure_rbe(item, st, plan, here, prof.profiler.get(), prof.why_not);
+          warmed = true;
+        }
+        return measure_rbe(item, st, plan, here, prof.profiler.get(), prof.why_not);
+      },
       o.quiet ? nullptr : stderr);
   if (o.quiet)
     for (const auto& w : r.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);

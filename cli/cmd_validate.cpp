@@ -31,6 +31,7 @@ struct ValidateOptions {
   std::string machine;
   std::string variant;
   std::vector<std::string> backends;
+  std::vector<std::string> match;  // sample keys must contain each
   bool by_plan = false;
   double target_mean = 3;
   double target_max = 8;
@@ -101,10 +102,11 @@ int run(const ValidateOptions& o) {
                  "dtflop: warning: '{}' was used to fit this profile, so these errors are not held-out errors\n",
                  path);
     for (auto& s : c.samples)
-      if (o.backends.empty() || std::find(o.backends.begin(), o.backends.end(), s.backend) != o.backends.end())
+      if ((o.backends.empty() || std::find(o.backends.begin(), o.backends.end(), s.backend) != o.backends.end()) &&
+          std::all_of(o.match.begin(), o.match.end(), [&s](const std::string& m) { return s.key.find(m) != std::string::npos; }))
         samples.push_back(std::move(s));
   }
-  if (samples.empty()) throw InputError("no sample of the named --backend in the stores");
+  if (samples.empty()) throw InputError("no sample in the stores matches --backend / --match");
   for (const auto& s : samples) {
     std::string why;
     if (!same_machine(s.machine, profile.identity, &why))
@@ -193,6 +195,7 @@ Registrar reg(50, [](CLI::App& root) {
       ->required()
       ->check(CLI::ExistingFile);
   app->add_option("--variant", o->variant, "Model variant (default: the one the fit chose)");
+  app->add_option("--match", o->match, "Only samples whose key contains this text, e.g. /pinned/ (repeatable: all must match)");
   app->add_option("--backend", o->backends, "Only samples of these backends (repeatable)");
   app->add_flag("--by-plan", o->by_plan, "Also break the errors down by sweep plan");
   app->add_option("--target-mean", o->target_mean, "Target for the mean relative error of the total [%]")

@@ -20,9 +20,10 @@ nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm,clocks.mem,te
   --format=csv 2>&1 | tee -a "$log"
 nproc | tee -a "$log"
 say "GPU tests (CUPTI)"
-timeout 60 $B/test_calibrate_gpu 2>&1 | tail -n 12 | tee -a "$log"
+timeout 45 $B/test_calibrate_gpu > "$O/gpu-tests.txt" 2>&1
+grep -E "^\[  |Failure|Expected|Which is|Value of|Actual" "$O/gpu-tests.txt" | tail -n 30 | tee -a "$log"
 say probe
-timeout 90 $B/dtflop probe --quick -o "$O/probed.json" > "$O/probe.txt" 2>&1
+timeout 60 $B/dtflop probe --quick -o "$O/probed.json" > "$O/probe.txt" 2>&1
 tail -n 40 "$O/probe.txt" >> "$log"
 
 sweep() {  # sweep LIMIT_S STORE ARGS...
@@ -31,7 +32,7 @@ sweep() {  # sweep LIMIT_S STORE ARGS...
   say "sweep $* -> $store"
   timeout "$limit" $B/dtflop sweep rbe --store "$O/$store" --quiet "$@" 2>&1 | tee -a "$log"
 }
-sweep 100 fit.jsonl  --backend cuda-seed --plan seed-test1
+sweep 140 fit.jsonl  --backend cuda-seed --plan seed-test1
 sweep 30  fit.jsonl  --backend cuda-seed --plan seed-test2
 sweep 40  fit.jsonl  --backend cuda-resident --plan seed-test1
 sweep 20  fit.jsonl  --backend cuda-resident --plan seed-test2

@@ -126,6 +126,31 @@ TEST(CalibFit, ParametersThatMoveNoPredictionAreKept) {
   }
 }
 
+TEST(CalibFit, ExtendedStartsFromTheLatencyFitSoBothSidesOfAMaxAreFitted) {
+  // Kernels memory-bound at small kernel sizes and compute-bound at large ones (2 TFLOP/s).
+  MachineProfile truth = test::round_profile();
+  truth.set(Param::V_G_fp32, Parameter{2e12, Provenance::user, {}, {}, {}});
+  const auto samples = test::seed_pipeline_samples(truth, Variant::extended, 0.0);
+  // The probe's FMA peak is so high that no kernel looks compute-bound from there.
+  MachineProfile start = truth;
+  start.set(Param::V_G_fp32, Parameter{500e12, Provenance::probed, {}, {}, {}});
+  FitOptions o;
+  o.variant = Variant::extended;
+  const FitResult warm = fit(samples, start, o);
+  EXPECT_NEAR(warm.profile.get(Param::V_G_fp32).value / 2e12, 1.0, 1e-3);
+  EXPECT_NEAR(warm.profile.get(Param::B_GG).value / truth.get(Param::B_GG).value, 1.0, 1e-3);
+  EXPECT_LT(warm.rms_relative, 1e-4);
+  // Started at the probed values instead, V_G has no gradient and stays where it was.
+  o.warm_start = false;
+  const FitResult cold = fit(samples, start, o);
+  for (const auto& f : cold.params)
+    if (f.id == Param::V_G_fp32) {
+      EXPECT_FALSE(f.fitted);
+      EXPECT_DOUBLE_EQ(f.value, 500e12);
+    }
+  EXPECT_GT(cold.rms_relative, 10 * warm.rms_relative);
+}
+
 TEST(CalibFit, RefusesWhatItCannotDo) {
   const MachineProfile truth = test::round_profile();
   FitOptions o;
