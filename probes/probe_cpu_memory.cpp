@@ -6,6 +6,11 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
+
+#if defined(__unix__) || defined(__APPLE__)
+#include <unistd.h>
+#endif
 
 #include <fmt/format.h>
 
@@ -113,10 +118,22 @@ std::vector<Measurement> stream(int threads, const Plan& p, cpu::Isa isa, const 
   return out;
 }
 
+// Physical memory, when the system says (Linux, macOS).
+std::optional<std::int64_t> physical_memory() {
+#if defined(_SC_PHYS_PAGES) && defined(_SC_PAGESIZE)
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  if (pages > 0 && page > 0) return static_cast<std::int64_t>(pages) * page;
+#endif
+  return std::nullopt;
+}
+
 ProbeReport run(const ProbeOptions& o) {
   ProbeReport r;
   const CpuInfo ci = cpu_info();
-  const Plan p = plan(o.effort, ci.llc_bytes);
+  Plan p = plan(o.effort, ci.llc_bytes);
+  // Three arrays: keep them within a quarter of the machine's memory.
+  if (const auto mem = physical_memory())
+    p.array_bytes = std::max<std::int64_t>(std::min(p.array_bytes, *mem / 12), 1 << 20);
   const cpu::Isa isa = cpu::best_isa();
   r.measurements = stream(1, p, isa, o);
   if (ci.threads > 1) {

@@ -1,7 +1,6 @@
 // The CPU probes, run at smoke effort: positive finite figures for the right parameters,
 // with their results validated inside the probe.
 #include <cmath>
-#include <regex>
 #include <set>
 #include <string>
 
@@ -67,9 +66,6 @@ TEST(CpuProbes, FmaGivesFourRates) {
     EXPECT_LT(m->value, 1e14) << info(p).name;
     EXPECT_EQ(m->stats.n, 2u);
   }
-  // A CPU does at least as many FP32 as FP64 operations per second (same vector width):
-  // allow 40% for timing noise on a shared machine.
-  EXPECT_GT(find(r, Param::V_C1_fp32)->value, 0.6 * find(r, Param::V_C1_fp64)->value);
 }
 
 TEST(Identity, DescribesThisCpu) {
@@ -82,8 +78,16 @@ TEST(Identity, DescribesThisCpu) {
     EXPECT_LT(*c.clock_ghz, 10.0);
     EXPECT_FALSE(c.clock_source.empty());
   }
+  // "2026-11-21T03:11:00Z": digits everywhere but the separators.
   const std::string now = utc_now_iso8601();
-  EXPECT_TRUE(std::regex_match(now, std::regex(R"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ)"))) << now;
+  const std::string shape = "dddd-dd-ddTdd:dd:ddZ";
+  ASSERT_EQ(now.size(), shape.size()) << now;
+  for (std::size_t i = 0; i < shape.size(); ++i) {
+    if (shape[i] == 'd')
+      EXPECT_TRUE(now[i] >= '0' && now[i] <= '9') << now;
+    else
+      EXPECT_EQ(now[i], shape[i]) << now;
+  }
 }
 
 TEST(Identity, ReadsTheNvidiaDriverVersion) {
