@@ -1,20 +1,9 @@
 #include "calibrate/machine.hpp"
 
-#include <sched.h>
-#include <unistd.h>
-
-#include <algorithm>
-
-#include <fstream>
-#include <set>
-#include <thread>
-#include <utility>
-
 #include <fmt/format.h>
 
-#if DTFLOP_HAVE_CUDA
-#include <cuda_runtime.h>
-#endif
+#include "probes/gpu.hpp"
+#include "probes/identity.hpp"
 
 namespace dtflop::calib {
 
@@ -32,66 +21,20 @@ std::string trim(std::string s) {
   return out;
 }
 
-struct CpuInfo {
-  std::string model;
-  int cores = 0;
-};
-
-CpuInfo read_cpuinfo() {
-  CpuInfo info;
-  std::ifstream in("/proc/cpuinfo");
-  std::set<std::pair<std::string, std::string>> cores;  // (physical id, core id)
-  std::string line, physical = "0";
-  while (std::getline(in, line)) {
-    const auto colon = line.find(':');
-    if (colon == std::string::npos) continue;
-    const std::string key = trim(line.substr(0, colon));
-    const std::string value = trim(line.substr(colon + 1));
-    if (key == "model name" && info.model.empty()) info.model = value;
-    else if (key == "physical id") physical = value;
-    else if (key == "core id") cores.emplace(physical, value);
-  }
-  info.cores = static_cast<int>(cores.size());
-  return info;
-}
-
 std::string normalized(const std::string& s) { return trim(s); }
-
-// Hardware threads this process may run on (its affinity mask), as `dtflop probe` counts them.
-int usable_cpus() {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  if (::sched_getaffinity(0, sizeof set, &set) == 0) {
-    const int n = CPU_COUNT(&set);
-    if (n > 0) return n;
-  }
-  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-}
 
 }  // namespace
 
 MachineIdentity this_machine() {
-  MachineIdentity id;
-  char host[256] = {};
-  if (::gethostname(host, sizeof host - 1) == 0) id.hostname = host;
-  const CpuInfo cpu = read_cpuinfo();
-  id.cpu_model = cpu.model.empty() ? "unknown CPU" : cpu.model;
-  id.cpu_threads = usable_cpus();
-  id.cpu_cores = cpu.cores > 0 ? cpu.cores : id.cpu_threads;
-#if DTFLOP_HAVE_CUDA
-  int count = 0;
-  if (cudaGetDeviceCount(&count) == cudaSuccess && count > 0) {
-    cudaDeviceProp prop{};
-    if (cudaGetDeviceProperties(&prop, 0) == cudaSuccess) id.gpu_name = prop.name;
-    int driver = 0, runtime = 0;
-    if (cudaDriverGetVersion(&driver) == cudaSuccess)
-      id.gpu_driver = fmt::format("CUDA driver API {}.{}", driver / 1000, (driver % 1000) / 10);
-    if (cudaRuntimeGetVersion(&runtime) == cudaSuccess)
-      id.cuda_version = fmt::format("{}.{}", runtime / 1000, (runtime % 1000) / 10);
-  } else {
-    (void)cudaGetLastError();  // no device: clear the sticky error, the identity has no GPU
+  // The same functions `dtflop probe` uses, so a sample and a profile of one machine agree.
+  MachineIdentity id = probes::host_identity();
+  id.measured_at.clear();  // a sample has its own time
+  const probes::gpu::DeviceInfo d = probes::gpu::device_info();
+  if (d.usable) {
+    id.gpu_name = d.name;
+    id.gpu_driver = d.driver_version;
+    id.cuda_version = d.runtime_version;
   }
-#endif
   return id;
 }
 

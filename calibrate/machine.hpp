@@ -8,9 +8,10 @@
 
 namespace dtflop::calib {
 
-// Hostname, CPU model (from /proc/cpuinfo), physical cores and hardware threads, and - when
-// dtflop was built with CUDA and a device is usable - device 0's name, the driver and runtime
-// versions. `measured_at` is left empty.
+// Hostname, CPU model, physical cores and hardware threads, and - when dtflop was built with
+// CUDA and a device is usable - device 0's name, the driver and runtime versions, read by the
+// same functions as `dtflop probe` (probes/identity.hpp, probes/gpu.hpp). `measured_at` is left
+// empty.
 MachineIdentity this_machine();
 
 // Same machine: the same CPU model and hardware thread count, and the same GPU (or none on
