@@ -82,8 +82,8 @@ void register_all() {
   // cuda-resident's layouts at the three target configurations (the tuner's search space).
   for (const Shape s : {Shape{1000, 1000, 33, 33}, Shape{1000, 1000, 201, 201}, Shape{4000, 4000, 33, 33}})
     for (const char* l : {"32x8x4", "32x8x8", "32x8x16", "32x16x8", "32x4x16", "64x4x8", "64x4x16", "64x8x8",
-                          "32x16x4", "128x2x8", "32x8x8:split", "32x8x16:split", "32x16x8:split",
-                          "64x4x8:split"}) {
+                          "32x16x4", "128x2x8", "32x12x16", "48x8x16", "64x6x16", "32x8x8:split",
+                          "32x8x16:split", "32x16x8:split", "64x4x8:split"}) {
       BackendOptions o;
       o.layout = parse_layout(l);
       add("cuda-resident", s, o, 1000, 5, std::string("layout-") + l);

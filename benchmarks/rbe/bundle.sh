@@ -1,14 +1,14 @@
 #!/usr/bin/env bash
-# Builds the RBE executables for the lent GPU machine into build-rbe-device/ and gathers them,
-# with the non-system shared libraries they need, into build-rbe-device/carry/ (git-ignored;
+# Builds the RBE executables for the lent GPU machine into build-rbe-device/ (or $BUILD) and
+# gathers them, with the non-system shared libraries they need, into $BUILD/carry/ (git-ignored;
 # pass it as `carry`). The same recipe as scripts/device-bundle.sh, in a folder of its own so
 # that it never clobbers another bundle being built at the same time.
-#   benchmarks/rbe/bundle.sh [TARGET...]     default: test_rbe_gpu bench_rbe bench_rbe_cpu_ratio
+#   [BUILD=dir] benchmarks/rbe/bundle.sh [TARGET...]   default: test_rbe_gpu bench_rbe bench_rbe_cpu_ratio
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 targets=("$@")
 ((${#targets[@]})) || targets=(test_rbe_gpu bench_rbe bench_rbe_cpu_ratio)
-build=build-rbe-device
+build=${BUILD:-build-rbe-device}
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDTFLOP_DEVICE_BUNDLE=ON \
       -DCMAKE_CUDA20_STANDARD_COMPILE_OPTION=-std=c++20 -DCMAKE_CUDA20_EXTENSION_COMPILE_OPTION=-std=c++20 >/dev/null
 cmake --build "$build" -j "$(nproc)" --target "${targets[@]}"

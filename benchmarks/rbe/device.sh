@@ -3,8 +3,9 @@
 # with carry ["build-rbe-device/carry"]: GPU tests, the GPU benchmarks, the PyTorch peer in
 # the same call, the comparison table (dtflop vs PyTorch vs floor), cpu-par vs OpenCV.
 #   FILTER=regex (bench_rbe filter, default: cuda)  OUT=folder for logs (default $OUT or /tmp)
+#   BUNDLE=folder (default build-rbe-device/carry: what bundle.sh made, carried to the device)
 set -uo pipefail
-bundle=build-rbe-device/carry
+bundle=${BUNDLE:-build-rbe-device/carry}
 export LD_LIBRARY_PATH=$PWD/$bundle/lib
 out=${OUT:-/tmp}
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm,clocks.mem,temperature.gpu,power.draw --format=csv

@@ -84,7 +84,6 @@ ResidentPlan resident_plan(const Shape& s, const Layout& l, std::size_t max_shar
   p.threads = static_cast<int>(threads);
   p.tile_w = l.block_x;
   p.tile_h = l.block_y * R;
-  p.blocks_x = (s.nx + p.tile_w - 1) / p.tile_w;
   p.blocks_y = (s.ny + p.tile_h - 1) / p.tile_h;
   const resident::TileGeometry fused = resident::fused_geometry(s, l);
   const resident::TileGeometry ypass = resident::ypass_geometry(s, l);
@@ -107,10 +106,14 @@ ResidentPlan resident_plan(const Shape& s, const Layout& l, std::size_t max_shar
     throw bad(fmt::format("{} rows of blocks exceed CUDA's {}; use more rows per block (block_y x "
                           "cells_per_thread)",
                           p.blocks_y, kMaxGridY));
+  // Fused tiles of a row start x_shift cells left of a multiple of W (resident_geometry.hpp):
+  // the blocks cover x_shift + n_x columns. Split y-pass tiles start at multiples of W.
   if (p.passes == Layout::Passes::fused) {
+    p.blocks_x = (s.nx + fused.x_shift + p.tile_w - 1) / p.tile_w;
     p.smem_bytes = fused.smem_bytes;
     return p;
   }
+  p.blocks_x = (s.nx + p.tile_w - 1) / p.tile_w;
   if (ypass.smem_bytes > max_shared)
     throw bad(fmt::format("the y-pass tile needs {} bytes of shared memory for a {}-row kernel, more than "
                           "the {} a block may have; use fewer rows per block (block_y x cells_per_thread)",
@@ -123,7 +126,7 @@ ResidentPlan resident_plan(const Shape& s, const Layout& l, std::size_t max_shar
   p.smem_bytes = ypass.smem_bytes;
   p.xtile_w = xpass.out_w;
   p.xtile_h = xpass.out_h;
-  p.xblocks_x = (s.nx + p.xtile_w - 1) / p.xtile_w;
+  p.xblocks_x = (s.nx + xpass.x_shift + p.xtile_w - 1) / p.xtile_w;
   p.xblocks_y = (s.ny + p.xtile_h - 1) / p.xtile_h;
   p.xsmem_bytes = xpass.smem_bytes;
   if (p.xblocks_y > kMaxGridY)

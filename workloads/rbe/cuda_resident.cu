@@ -15,10 +15,13 @@
 // the sums S_k, one scalar per step, come back in one copy per segment. Counts:
 // cuda_resident_counts() (backend_counts.cpp), geometry: resident_geometry.hpp.
 // No fmt here: its compile-time format checks do not compile under nvcc in C++20.
+#include <cuda.h>  // CUtensorMap and its enums (the encoder is reached through the runtime)
 #include <cuda_runtime.h>
 
 #include <cfloat>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <map>
 #include <optional>
 
@@ -46,9 +49,17 @@ struct KernelArgs {
   const double* sum_in;        // S_{k-1}
   double* sum_out;             // S_k (zeroed before the step)
   int nx, ny, Ix, Iy, hx, hy;  // hx, hy: halo before the cell (I - 1 - c)
+  int x_shift;                 // x-pass tiles start x_shift cells left of a multiple of their width
+  int vec;                     // n_x % 4 == 0: tiles are copied in 16-byte pieces
+  int tma;                     // the tile is one tensor-map box (TMA copy), see tile_map_fits()
   int in_rows, in_cols, in_pitch, u_rows, u_pitch, kx_len, ky_len;
   double cell_area;
 };
+
+__device__ __forceinline__ float4 lds4(const float* p) { return *reinterpret_cast<const float4*>(p); }
+__device__ __forceinline__ void sts4(float* p, float a, float b, float c, float d) {
+  *reinterpret_cast<float4*>(p) = make_float4(a, b, c, d);
+}
 
 // Asynchronous 4-byte copy global -> shared (cp.async, sm_80+); when !valid the destination
 // is filled with zero and nothing is read. Every load of a tile is in flight at once instead
@@ -77,15 +88,83 @@ __device__ __forceinline__ void copy_column_async(float* tile, int pitch, int c,
   }
 }
 
-// The likelihood of the R cells a thread corrects, loaded at the start of the kernel so that
-// its latency hides behind the passes.
+// Copies a tile of `rows` x 4 `cols4` floats whose first column gx0 is a multiple of 4 (n_x a
+// multiple of 4 too, so each 16-byte piece lies wholly inside or outside the grid) in 16-byte
+// pieces, zero outside the grid. Thread `tid` of T walks the piece columns tid % P, + P, ...
+// (P = min(cols4, T)) from row tid / P in steps of T / P rows, with running pointers.
+__device__ __forceinline__ void copy_tile16_async(float* tile, int pitch, int rows, int cols4, const float* base,
+                                                  int nx, int ny, int gx0, int gy0, int tid, int T) {
+  const int P = cols4 < T ? cols4 : T;
+  const int dr = T / P;
+  const int r0 = tid / P;
+  if (r0 >= dr) return;  // the T - dr P threads left over
+  const std::ptrdiff_t src_step = std::ptrdiff_t(dr) * nx;
+  const unsigned dst_step = unsigned(dr * pitch) * 4u;
+  for (int c4 = tid - r0 * P; c4 < cols4; c4 += P) {
+    const int gx = gx0 + 4 * c4;
+    const bool col_in = unsigned(gx) < unsigned(nx);
+    int gy = gy0 + r0;
+    const float* src = base + (std::ptrdiff_t(gy) * nx + gx);
+    unsigned dst = static_cast<unsigned>(__cvta_generic_to_shared(tile + r0 * pitch + 4 * c4));
+    for (int r = r0; r < rows; r += dr, gy += dr, src += src_step, dst += dst_step) {
+      const bool valid = col_in && unsigned(gy) < unsigned(ny);
+      asm volatile("cp.async.cg.shared.global [%0], [%1], 16, %2;\n" ::"r"(dst), "l"(valid ? src : base),
+                   "r"(valid ? 16 : 0));
+    }
+  }
+}
+
+// Tile copy by the tensor memory accelerator (sm_90): one thread starts the copy of the whole
+// tile (one box of the tensor map: in_pitch x rows floats, rows of the box land in shared memory
+// one after the other, so the box width is the tile's pitch; boxes reaching outside the grid,
+// negative coordinates included, are filled with zeros), and every thread waits on an mbarrier
+// that counts the bytes landed. One instruction instead of one per 16 bytes.
+__device__ __forceinline__ unsigned smem_addr(const void* p) {
+  return static_cast<unsigned>(__cvta_generic_to_shared(p));
+}
+__device__ __forceinline__ void tma_tile_start(float* dst, const CUtensorMap* map, int x, int y, unsigned long long* bar,
+                                               unsigned bytes) {
+  const unsigned b = smem_addr(bar);
+  asm volatile("mbarrier.init.shared::cta.b64 [%0], 1;\n" ::"r"(b) : "memory");
+  asm volatile("fence.mbarrier_init.release.cluster;\n" ::: "memory");
+  asm volatile("fence.proxy.async.shared::cta;\n" ::: "memory");
+  asm volatile("mbarrier.arrive.expect_tx.shared::cta.b64 _, [%0], %1;\n" ::"r"(b), "r"(bytes) : "memory");
+  asm volatile(
+      "cp.async.bulk.tensor.2d.shared::cluster.global.tile.mbarrier::complete_tx::bytes [%0], [%1, {%2, %3}], [%4];\n" ::"r"(
+          smem_addr(dst)),
+      "l"(reinterpret_cast<unsigned long long>(map)), "r"(x), "r"(y), "r"(b)
+      : "memory");
+}
+// Waits for phase 0 of the mbarrier (the tile); call after a __syncthreads() that follows
+// tma_tile_start, so that the barrier is initialized.
+__device__ __forceinline__ void tma_tile_wait(unsigned long long* bar) {
+  const unsigned b = smem_addr(bar);
+  unsigned done = 0;
+  do {
+    asm volatile(
+        "{\n .reg .pred p;\n mbarrier.try_wait.parity.shared::cta.b64 p, [%1], 0;\n selp.u32 %0, 1, 0, p;\n}\n"
+        : "=r"(done)
+        : "r"(b)
+        : "memory");
+  } while (!done);
+}
+
+// Ends the mbarrier's life (before its shared memory serves anything else); one thread, after a
+// __syncthreads() that follows every thread's tma_tile_wait.
+__device__ __forceinline__ void tma_tile_done(unsigned long long* bar) {
+  asm volatile("mbarrier.inval.shared::cta.b64 [%0];\n" ::"r"(smem_addr(bar)) : "memory");
+}
+
+// The likelihood of the R cells a thread corrects, loaded before the y-pass so that its latency
+// hides behind it. gx may be negative (shifted tiles): outside, zero.
 template <int R>
-__device__ __forceinline__ void load_likelihood(const KernelArgs& a, int x0, int y0, float (&lv)[R]) {
-  const int gx = x0 + threadIdx.x;
+__device__ __forceinline__ void load_likelihood(const KernelArgs& a, int gx, int gy0, float (&lv)[R]) {
+  const bool col_in = unsigned(gx) < unsigned(a.nx);
+  const float* src = a.l + (std::ptrdiff_t(gy0) * a.nx + gx);
 #pragma unroll
   for (int j = 0; j < R; ++j) {
-    const int gy = y0 + threadIdx.y * R + j;
-    lv[j] = (gx < a.nx && gy < a.ny) ? __ldg(a.l + std::size_t(gy) * std::size_t(a.nx) + gx) : 0.f;
+    lv[j] = (col_in && gy0 + j < a.ny) ? __ldg(src) : 0.f;
+    src += a.nx;
   }
 }
 
@@ -96,49 +175,87 @@ __device__ inline double scale_from(double S, double area) {
   return (S > 0.0 && s <= double(FLT_MAX)) ? s : 0.0;
 }
 
-// acc[j] = sum_{a < I} k[a] row[j + a], j < 8. k is zero-padded to whole groups of 8 and
-// 16-byte aligned; row is readable up to 8 ceil(I / 8) + 7.
-__device__ __forceinline__ void x_window(const float* row, const float* k, int I, float (&acc)[kRx]) {
-  float w[2 * kRx];
+// acc[j] = sum_{a < I} k[a] row[j + a], j < N outputs of one row (N = kRx = 8; 16 was measured
+// slower: more registers and uneven task counts). row and k 16-byte aligned; k zero-padded to
+// whole groups of 8 taps; row readable up to N + 8 ceil(I / 8) - 1. The window (N + 8 values) is
+// read in float4s; taps go in groups of 8 (8 N FMAs per two float4 window loads and two float4
+// coefficient loads). Unrolled by 3 groups: the window's shift by 8 becomes a renaming of
+// registers, not moves (SASS: 211 instructions per 192 FMAs in the unrolled loop).
+template <int N>
+__device__ __forceinline__ void x_window(const float* row, const float* k, int I, float (&acc)[N]) {
+  static_assert(N % 8 == 0, "the x-pass window is whole float4 pairs");
+  float w[N + 8];
 #pragma unroll
-  for (int j = 0; j < kRx; ++j) {
-    acc[j] = 0.f;
-    w[j] = row[j];
+  for (int j = 0; j < N; j += 4) {
+    const float4 v = lds4(row + j);
+    w[j] = v.x, w[j + 1] = v.y, w[j + 2] = v.z, w[j + 3] = v.w;
   }
-  const int full = I / kRx;
+#pragma unroll
+  for (int j = 0; j < N; ++j) acc[j] = 0.f;
+  const int full = I / 8;
+#pragma unroll 3
   for (int g = 0; g < full; ++g) {
-    const float* r = row + g * kRx + kRx;
+    const float* r = row + g * 8 + N;
+    const float4 b0 = lds4(r), b1 = lds4(r + 4);
+    w[N] = b0.x, w[N + 1] = b0.y, w[N + 2] = b0.z, w[N + 3] = b0.w;
+    w[N + 4] = b1.x, w[N + 5] = b1.y, w[N + 6] = b1.z, w[N + 7] = b1.w;
+    const float4 k0 = lds4(k + g * 8), k1 = lds4(k + g * 8 + 4);
+    const float kk[8] = {k0.x, k0.y, k0.z, k0.w, k1.x, k1.y, k1.z, k1.w};
 #pragma unroll
-    for (int j = 0; j < kRx; ++j) w[kRx + j] = r[j];
-    const float4 k0 = *reinterpret_cast<const float4*>(k + g * kRx);
-    const float4 k1 = *reinterpret_cast<const float4*>(k + g * kRx + 4);
-    const float kk[kRx] = {k0.x, k0.y, k0.z, k0.w, k1.x, k1.y, k1.z, k1.w};
+    for (int b = 0; b < 8; ++b)
 #pragma unroll
-    for (int b = 0; b < kRx; ++b)
+      for (int j = 0; j < N; ++j) acc[j] = fmaf(kk[b], w[j + b], acc[j]);
 #pragma unroll
-      for (int j = 0; j < kRx; ++j) acc[j] = fmaf(kk[b], w[j + b], acc[j]);
-#pragma unroll
-    for (int j = 0; j < kRx; ++j) w[j] = w[kRx + j];
+    for (int j = 0; j < N; ++j) w[j] = w[8 + j];
   }
-  const int rem = I - full * kRx;
+  const int rem = I - full * 8;
   if (rem > 0) {
-    const float* r = row + full * kRx + kRx;
+    // Taps b < rem read w[j + b] up to w[N - 2 + rem]: the float4 at N only when rem > 1, the
+    // one at N + 4 only when rem > 5; coefficients 4..7 only when rem > 4.
+    const float* r = row + full * 8 + N;
+    if (rem > 1) {
+      const float4 b0 = lds4(r);
+      w[N] = b0.x, w[N + 1] = b0.y, w[N + 2] = b0.z, w[N + 3] = b0.w;
+    }
+    if (rem > 5) {
+      const float4 b1 = lds4(r + 4);
+      w[N + 4] = b1.x, w[N + 5] = b1.y, w[N + 6] = b1.z, w[N + 7] = b1.w;
+    }
+    const float4 k0 = lds4(k + full * 8);
+    const float4 k1 = rem > 4 ? lds4(k + full * 8 + 4) : make_float4(0.f, 0.f, 0.f, 0.f);
+    const float kk[8] = {k0.x, k0.y, k0.z, k0.w, k1.x, k1.y, k1.z, k1.w};
 #pragma unroll
-    for (int j = 0; j < kRx; ++j) w[kRx + j] = r[j];
-    const float4 k0 = *reinterpret_cast<const float4*>(k + full * kRx);
-    const float4 k1 = *reinterpret_cast<const float4*>(k + full * kRx + 4);
-    const float kk[kRx] = {k0.x, k0.y, k0.z, k0.w, k1.x, k1.y, k1.z, k1.w};
-#pragma unroll
-    for (int b = 0; b < kRx; ++b)
+    for (int b = 0; b < 8; ++b)
       if (b < rem) {
 #pragma unroll
-        for (int j = 0; j < kRx; ++j) acc[j] = fmaf(kk[b], w[j + b], acc[j]);
+        for (int j = 0; j < N; ++j) acc[j] = fmaf(kk[b], w[j + b], acc[j]);
       }
   }
 }
 
-// acc[j] = sum_{b < I} k[b] col[(j + b) pitch], j < R. k zero-padded to whole groups of R;
-// col readable up to row R ceil(I / R) + R - 1.
+// The x-pass of one tile: rows x (segs N-wide segments) outputs from `in` (16-byte aligned rows
+// of in_pitch floats) into `out` (rows of out_pitch floats, multiple of 4). Lanes of a warp take
+// consecutive rows: with pitch / 4 odd their float4 reads and writes hit distinct bank groups.
+template <int N>
+__device__ __forceinline__ void x_pass_tile(const float* in, int in_pitch, float* out, int out_pitch, int rows,
+                                            int segs, const float* kx, int Ix, int tid, int T) {
+  const int tasks = rows * segs;
+  int r = tid % rows, seg = tid / rows;
+  const int dr = T % rows, dseg = T / rows;
+  for (int t = tid; t < tasks; t += T) {
+    float acc[N];
+    x_window<N>(in + r * in_pitch + seg * N, kx, Ix, acc);
+    float* dst = out + r * out_pitch + seg * N;
+#pragma unroll
+    for (int j = 0; j < N; j += 4) sts4(dst + j, acc[j], acc[j + 1], acc[j + 2], acc[j + 3]);
+    r += dr;
+    seg += dseg;
+    if (r >= rows) r -= rows, ++seg;
+  }
+}
+
+// acc[j] = sum_{b < I} k[b] col[(j + b) pitch], j < R. k zero-padded to whole groups of R and
+// 16-byte aligned; col readable up to row R ceil(I / R) + R - 1.
 template <int R>
 __device__ __forceinline__ void y_window(const float* col, int pitch, const float* k, int I, float (&acc)[R]) {
   float w[2 * R];
@@ -153,8 +270,16 @@ __device__ __forceinline__ void y_window(const float* col, int pitch, const floa
 #pragma unroll
     for (int j = 0; j < R; ++j) w[R + j] = c[j * pitch];
     float kk[R];
+    if constexpr (R % 4 == 0) {
 #pragma unroll
-    for (int b = 0; b < R; ++b) kk[b] = k[g * R + b];
+      for (int b = 0; b < R; b += 4) {
+        const float4 k4 = lds4(k + g * R + b);
+        kk[b] = k4.x, kk[b + 1] = k4.y, kk[b + 2] = k4.z, kk[b + 3] = k4.w;
+      }
+    } else {
+#pragma unroll
+      for (int b = 0; b < R; ++b) kk[b] = k[g * R + b];
+    }
 #pragma unroll
     for (int b = 0; b < R; ++b)
 #pragma unroll
@@ -164,9 +289,11 @@ __device__ __forceinline__ void y_window(const float* col, int pitch, const floa
   }
   const int rem = I - full * R;
   if (rem > 0) {
+    // Taps b < rem read w[j + b] up to w[R + rem - 2]: only those rows are loaded.
     const float* c = col + (full * R + R) * pitch;
 #pragma unroll
-    for (int j = 0; j < R; ++j) w[R + j] = c[j * pitch];
+    for (int j = 0; j + 1 < R; ++j)
+      if (j + 1 < rem) w[R + j] = c[j * pitch];
 #pragma unroll
     for (int b = 0; b < R; ++b)
       if (b < rem) {
@@ -178,7 +305,8 @@ __device__ __forceinline__ void y_window(const float* col, int pitch, const floa
 }
 
 // y-pass from the shared u tile, correction, store, block reduction, atomic add of the block's
-// share of S_k. `red` holds 32 warp partials; red[32] the scale.
+// share of S_k. `red` holds 32 warp partials; red[32] the scale. Column gx = x0 + tx (may lie
+// outside the grid: not stored, and its likelihood is zero).
 template <int R>
 __device__ __forceinline__ void y_correct(const KernelArgs& a, const float* u, const float* ky, int x0, int y0,
                                           const float (&lv)[R], double* red) {
@@ -187,15 +315,15 @@ __device__ __forceinline__ void y_correct(const KernelArgs& a, const float* u, c
   float acc[R];
   y_window<R>(u + (ty * R) * a.u_pitch + tx, a.u_pitch, ky, a.Iy, acc);
   const float s = static_cast<float>(red[32]);
-  const int gx = x0 + tx;
+  const int gx = x0 + tx, gy0 = y0 + ty * R;
+  const bool col_in = unsigned(gx) < unsigned(a.nx);
+  float* dst = a.q_next + (std::ptrdiff_t(gy0) * a.nx + gx);
   float part = 0.f;
 #pragma unroll
   for (int j = 0; j < R; ++j) {
-    const int gy = y0 + ty * R + j;
-    const bool inside = gx < a.nx && gy < a.ny;
-    const std::size_t i = std::size_t(gy) * std::size_t(a.nx) + std::size_t(gx);
     const float qv = lv[j] * (s * acc[j]);
-    if (inside) a.q_next[i] = qv;
+    if (col_in && gy0 + j < a.ny) *dst = qv;
+    dst += a.nx;
     part += qv;
   }
   double v = part;
@@ -213,97 +341,126 @@ __device__ __forceinline__ void y_correct(const KernelArgs& a, const float* u, c
   }
 }
 
+// Shared memory of the kernels (resident_geometry.hpp): the tile a kernel copies first (128-byte
+// aligned for the tensor memory accelerator), then the others, the kernels, the scratch
+// doubles (32 warp partials, the scale, the mbarrier).
+//
+// At most 80 registers: 3 blocks of 256 threads per multiprocessor (the layouts of 512 threads,
+// R <= 8, take 64 or fewer: 2 blocks).
 template <int R>
-__global__ void rbe_resident_fused(KernelArgs a) {
-  extern __shared__ double smem[];
-  double* red = smem;
-  float* kx = reinterpret_cast<float*>(smem + kScratchDoubles);
-  float* ky = kx + a.kx_len;
-  float* in = ky + a.ky_len;
+__global__ void __maxnreg__(80) rbe_resident_fused(KernelArgs a, const __grid_constant__ CUtensorMap map) {
+  extern __shared__ __align__(128) double smem[];
+  float* in = reinterpret_cast<float*>(smem);
   float* u = in + a.in_rows * a.in_pitch;
+  float* kx = u + a.u_rows * a.u_pitch;
+  float* ky = kx + a.kx_len;
+  double* red = reinterpret_cast<double*>(ky + a.ky_len);
+  auto* bar = reinterpret_cast<unsigned long long*>(red + 33);
   const int tx = threadIdx.x, ty = threadIdx.y, bx = blockDim.x, by = blockDim.y;
   const int tid = ty * bx + tx, T = bx * by;
-  const int x0 = blockIdx.x * bx, y0 = blockIdx.y * by * R;
-  const int gx0 = x0 - a.hx, gy0 = y0 - a.hy;
-  for (int c = tx; c < a.in_cols; c += bx)
-    copy_column_async(in, a.in_pitch, c, ty, a.in_rows, by, a.q_prev, a.nx, a.ny, gx0 + c, gy0);
+  const int x0 = blockIdx.x * bx - a.x_shift, y0 = blockIdx.y * by * R;
+  const int gx0 = x0 - a.hx, gy0 = y0 - a.hy;  // gx0 is a multiple of 4
+  if (a.tma) {
+    if (tid == 0) tma_tile_start(in, &map, gx0, gy0, bar, unsigned(a.in_rows * a.in_pitch) * 4u);
+  } else if (a.vec) {
+    copy_tile16_async(in, a.in_pitch, a.in_rows, a.in_cols / 4, a.q_prev, a.nx, a.ny, gx0, gy0, tid, T);
+  } else {
+    for (int c = tx; c < a.in_cols; c += bx)
+      copy_column_async(in, a.in_pitch, c, ty, a.in_rows, by, a.q_prev, a.nx, a.ny, gx0 + c, gy0);
+  }
   for (int i = tid; i < a.kx_len; i += T) copy_async(kx + i, a.kx + i, true);
   for (int i = tid; i < a.ky_len; i += T) copy_async(ky + i, a.ky + i, true);
   float lv[R];
-  load_likelihood<R>(a, x0, y0, lv);
+  load_likelihood<R>(a, x0 + tx, y0 + ty * R, lv);
   if (tid == 0) red[32] = scale_from(*a.sum_in, a.cell_area);
   // u rows below the x-pass's are read only by taps the y-pass skips: keep them finite.
   for (int i = tid; i < (a.u_rows - a.in_rows) * a.u_pitch; i += T) u[a.in_rows * a.u_pitch + i] = 0.f;
   copy_async_wait();
   __syncthreads();
-  const int segs = bx / kRx;
-  const int tasks = a.in_rows * segs;
-  for (int t = tid; t < tasks; t += T) {
-    const int r = t % a.in_rows, seg = t / a.in_rows;
-    float acc[kRx];
-    x_window(in + r * a.in_pitch + seg * kRx, kx, a.Ix, acc);
-    float* dst = u + r * a.u_pitch + seg * kRx;
-#pragma unroll
-    for (int j = 0; j < kRx; ++j) dst[j] = acc[j];
-  }
+  if (a.tma) tma_tile_wait(bar);
+  x_pass_tile<kRx>(in, a.in_pitch, u, a.u_pitch, a.in_rows, bx / kRx, kx, a.Ix, tid, T);
   __syncthreads();
+  if (a.tma && tid == 0) tma_tile_done(bar);
   y_correct<R>(a, u, ky, x0, y0, lv, red);
 }
 
-// Split x-pass: tile of 128 x (T / 16) outputs, one 8-wide segment per thread; writes u.
-__global__ void rbe_resident_xpass(KernelArgs a) {
-  extern __shared__ double smem[];
-  float* kx = reinterpret_cast<float*>(smem + kScratchDoubles);
-  float* in = kx + a.kx_len;
+// Split x-pass: tile of 128 x (T / 16) outputs, one 8-wide segment per thread; writes u. Its
+// tiles start x_shift cells left of multiples of 128.
+__global__ void rbe_resident_xpass(KernelArgs a, const __grid_constant__ CUtensorMap map) {
+  extern __shared__ __align__(128) double smem[];
+  float* in = reinterpret_cast<float*>(smem);
+  float* kx = in + a.in_rows * a.in_pitch;
+  auto* bar = reinterpret_cast<unsigned long long*>(kx + a.kx_len) + 33;
   const int tid = threadIdx.y * blockDim.x + threadIdx.x, T = blockDim.x * blockDim.y;
   const int rows = a.in_rows;  // T / 16
-  const int x0 = blockIdx.x * resident::kXpassWidth, y0 = blockIdx.y * rows;
+  const int x0 = blockIdx.x * resident::kXpassWidth - a.x_shift, y0 = blockIdx.y * rows;
   for (int i = tid; i < a.kx_len; i += T) copy_async(kx + i, a.kx + i, true);
-  const int gx0 = x0 - a.hx;
-  // Warps stride over rows, lanes over columns (coalesced).
-  const int lane = tid & 31, warp = tid >> 5, warps = T >> 5;
-  for (int r = warp; r < rows; r += warps) {
-    const int gy = y0 + r;
-    const bool row_in = gy < a.ny;
-    const float* src = a.q_prev + (row_in ? std::size_t(gy) * std::size_t(a.nx) : 0);
-    for (int c = lane; c < a.in_cols; c += 32) {
-      const int gx = gx0 + c;
-      const bool valid = row_in && gx >= 0 && gx < a.nx;
-      copy_async(in + r * a.in_pitch + c, valid ? src + gx : a.q_prev, valid);
+  const int gx0 = x0 - a.hx;  // a multiple of 4
+  if (a.tma) {
+    if (tid == 0) tma_tile_start(in, &map, gx0, y0, bar, unsigned(rows * a.in_pitch) * 4u);
+  } else if (a.vec) {
+    copy_tile16_async(in, a.in_pitch, rows, a.in_cols / 4, a.q_prev, a.nx, a.ny, gx0, y0, tid, T);
+  } else {
+    // Warps stride over rows, lanes over columns (coalesced).
+    const int lane = tid & 31, warp = tid >> 5, warps = T >> 5;
+    for (int r = warp; r < rows; r += warps) {
+      const int gy = y0 + r;
+      const bool row_in = gy < a.ny;
+      const float* src = a.q_prev + (row_in ? std::size_t(gy) * std::size_t(a.nx) : 0);
+      for (int c = lane; c < a.in_cols; c += 32) {
+        const int gx = gx0 + c;
+        const bool valid = row_in && gx >= 0 && gx < a.nx;
+        copy_async(in + r * a.in_pitch + c, valid ? src + gx : a.q_prev, valid);
+      }
     }
   }
   copy_async_wait();
   __syncthreads();
+  if (a.tma) tma_tile_wait(bar);
   const int r = tid % rows, seg = tid / rows;
   float acc[kRx];
-  x_window(in + r * a.in_pitch + seg * kRx, kx, a.Ix, acc);
+  x_window<kRx>(in + r * a.in_pitch + seg * kRx, kx, a.Ix, acc);
+  if (a.tma) {
+    __syncthreads();
+    if (tid == 0) tma_tile_done(bar);
+  }
   const int gy = y0 + r;
   if (gy >= a.ny) return;
+  float* dst = a.u + (std::ptrdiff_t(gy) * a.nx + x0 + seg * kRx);
 #pragma unroll
   for (int j = 0; j < kRx; ++j) {
     const int gx = x0 + seg * kRx + j;
-    if (gx < a.nx) a.u[std::size_t(gy) * std::size_t(a.nx) + gx] = acc[j];
+    if (unsigned(gx) < unsigned(a.nx)) dst[j] = acc[j];
   }
 }
 
 // Split y-pass and correction: loads the u tile (with the y halo) from device memory.
 template <int R>
-__global__ void rbe_resident_ypass(KernelArgs a) {
-  extern __shared__ double smem[];
-  double* red = smem;
-  float* ky = reinterpret_cast<float*>(smem + kScratchDoubles);
-  float* u = ky + a.ky_len;
+__global__ void rbe_resident_ypass(KernelArgs a, const __grid_constant__ CUtensorMap map) {
+  extern __shared__ __align__(128) double smem[];
+  float* u = reinterpret_cast<float*>(smem);
+  float* ky = u + a.u_rows * a.u_pitch;
+  double* red = reinterpret_cast<double*>(ky + a.ky_len);
+  auto* bar = reinterpret_cast<unsigned long long*>(red + 33);
   const int tx = threadIdx.x, ty = threadIdx.y, bx = blockDim.x, by = blockDim.y;
   const int tid = ty * bx + tx, T = bx * by;
   const int x0 = blockIdx.x * bx, y0 = blockIdx.y * by * R;
+  if (a.tma) {
+    if (tid == 0) tma_tile_start(u, &map, x0, y0 - a.hy, bar, unsigned(a.u_rows * a.u_pitch) * 4u);
+  } else if (a.vec) {
+    copy_tile16_async(u, a.u_pitch, a.u_rows, bx / 4, a.u, a.nx, a.ny, x0, y0 - a.hy, tid, T);
+  } else {
+    copy_column_async(u, a.u_pitch, tx, ty, a.u_rows, by, a.u, a.nx, a.ny, x0 + tx, y0 - a.hy);
+  }
   for (int i = tid; i < a.ky_len; i += T) copy_async(ky + i, a.ky + i, true);
-  copy_column_async(u, a.u_pitch, tx, ty, a.u_rows, by, a.u, a.nx, a.ny, x0 + tx, y0 - a.hy);
   float lv[R];
-  load_likelihood<R>(a, x0, y0, lv);
+  load_likelihood<R>(a, x0 + tx, y0 + ty * R, lv);
   if (tid == 0) red[32] = scale_from(*a.sum_in, a.cell_area);
   copy_async_wait();
   __syncthreads();
-  y_correct<R>(a, u, ky, x0, y0, lv, red);
+  if (a.tma) tma_tile_wait(bar);
+  y_correct<R>(a, u, ky, x0, y0, lv, red);  // has a __syncthreads() after every thread's wait
+  if (a.tma && tid == 0) tma_tile_done(bar);
 }
 
 template <int R>
@@ -329,6 +486,51 @@ void* ypass_kernel(int R) {
     case 8: return Kernels<8>::ypass();
     default: return Kernels<16>::ypass();
   }
+}
+
+// cuTensorMapEncodeTiled, reached through the runtime (no link against the driver library);
+// null when the driver does not offer it.
+using EncodeTiled = CUresult (*)(CUtensorMap*, CUtensorMapDataType, cuuint32_t, void*, const cuuint64_t*,
+                                 const cuuint64_t*, const cuuint32_t*, const cuuint32_t*, CUtensorMapInterleave,
+                                 CUtensorMapSwizzle, CUtensorMapL2promotion, CUtensorMapFloatOOBfill);
+EncodeTiled tensor_map_encoder() {
+  static const EncodeTiled fn = [] {
+    void* p = nullptr;
+    cudaDriverEntryPointQueryResult q{};
+    if (cudaGetDriverEntryPointByVersion("cuTensorMapEncodeTiled", &p, 12000, cudaEnableDefault, &q) != cudaSuccess ||
+        q != cudaDriverEntryPointSuccess) {
+      (void)cudaGetLastError();
+      return EncodeTiled(nullptr);
+    }
+    return reinterpret_cast<EncodeTiled>(p);
+  }();
+  return fn;
+}
+
+// Whether a tile of `rows` x `pitch` floats is copied as one tensor-map box: n_x a multiple of
+// 4 (16-byte row strides), a box of at most 256 x 256 elements, the tensor memory accelerator
+// there (sm_90+), and DTFLOP_RBE_NO_TMA unset (a diagnostic switch: the cp.async copies instead).
+bool tile_map_fits(const KernelArgs& a, int pitch, int rows) {
+  static const bool disabled = std::getenv("DTFLOP_RBE_NO_TMA") != nullptr;
+  int dev = 0, major = 0;
+  DTFLOP_CUDA(cudaGetDevice(&dev));
+  DTFLOP_CUDA(cudaDeviceGetAttribute(&major, cudaDevAttrComputeCapabilityMajor, dev));
+  return !disabled && major >= 9 && a.vec && pitch % 4 == 0 && pitch <= 256 && rows >= 1 && rows <= 256 &&
+         tensor_map_encoder() != nullptr;
+}
+
+// A 2D tensor map of an n_x x n_y float grid with boxes of box_w x box_h; false if the driver
+// refuses it (the caller then copies with cp.async).
+bool encode_tile_map(CUtensorMap& m, const float* base, int nx, int ny, int box_w, int box_h) {
+  const EncodeTiled fn = tensor_map_encoder();
+  if (!fn) return false;
+  const cuuint64_t dims[2] = {cuuint64_t(nx), cuuint64_t(ny)};
+  const cuuint64_t strides[1] = {cuuint64_t(nx) * sizeof(float)};
+  const cuuint32_t box[2] = {cuuint32_t(box_w), cuuint32_t(box_h)};
+  const cuuint32_t element_strides[2] = {1, 1};
+  return fn(&m, CU_TENSOR_MAP_DATA_TYPE_FLOAT32, 2, const_cast<float*>(base), dims, strides, box, element_strides,
+            CU_TENSOR_MAP_INTERLEAVE_NONE, CU_TENSOR_MAP_SWIZZLE_NONE, CU_TENSOR_MAP_L2_PROMOTION_L2_128B,
+            CU_TENSOR_MAP_FLOAT_OOB_FILL_NONE) == CUDA_SUCCESS;
 }
 
 class CudaResident final : public Backend {
@@ -417,7 +619,9 @@ class CudaResident final : public Backend {
     args_.hx = int(shape_.Ix - 1 - kernel_centre(shape_.Ix));
     args_.hy = int(shape_.Iy - 1 - kernel_centre(shape_.Iy));
     args_.cell_area = grid_.cell_area();
+    args_.vec = shape_.nx % 4 == 0 ? 1 : 0;
     const auto g = plan_.passes == Layout::Passes::fused ? fused : resident::ypass_geometry(shape_, options_.layout);
+    args_.x_shift = g.x_shift;
     args_.in_rows = g.in_rows;
     args_.in_cols = g.in_cols;
     args_.in_pitch = g.in_pitch;
@@ -431,9 +635,26 @@ class CudaResident final : public Backend {
       xargs_.in_rows = xg.in_rows;
       xargs_.in_cols = xg.in_cols;
       xargs_.in_pitch = xg.in_pitch;
+      xargs_.x_shift = xg.x_shift;
       xargs_.u_rows = 0;
       xargs_.u_pitch = 0;
       xargs_.ky_len = 0;
+    }
+    // Tile copies by the tensor memory accelerator where a tile is one box (else cp.async).
+    std::memset(static_cast<void*>(maps_), 0, sizeof(maps_));
+    std::memset(static_cast<void*>(xmaps_), 0, sizeof(xmaps_));
+    std::memset(static_cast<void*>(&umap_), 0, sizeof(umap_));
+    auto encode_q = [&](CUtensorMap (&maps)[2], int pitch, int rows) {
+      return encode_tile_map(maps[0], q_[0].get(), args_.nx, args_.ny, pitch, rows) &&
+             encode_tile_map(maps[1], q_[1].get(), args_.nx, args_.ny, pitch, rows);
+    };
+    if (plan_.passes == Layout::Passes::fused) {
+      args_.tma = tile_map_fits(args_, args_.in_pitch, args_.in_rows) && encode_q(maps_, args_.in_pitch, args_.in_rows);
+    } else {
+      xargs_.tma =
+          tile_map_fits(xargs_, xargs_.in_pitch, xargs_.in_rows) && encode_q(xmaps_, xargs_.in_pitch, xargs_.in_rows);
+      args_.tma = tile_map_fits(args_, args_.u_pitch, args_.u_rows) &&
+                  encode_tile_map(umap_, u_.get(), args_.nx, args_.ny, args_.u_pitch, args_.u_rows);
     }
     DTFLOP_CUDA(cudaDeviceSynchronize());
     cur_ = 0;
@@ -578,21 +799,22 @@ class CudaResident final : public Backend {
   }
 
   template <int R>
-  void launch_correcting(const KernelArgs& a, cudaStream_t s) {
+  void launch_correcting(const KernelArgs& a, int prev, cudaStream_t s) {
     const dim3 block(unsigned(options_.layout.block_x), unsigned(options_.layout.block_y));
     const dim3 grid(unsigned(plan_.blocks_x), unsigned(plan_.blocks_y));
     if (plan_.passes == Layout::Passes::fused)
-      rbe_resident_fused<R><<<grid, block, plan_.smem_bytes, s>>>(a);
+      rbe_resident_fused<R><<<grid, block, plan_.smem_bytes, s>>>(a, maps_[prev]);
     else
-      rbe_resident_ypass<R><<<grid, block, plan_.smem_bytes, s>>>(a);
+      rbe_resident_ypass<R><<<grid, block, plan_.smem_bytes, s>>>(a, umap_);
     DTFLOP_CUDA_LAUNCHED();
   }
 
   void launch_step(std::int64_t k) {
     const cudaStream_t s = stream_->get();
+    const int prev = cur_ ^ int(k & 1);
     KernelArgs a = args_;
-    a.q_prev = q_[cur_ ^ int(k & 1)].get();
-    a.q_next = q_[cur_ ^ int((k + 1) & 1)].get();
+    a.q_prev = q_[prev].get();
+    a.q_next = q_[prev ^ 1].get();
     a.sum_in = sums_.get() + k;
     a.sum_out = sums_.get() + k + 1;
     if (plan_.passes == Layout::Passes::split) {
@@ -600,17 +822,18 @@ class CudaResident final : public Backend {
       x.q_prev = a.q_prev;
       const dim3 block(unsigned(options_.layout.block_x), unsigned(options_.layout.block_y));
       const dim3 grid(unsigned(plan_.xblocks_x), unsigned(plan_.xblocks_y));
-      rbe_resident_xpass<<<grid, block, plan_.xsmem_bytes, s>>>(x);
+      rbe_resident_xpass<<<grid, block, plan_.xsmem_bytes, s>>>(x, xmaps_[prev]);
       DTFLOP_CUDA_LAUNCHED();
     }
     switch (options_.layout.cells_per_thread) {
-      case 1: launch_correcting<1>(a, s); break;
-      case 2: launch_correcting<2>(a, s); break;
-      case 4: launch_correcting<4>(a, s); break;
-      case 8: launch_correcting<8>(a, s); break;
-      default: launch_correcting<16>(a, s); break;
+      case 1: launch_correcting<1>(a, prev, s); break;
+      case 2: launch_correcting<2>(a, prev, s); break;
+      case 4: launch_correcting<4>(a, prev, s); break;
+      case 8: launch_correcting<8>(a, prev, s); break;
+      default: launch_correcting<16>(a, prev, s); break;
     }
   }
+
 
   // n steps: zero their sums, carry S in, the steps (an event after every `chunk`), carry S
   // out, and (optionally) the n sums to the host in one copy.
@@ -645,6 +868,9 @@ class CudaResident final : public Backend {
   std::vector<std::uint8_t> mask_;
   ResidentPlan plan_;
   KernelArgs args_{}, xargs_{};
+  // Tensor maps of the tiles: maps_[i] (fused) and xmaps_[i] (split x-pass) read q_[i]; umap_
+  // (split y-pass) reads u_. Zeros when the kernel copies with cp.async.
+  CUtensorMap maps_[2]{}, xmaps_[2]{}, umap_{};
   DeviceArray<float> q_[2], l_, u_, kx_, ky_;
   DeviceArray<double> sums_, last_;
   HostArray<double> host_sums_;

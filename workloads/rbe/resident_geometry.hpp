@@ -1,15 +1,26 @@
 // Tile geometry of cuda-resident's kernels, shared by the host code that declares its counts
 // (backend_counts.cpp) and the kernels (cuda_resident.cu), so both always agree.
 //
+// Every x-pass tile starts its input at a column that is a multiple of 4: the tiles of a row
+// start `x_shift` cells left of a multiple of the tile width (x_shift = (-h_x) mod 4, h_x =
+// I_x - 1 - c the halo left of a cell), so that the input tile's first column x0 - h_x is a
+// multiple of 4. Then, when n_x is a multiple of 4, the tile is copied in 16-byte pieces, and
+// the x-pass reads its register window in aligned float4s from shared memory. Pitches are
+// multiples of 4 floats with pitch / 4 odd: 8 lanes on 8 consecutive rows reading (or writing)
+// one float4 each hit 8 distinct 16-byte bank groups (one shared-memory wavefront).
+//
 // Fused kernel, block bx x by threads, R = cells_per_thread, tile W x H = bx x (by R) outputs:
 //   input tile : H + I_y - 1 rows x (W + 8 G_x) columns (G_x = ceil(I_x / 8): the x-pass reads
-//                its 8-wide register window in groups of 8 taps), odd pitch so that the lanes of
-//                a warp, one row each, hit distinct banks;
-//   u tile     : H + R G_y rows (G_y = ceil(I_y / R)) x W columns, pitch W + 1;
-//   kernels    : 8 G_x + R G_y floats (flipped, zero-padded to whole groups);
-//   scratch    : 34 doubles (block reduction, the scale).
-// Split y-pass kernel: the u tile and kernels only. Split x-pass kernel: 128 x (T / 16) outputs
-// (T threads, one 8-wide segment each), input tile T/16 rows x (128 + 8 G_x) columns.
+//                its 8-wide register window in groups of 8 taps), pitch (W + 8 G_x) + 4;
+//   u tile     : H + R G_y rows (G_y = ceil(I_y / R)) x W columns, pitch W + 4;
+//   kernels    : 8 G_x + (R G_y rounded up to a multiple of 4) floats (flipped, zero-padded to
+//                whole groups);
+//   scratch    : 34 doubles (32 warp partials, the scale, the tile copy's mbarrier).
+// Shared memory: input tile | u tile | kx | ky | scratch: the tile copied first sits at the
+// (128-byte aligned) start, as the tensor memory accelerator wants; every part is 16-byte aligned.
+// Split y-pass kernel: u tile | ky | scratch. Split x-pass kernel: input tile | kx | scratch,
+// 128 x (T / 16) outputs (T threads, one 8-wide segment each), input tile T/16 rows x
+// (128 + 8 G_x) columns, pitch + 4.
 #pragma once
 
 #include <cstddef>
@@ -23,8 +34,22 @@ inline constexpr int kRx = 8;          // x-pass: outputs per thread (register w
 inline constexpr int kXpassWidth = 128;  // split x-pass tile width
 inline constexpr int kScratchDoubles = 34;
 
+// Cells the tiles of a row start left of a multiple of the tile width: (-h_x) mod 4, with
+// h_x = I_x - 1 - c and c = (I_x - 1) / 2 the kernel's centre (motion.hpp).
+inline int x_shift(const Shape& s) {
+  const auto hx = static_cast<int>(s.Ix - 1 - (s.Ix - 1) / 2);
+  return (4 - hx % 4) % 4;
+}
+
+// A pitch (floats) for rows of `cols` floats: a multiple of 4 with pitch / 4 odd.
+inline int vec_pitch(int cols) {
+  const int q = (cols + 3) / 4;
+  return 4 * (q | 1);
+}
+
 struct TileGeometry {
   int out_w = 0, out_h = 0;        // outputs per block
+  int x_shift = 0;                 // tiles of a row start x_shift cells left of k W
   int in_rows = 0, in_cols = 0, in_pitch = 0;  // input tile (0 rows when there is none)
   int u_rows = 0, u_pitch = 0;     // u tile (0 rows when there is none)
   int kx_len = 0, ky_len = 0;      // padded kernel lengths in shared memory
@@ -44,20 +69,22 @@ inline TileGeometry fused_geometry(const Shape& s, const Layout& l) {
   const int R = l.cells_per_thread;
   g.out_w = l.block_x;
   g.out_h = l.block_y * R;
+  g.x_shift = x_shift(s);
   const auto gx = ceil_div(s.Ix, kRx), gy = ceil_div(s.Iy, R);
   g.kx_len = static_cast<int>(gx * kRx);
-  g.ky_len = static_cast<int>(gy * R);
+  g.ky_len = static_cast<int>(ceil_div(gy * R, 4) * 4);
   g.in_rows = static_cast<int>(g.out_h + s.Iy - 1);
   g.in_cols = g.out_w + g.kx_len;
-  g.in_pitch = g.in_cols | 1;
-  g.u_rows = g.out_h + g.ky_len;
-  g.u_pitch = g.out_w + 1;
+  g.in_pitch = vec_pitch(g.in_cols);
+  g.u_rows = static_cast<int>(g.out_h + gy * R);
+  g.u_pitch = vec_pitch(g.out_w);
   g.smem_bytes = smem_of(g);
   return g;
 }
 
 inline TileGeometry ypass_geometry(const Shape& s, const Layout& l) {
   TileGeometry g = fused_geometry(s, l);
+  g.x_shift = 0;  // reads u in grid columns: its tiles start at multiples of W
   g.in_rows = g.in_cols = g.in_pitch = 0;
   g.kx_len = 0;
   g.smem_bytes = smem_of(g);
@@ -69,10 +96,11 @@ inline TileGeometry xpass_geometry(const Shape& s, const Layout& l) {
   const int threads = l.block_x * l.block_y;
   g.out_w = kXpassWidth;
   g.out_h = threads / (kXpassWidth / kRx);
+  g.x_shift = x_shift(s);
   g.kx_len = static_cast<int>(ceil_div(s.Ix, kRx) * kRx);
   g.in_rows = g.out_h;
   g.in_cols = g.out_w + g.kx_len;
-  g.in_pitch = g.in_cols | 1;
+  g.in_pitch = vec_pitch(g.in_cols);
   g.smem_bytes = smem_of(g);
   return g;
 }

@@ -120,15 +120,37 @@ TEST(RbeBackendCounts, CudaResidentFusedByHand) {
   EXPECT_EQ(c.N_G, B * (2 * 33 * W * (H + 32) + 2 * 33 * W * H + 3 * W * H + 2));
   EXPECT_EQ(c.N_GG, 3 * 1000000 + 66 + 2 + 2 * B);
   EXPECT_EQ(c.N_CG + c.N_GC + c.N_C, 0);
-  // Shared memory: 34 doubles; kernels 8*5 + 8*5 floats; input tile 96 rows x (32 + 40 | 1)
-  // = 73; u tile (64 + 40) rows x 33.
-  EXPECT_EQ(p.smem_bytes, 34 * 8 + 4 * (40 + 40 + 96 * 73 + 104 * 33));
+  // Shared memory: 34 doubles; kernels 8*5 + 8*5 floats; input tile 96 rows x pitch 76 (72
+  // columns, 4 more so that pitch / 4 is odd); u tile (64 + 40) rows x pitch 36 (32 + 4).
+  EXPECT_EQ(p.smem_bytes, 34 * 8 + 4 * (40 + 40 + 96 * 76 + 104 * 36));
   // A run of 2500 steps: 3 segments of up to 1000, each bringing its sums back in one copy.
   const auto r = cuda_resident_run_counts(s, l, 2500, 1000);
   EXPECT_EQ(r.N_GC, 2 * 2500);
   EXPECT_EQ(r.transfers_GC, 3);
   EXPECT_EQ(r.N_G, 2500 * c.N_G);
   EXPECT_EQ(r.N_GG, 2500 * c.N_GG + 2 * 2500 + 3 * 8);
+}
+
+TEST(RbeBackendCounts, CudaResidentShiftedTilesByHand) {
+  // Kernel 31 x 5: halo h_x = 30 - 15 = 15 cells, so tiles start x_shift = 1 cell left of
+  // multiples of 32 (the input tile then starts at a multiple of 4). Grid 63 x 40, layout
+  // 32x8x4 (tiles 32 x 32): the tiles of a row cover 1 + 63 = 64 columns, 2 blocks; rows 2.
+  const Shape s{63, 40, 31, 5};
+  const auto p = resident_plan(s, parse_layout("32x8x4"));
+  EXPECT_EQ(p.passes, Layout::Passes::fused);
+  EXPECT_EQ(p.blocks_x, 2);
+  EXPECT_EQ(p.blocks_y, 2);
+  const std::int64_t B = 4, W = 32, H = 32;
+  EXPECT_EQ(cuda_resident_counts(s, parse_layout("32x8x4")).N_G,
+            B * (2 * 31 * W * (H + 4) + 2 * 5 * W * H + 3 * W * H + 2));
+  // Grid 64 x 40: 65 columns, 3 blocks of tiles per row.
+  EXPECT_EQ(resident_plan({64, 40, 31, 5}, parse_layout("32x8x4")).blocks_x, 3);
+  // Kernel 33: h_x = 16, no shift: 2 blocks.
+  EXPECT_EQ(resident_plan({64, 40, 33, 5}, parse_layout("32x8x4")).blocks_x, 2);
+  // Split x-pass tiles (128 wide) shift too: kernel 199 x 199 (h_x = 99, shift 1), grid 256.
+  const auto q = resident_plan({256, 300, 199, 199}, parse_layout("32x8x8:split"));
+  EXPECT_EQ(q.xblocks_x, 3);
+  EXPECT_EQ(q.blocks_x, 8);  // the y-pass tiles do not shift
 }
 
 TEST(RbeBackendCounts, CudaResidentSplitByHand) {
