@@ -59,7 +59,9 @@ ResidentPlan resident_plan(const Shape& s, const Layout& layout, std::size_t max
 //          N_G = B [2 I_x W (H + I_y - 1) + (2 I_y + 3) W H + 2]
 //   split: launches 2, N_GG = 5 n_g + I_x + I_y + 2 + 2 B,
 //          N_G = B_x 2 I_x W_x H_x + B [(2 I_y + 3) W H + 2]
-// with B blocks of W x H outputs (B_x blocks of W_x x H_x in the x-pass). Halo values re-read
+// with B blocks of W x H outputs (B_x blocks of W_x x H_x in the x-pass; fused and x-pass tiles
+// of a row start (-h_x) mod 4 cells left of multiples of their width, resident_geometry.hpp, so
+// B = ceil((n_x + shift) / W) ceil(n_y / H) there). Halo values re-read
 // by neighbouring blocks come from L2 and are not counted in N_GG; every tile computes all of
 // its outputs (those outside the grid are zeros and not stored), so N_G counts them.
 CostCounts cuda_resident_counts(const Shape& s, const Layout& layout);

@@ -180,7 +180,7 @@ __device__ inline double scale_from(double S, double area) {
 // whole groups of 8 taps; row readable up to N + 8 ceil(I / 8) - 1. The window (N + 8 values) is
 // read in float4s; taps go in groups of 8 (8 N FMAs per two float4 window loads and two float4
 // coefficient loads). Unrolled by 3 groups: the window's shift by 8 becomes a renaming of
-// registers, not moves (SASS: 211 instructions per 192 FMAs in the unrolled loop).
+// registers, not moves (SASS: 219 instructions per 192 FMAs in the unrolled loop).
 template <int N>
 __device__ __forceinline__ void x_window(const float* row, const float* k, int I, float (&acc)[N]) {
   static_assert(N % 8 == 0, "the x-pass window is whole float4 pairs");
