@@ -171,18 +171,7 @@ class CpuPar final : public Backend {
   }
 
   RunResult run(std::int64_t steps) override {
-    if (steps < 1) throw InputError(fmt::format("a run needs at least one step, got {}", steps));
-    RunResult r;
-    r.steps = steps;
-    r.samples.reserve(static_cast<std::size_t>(steps));
-    const double t0 = seconds_now();
-    for (std::int64_t i = 0; i < steps; ++i) {
-      double sum = 0;
-      r.samples.push_back(advance(sum));
-      r.sums.push_back(sum * grid_.cell_area());
-    }
-    r.wall_seconds = seconds_now() - t0;
-    return r;
+    return run_step_by_step(steps, grid_.cell_area(), [this](double& sum) { return advance(sum); });
   }
 
   StepTimes step(std::span<const double> likelihood) override {

@@ -108,18 +108,8 @@ class CudaSeed final : public Backend {
   }
 
   RunResult run(std::int64_t steps) override {
-    if (steps < 1) throw InputError("a run needs at least one step, got " + std::to_string(steps));
-    check_ready();
-    RunResult r;
-    r.steps = steps;
-    const double t0 = seconds_now();
-    for (std::int64_t i = 0; i < steps; ++i) {
-      double sum = 0;
-      r.samples.push_back(advance(sum));
-      r.sums.push_back(sum * grid_.cell_area());
-    }
-    r.wall_seconds = seconds_now() - t0;
-    return r;
+    if (steps >= 1) check_ready();
+    return run_step_by_step(steps, grid_.cell_area(), [this](double& sum) { return advance(sum); });
   }
 
   StepTimes step(std::span<const double> likelihood) override {

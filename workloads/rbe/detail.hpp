@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -19,6 +20,26 @@ namespace dtflop::rbe::detail {
 inline double seconds_now() {
   using clock = std::chrono::steady_clock;
   return std::chrono::duration<double>(clock::now().time_since_epoch()).count();
+}
+
+// A run of backends that step one at a time: `advance(sum)` performs one step, returns its
+// times and sets `sum` to the step's unnormalized sum; the run records each step's times and
+// its normalizing integral (sum x cell area).
+template <class Advance>
+RunResult run_step_by_step(std::int64_t steps, double cell_area, Advance&& advance) {
+  if (steps < 1) throw InputError("a run needs at least one step, got " + std::to_string(steps));
+  RunResult r;
+  r.steps = steps;
+  r.samples.reserve(static_cast<std::size_t>(steps));
+  r.sums.reserve(static_cast<std::size_t>(steps));
+  const double t0 = seconds_now();
+  for (std::int64_t i = 0; i < steps; ++i) {
+    double sum = 0;
+    r.samples.push_back(advance(sum));
+    r.sums.push_back(sum * cell_area);
+  }
+  r.wall_seconds = seconds_now() - t0;
+  return r;
 }
 
 // An NVTX range ("rbe/<name>") around host work, so a CUPTI/Nsight profile can attribute it.
