@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "workloads/rbe/backend.hpp"
+#include "workloads/rbe/likelihood.hpp"
 
 namespace dtflop::rbe::test {
 
@@ -80,6 +81,24 @@ inline double mass(const std::vector<double>& belief, const Grid& g) {
 inline std::string describe(const RandomProblem& r, std::uint64_t seed) {
   return fmt::format("grid {}x{}, kernel {}x{} ({}), mask {}, seed {}", r.nx, r.ny, r.Ix, r.Iy,
                      r.separable ? "separable" : "full", r.mask, seed);
+}
+
+// A belief peaked at the origin of a 48 x 48 grid on [-2, 2]^2, watched by a sensor that
+// (almost surely, P_d up to 0.999) sees nothing there: long runs of this negative
+// observation must neither underflow nor produce NaN.
+inline Problem negative_observation_problem() {
+  const Grid g(-2, 2, -2, 2, 48, 48);
+  Problem p;
+  p.grid = g;
+  p.kernel = make_kernel({0, 0, 0.05, 0.05, 0}, g, 5, 5);
+  p.prior.resize(std::size_t(g.cells()));
+  for (std::int64_t j = 0; j < 48; ++j)
+    for (std::int64_t i = 0; i < 48; ++i) {
+      const Point c = g.centre(i, j);
+      p.prior[std::size_t(g.index(i, j))] = std::exp(-(c.x * c.x + c.y * c.y) / (2 * 0.1));
+    }
+  p.likelihood = likelihood(g, NegativeObservation{{0, 0}, 0.999, 0.5});
+  return p;
 }
 
 }  // namespace dtflop::rbe::test

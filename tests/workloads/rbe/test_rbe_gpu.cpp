@@ -145,17 +145,8 @@ TEST(RbeCuda, StepWithNewLikelihoodsAndTimings) {
 
 TEST(RbeCuda, LongRunsOfNegativeObservationsStayNormalized) {
   DTFLOP_REQUIRE_GPU();
-  const Grid g(-2, 2, -2, 2, 48, 48);
-  Problem p;
-  p.grid = g;
-  p.kernel = make_kernel({0, 0, 0.05, 0.05, 0}, g, 5, 5);
-  p.prior.resize(std::size_t(g.cells()));
-  for (std::int64_t j = 0; j < 48; ++j)
-    for (std::int64_t i = 0; i < 48; ++i) {
-      const Point c = g.centre(i, j);
-      p.prior[std::size_t(g.index(i, j))] = std::exp(-(c.x * c.x + c.y * c.y) / (2 * 0.1));
-    }
-  p.likelihood = likelihood(g, NegativeObservation{{0, 0}, 0.999, 0.5});
+  const Problem p = test::negative_observation_problem();
+  const Grid& g = p.grid;
   for (const char* name : {"cuda-seed", "cuda-resident"}) {
     SCOPED_TRACE(name);
     auto b = make_backend(name);
