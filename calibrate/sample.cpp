@@ -45,7 +45,9 @@ double predicted(const Prediction& p, Component c) {
     case Component::G:
       // Kernels and what each launch costs; the extended variant overlaps a kernel's memory
       // traffic with its arithmetic.
-      return (p.variant == Variant::extended ? std::max(p.dt_GG, p.dt_G) : p.dt_GG + p.dt_G) + p.lat_launch;
+      return (p.variant == Variant::extended ? std::max(p.dt_GG, p.dt_G) : p.dt_GG + p.dt_G) + p.lat_launch +
+             p.lat_wave;
+    // CPU work: arithmetic, its memory traffic (memory, extended) and thread syncs.
     case Component::C: return p.dt_C;
   }
   return 0;
@@ -140,6 +142,7 @@ json to_json(const Sample& s) {
               {"workload", s.workload},
               {"backend", s.backend},
               {"plan", s.plan},
+              {"round", s.round},
               {"parameters", s.parameters},
               {"steps", s.steps},
               {"warmup", s.warmup},
@@ -165,6 +168,11 @@ Sample sample_from_json(const json& j) {
   s.workload = need_string(j, "workload");
   s.backend = need_string(j, "backend");
   s.plan = opt_string(j, "plan");
+  if (auto it = j.find("round"); it != j.end()) {  // absent in samples written before rounds: round 1
+    if (!it->is_number_integer() || it->get<long long>() < 1 || it->get<long long>() > 1000000)
+      bad("round", *it, "an integer >= 1");
+    s.round = it->get<int>();
+  }
   s.parameters = need(j, "parameters");
   if (!s.parameters.is_object()) bad("parameters", s.parameters, "an object");
   const json& steps = need(j, "steps");

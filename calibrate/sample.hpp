@@ -54,6 +54,8 @@ struct Sample {
   std::string workload;         // "rbe"
   std::string backend;          // "cuda-seed", "cpu-seq", ...
   std::string plan;             // the sweep plan it belongs to ("seed-test1", "random:50", ...)
+  int round = 1;                // which round of `dtflop sweep --rounds` measured it (1: the first;
+                                // round r >= 2 has the key "<key>/round=r", see calibrate/rounds.hpp)
   nlohmann::json parameters = nlohmann::json::object();  // the configuration
   CostCounts counts;            // exact counts of one repetition (a run of `steps` steps)
   std::int64_t steps = 1;       // steps per repetition

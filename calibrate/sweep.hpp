@@ -27,7 +27,9 @@ struct Plan {
 };
 
 struct SweepReport {
-  int planned = 0;
+  int planned = 0;         // samples: configurations x rounds
+  int configurations = 0;  // distinct configurations of the plan
+  int rounds = 1;
   int already = 0;    // found in the store, not measured again
   int measured = 0;
   std::vector<std::string> warnings;
@@ -36,10 +38,16 @@ struct SweepReport {
 using MeasureFn = std::function<Sample(const PlanItem&)>;
 
 // Measures the plan's items missing from `store` with `measure`, appending each sample as it
-// completes. Progress lines (done/total, ETA) go to `progress` unless it is null. Throws
-// InputError when the store holds samples of another machine than `here`, or is not a store.
+// completes. With `rounds` R > 1 the plan is walked R times, round after round (every
+// configuration once per round, so a slow spell of the machine hits one round of many
+// configurations rather than every repetition of one); round r's sample of an item gets the key
+// round_key(item.key, r) and the field round = r (calibrate/rounds.hpp), and only the
+// (configuration, round) pairs missing from the store are measured. `measure` is given the item
+// with its round's key. Progress lines (round, done/total, ETA over every remaining round) go to
+// `progress` unless it is null. Throws InputError when `rounds` < 1, when the store holds samples
+// of another machine than `here`, or is not a store.
 SweepReport run_sweep(const Plan& plan, const std::filesystem::path& store, const MachineIdentity& here,
-                      const MeasureFn& measure, std::FILE* progress);
+                      const MeasureFn& measure, std::FILE* progress, int rounds = 1);
 
 // "1h02m", "3m05s", "12s".
 std::string format_eta(double seconds);

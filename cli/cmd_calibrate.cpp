@@ -11,6 +11,7 @@
 
 #include "calibrate/fit.hpp"
 #include "calibrate/machine.hpp"
+#include "calibrate/rounds.hpp"
 #include "calibrate/store.hpp"
 #include "cli/command.hpp"
 #include "cli/table.hpp"
@@ -108,7 +109,7 @@ void run(const CalibrateOptions& o) {
   std::vector<Variant> variants;
   if (o.variant == "all") variants = all_variants();
   else if (auto v = variant_from_string(o.variant)) variants = {*v};
-  else throw InputError(fmt::format("--variant '{}' is unknown; use seed, latency, extended or all", o.variant));
+  else throw InputError(fmt::format("--variant '{}' is unknown; use {} or all", o.variant, variant_names(", ")));
 
   FitOptions fo;
   if (o.loss == "huber") fo.loss = Loss::huber;
@@ -120,7 +121,10 @@ void run(const CalibrateOptions& o) {
   if (o.total_only) fo.components.clear();
 
   const MachineProfile probed = load_profile(o.machine);
-  const std::vector<Sample> samples = load_samples(o.stores, o.backends, o.match);
+  // The rounds of one configuration (`dtflop sweep --rounds`) become one sample: the median of their medians.
+  const MergedRounds merged = merge_rounds(load_samples(o.stores, o.backends, o.match));
+  for (const auto& w : merged.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
+  const std::vector<Sample>& samples = merged.samples;
   check_machine(samples, probed, o.machine);
 
   // Variant: cross-validated when there is a choice (and reported when there is not).
@@ -153,6 +157,8 @@ void run(const CalibrateOptions& o) {
   for (const auto& s : samples) per_backend[s.backend] += 1;
   std::string backends;
   for (const auto& [b, n] : per_backend) backends += fmt::format("{}{} {}", backends.empty() ? "" : ", ", n, b);
+  fmt::print("Samples: {}{}.\n", merged.summary(),
+             merged.max_rounds > 1 ? "; a configuration's time is the median of its rounds' medians" : "");
   fmt::print("Fitted {} samples ({}) from {} to the {} variant: {} residuals, {} free parameters, "
              "rms relative residual {:.2f}%, {} iterations.\n",
              samples.size(), backends, describe(probed.identity), to_string(r.variant), r.residuals,
@@ -193,6 +199,8 @@ void run(const CalibrateOptions& o) {
   out.metadata["model_variant"] = std::string(to_string(r.variant));
   out.metadata["model_variant_reason"] = choice.reason;
   out.metadata["fit_samples"] = std::to_string(samples.size());
+  if (merged.max_rounds > 1)
+    out.metadata["fit_rounds"] = merged.summary() + "; each configuration the median of its rounds' medians";
   out.metadata["fit_stores"] = stores;
   out.metadata["fit_rms_relative"] = fmt::format("{:.4g}", r.rms_relative);
   out.metadata["fit_loss"] = fmt::format("{} (scale {})", to_string(fo.loss), fo.loss_scale);
@@ -219,7 +227,7 @@ Registrar reg(40, [](CLI::App& root) {
       ->check(CLI::ExistingFile);
   app->add_option("--output,-o", o->output, "Fitted profile to write (written only when the fit succeeds)")
       ->required();
-  app->add_option("--variant", o->variant, "seed, latency, extended, or all (choose by cross-validation)")
+  app->add_option("--variant", o->variant, variant_names(", ") + ", or all (choose by cross-validation)")
       ->capture_default_str();
   app->add_option("--folds", o->folds, "Folds of the cross-validation")->capture_default_str();
   app->add_option("--match", o->match, "Only samples whose key contains this text, e.g. /pinned/ (repeatable: all must match)");

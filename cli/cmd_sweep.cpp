@@ -29,6 +29,7 @@ struct SweepOptions {
   bool no_graph = false;
   std::int64_t steps = 0;
   int reps = 0;
+  int rounds = 1;
   int warmup = -1;
   std::uint64_t seed = 20261121;
   bool no_cupti = false;
@@ -47,6 +48,10 @@ void run(const SweepOptions& o) {
   st.options.graph = !o.no_graph;
   if (o.steps < 0 || o.reps < 0) throw InputError("--steps and --reps must be positive");
   if (o.reps == 1) throw InputError("--reps must be at least 2, so a sample has a spread");
+  if (o.rounds < 1 || o.rounds > 1000)
+    throw InputError(fmt::format("--rounds must be between 1 and 1000 (each round measures every configuration of "
+                                 "the plan once; 3 is a good choice), got {}",
+                                 o.rounds));
   st.steps = o.steps;
   st.repetitions = o.reps;
   st.warmup = o.warmup;
@@ -73,9 +78,10 @@ void run(const SweepOptions& o) {
   const MachineIdentity here = this_machine();
   if (!o.quiet) {
     fmt::print(stderr, "{}\n", plan.description);
-    fmt::print(stderr, "backend {} on {}: {} steps per repetition, {} repetitions{}, {} warm-up\n", st.backend,
+    fmt::print(stderr, "backend {} on {}: {} steps per repetition, {} repetitions{}, {} warm-up{}\n", st.backend,
                describe(here), st.steps, st.repetitions,
-               prof.profiler ? " traced by CUPTI + the same untraced for the total" : "", st.warmup);
+               prof.profiler ? " traced by CUPTI + the same untraced for the total" : "", st.warmup,
+               o.rounds > 1 ? fmt::format(", {} rounds over the plan", o.rounds) : std::string());
   }
   // The first configuration a process measures runs slower (clocks ramping up, first
   // allocations, lazy loading of the device's modules): measure it once, unrecorded, first.
@@ -89,18 +95,22 @@ void run(const SweepOptions& o) {
         }
         return measure_rbe(item, st, plan, here, prof.profiler.get(), prof.why_not);
       },
-      o.quiet ? nullptr : stderr);
+      o.quiet ? nullptr : stderr, o.rounds);
   if (o.quiet)
     for (const auto& w : r.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
-  fmt::print("{}: {} configurations, {} measured now, {} already in {}\n", plan.name, r.planned, r.measured,
-             r.already, o.store);
+  if (r.rounds == 1)
+    fmt::print("{}: {} configurations, {} measured now, {} already in {}\n", plan.name, r.planned, r.measured,
+               r.already, o.store);
+  else
+    fmt::print("{}: {} configurations x {} rounds = {} samples, {} measured now, {} already in {}\n", plan.name,
+               r.configurations, r.rounds, r.planned, r.measured, r.already, o.store);
 }
 
 Registrar reg(30, [](CLI::App& root) {
   auto& sweep = group(root, "sweep",
-                      "Measure a workload over a plan of configurations, one sample per configuration, into a "
-                      "resumable sample store (JSON lines): rerunning the same command measures only what is "
-                      "missing.");
+                      "Measure a workload over a plan of configurations, one sample per configuration (and round, "
+                      "with --rounds), into a resumable sample store (JSON lines): rerunning the same command "
+                      "measures only what is missing.");
   auto* app = sweep.add_subcommand(
       "rbe", "Sweep the grid-based RBE: the seed's Test 1 and Test 2 (5.3.5), random held-out configurations, or "
              "a plan file, on one backend");
@@ -116,6 +126,13 @@ Registrar reg(30, [](CLI::App& root) {
   app->add_option("--steps", o->steps, "Steps per repetition (default: 10 on a GPU, 1 on the CPU)");
   app->add_option("--reps", o->reps, "Timed repetitions per configuration (default 5)");
   app->add_option("--warmup", o->warmup, "Untimed runs first (default 1)");
+  app->add_option("--rounds", o->rounds,
+                  "Measure the whole plan this many times, round after round: a sample's repetitions run back "
+                  "to back, so a slow spell of the machine (seconds to a minute) moves a whole sample; rounds "
+                  "spread each configuration over the sweep, and calibrate/validate take the median of its "
+                  "rounds. Round r >= 2 is stored under the key <key>/round=r; resuming measures only the "
+                  "missing rounds")
+      ->capture_default_str();
   app->add_option("--seed", o->seed, "Seed of random plans and of the synthetic problems")->capture_default_str();
   app->add_flag("--no-cupti", o->no_cupti, "Time device work with host clocks only");
   app->add_flag("--quiet,-q", o->quiet, "No progress on stderr (warnings still)");

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calibrate/machine.hpp"
+#include "calibrate/rounds.hpp"
 #include "calibrate/store.hpp"
 #include "calibrate/validate.hpp"
 #include "cli/command.hpp"
@@ -72,7 +73,7 @@ int run(const ValidateOptions& o) {
   std::string variant_from = "default";
   if (!o.variant.empty()) {
     auto v = variant_from_string(o.variant);
-    if (!v) throw InputError(fmt::format("--variant '{}' is unknown; use seed, latency or extended", o.variant));
+    if (!v) throw InputError(fmt::format("--variant '{}' is unknown; use {}", o.variant, variant_names()));
     variant = *v;
     variant_from = "--variant";
   } else if (auto it = profile.metadata.find("model_variant"); it != profile.metadata.end()) {
@@ -85,7 +86,7 @@ int run(const ValidateOptions& o) {
     variant_from = "the profile's fit";
   }
 
-  std::vector<Sample> samples;
+  std::vector<Sample> loaded;
   std::string fit_stores;
   if (auto it = profile.metadata.find("fit_stores"); it != profile.metadata.end()) fit_stores = it->second;
   for (const auto& path : o.stores) {
@@ -104,9 +105,13 @@ int run(const ValidateOptions& o) {
     for (auto& s : c.samples)
       if ((o.backends.empty() || std::find(o.backends.begin(), o.backends.end(), s.backend) != o.backends.end()) &&
           std::all_of(o.match.begin(), o.match.end(), [&s](const std::string& m) { return s.key.find(m) != std::string::npos; }))
-        samples.push_back(std::move(s));
+        loaded.push_back(std::move(s));
   }
-  if (samples.empty()) throw InputError("no sample in the stores matches --backend / --match");
+  if (loaded.empty()) throw InputError("no sample in the stores matches --backend / --match");
+  // The rounds of one configuration (`dtflop sweep --rounds`) become one sample: the median of their medians.
+  const MergedRounds merged = merge_rounds(std::move(loaded));
+  for (const auto& w : merged.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
+  const std::vector<Sample>& samples = merged.samples;
   for (const auto& s : samples) {
     std::string why;
     if (!same_machine(s.machine, profile.identity, &why))
@@ -125,9 +130,14 @@ int run(const ValidateOptions& o) {
   }
   if (v.groups.size() <= 3) groups = {"all"};  // one backend, one plan: the rest repeats "all"
 
+  if (!o.json)
+    fmt::print("Samples: {}{}.\n", merged.summary(),
+               merged.max_rounds > 1 ? "; a configuration's time is the median of its rounds' medians" : "");
   bool all_met = true;
   nlohmann::json out = {{"machine", o.machine},        {"variant", to_string(variant)},
                         {"samples", samples.size()},   {"targets", {{"mean_rel", tmean}, {"max_rel", tmax}}},
+                        {"configurations", samples.size()}, {"stored_samples", merged.input},
+                        {"rounds", {{"min", merged.min_rounds}, {"max", merged.max_rounds}}},
                         {"groups", nlohmann::json::object()}};
   for (const auto& g : groups) {
     const auto& comps = v.groups.at(g);

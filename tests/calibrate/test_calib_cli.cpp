@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "calibrate/rounds.hpp"
 #include "calibrate/store.hpp"
 #include "model/json_io.hpp"
 #include "tests/calibrate/synthetic.hpp"
@@ -152,6 +153,50 @@ TEST_F(CalibCli, SweepRejectsBadInputBeforeMeasuring) {
   EXPECT_EQ(slurp(path("other.jsonl")), before);
 }
 
+TEST_F(CalibCli, SweepRoundsStoreEveryRoundAndResume) {
+  nlohmann::json plan = {{"description", "rounds test"}, {"configs", nlohmann::json::array()}};
+  for (int i = 0; i < 3; ++i) plan["configs"].push_back({{"nx", 60 + 10 * i}, {"ny", 50}, {"Ix", 5}, {"Iy", 5}});
+  std::ofstream(path("plan.json")) << plan.dump();
+  const std::string store = path("rounds.jsonl");
+  const std::string base =
+      fmt::format("sweep rbe --plan {} --backend cpu-seq --store {} --reps 2 --warmup 0", path("plan.json"), store);
+
+  auto r = test::run_dtflop(base + " --rounds 0");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--rounds must be between 1 and 1000"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(store));
+
+  r = test::run_dtflop(base + " --rounds 2");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("3 configurations x 2 rounds = 6 samples, 6 measured now, 0 already"), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.err.find("round 1/2 [1/3]"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("round 2/2 [3/3]"), std::string::npos) << r.err;
+  StoreContents c = read_store(store);
+  ASSERT_EQ(c.samples.size(), 6u);
+  std::set<std::string> bases;
+  for (std::size_t i = 0; i < 6; ++i) {
+    EXPECT_EQ(c.samples[i].round, i < 3 ? 1 : 2);
+    EXPECT_EQ(c.samples[i].key, i < 3 ? c.samples[i % 3].key : c.samples[i % 3].key + "/round=2");
+    bases.insert(c.samples[i % 3].key);
+  }
+  EXPECT_EQ(bases.size(), 3u);
+
+  // A third round on the same store measures only it; --quiet prints no progress.
+  r = test::run_dtflop(base + " --rounds 3 --quiet");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("3 measured now, 6 already"), std::string::npos) << r.out;
+  EXPECT_TRUE(r.err.empty()) << r.err;
+  c = read_store(store);
+  ASSERT_EQ(c.samples.size(), 9u);
+  EXPECT_EQ(c.keys().size(), 9u);
+  EXPECT_EQ(c.samples[8].round, 3);
+
+  r = test::run_dtflop("sweep rbe --help");
+  EXPECT_NE(r.out.find("--rounds"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("slow spell"), std::string::npos) << r.out;
+}
+
 MachineProfile probed_profile() {
   MachineProfile m = test::round_profile();
   for (auto [p, v] : m.params()) {
@@ -205,6 +250,54 @@ TEST_F(CalibCli, CalibrateThenValidate) {
                                    path("fitted.json")));
   EXPECT_EQ(r.status, 3) << r.out;
   EXPECT_NE(r.out.find("MISSED"), std::string::npos) << r.out;
+}
+
+TEST_F(CalibCli, CalibrateAndValidateMergeRounds) {
+  MachineProfile truth = test::round_profile();
+  // Three rounds of every configuration, each with its own noise; round 2 of every configuration
+  // had a slow spell (+30%), which the median of the three rounds leaves out.
+  std::vector<Sample> rounds;
+  std::size_t configs = 0;
+  for (int r = 1; r <= 3; ++r) {
+    auto samples = test::seed_pipeline_samples(truth, Variant::latency, 0.01, static_cast<std::uint64_t>(r));
+    configs = samples.size();
+    for (auto& s : samples) {
+      s.key = r == 1 ? s.key : s.key + "/round=" + std::to_string(r);
+      s.round = r;
+      if (r == 2)
+        for (auto& [c, st] : s.components) {
+          for (auto& v : st.values) v *= 1.3;
+          st = summarize(st.values);
+        }
+      rounds.push_back(std::move(s));
+    }
+  }
+  write_store("rounds.jsonl", rounds);
+  save_profile(probed_profile(), path("probed.json"));
+  auto r = test::run_dtflop(fmt::format("calibrate --store {} --machine {} -o {} --variant latency",
+                                        path("rounds.jsonl"), path("probed.json"), path("fitted.json")));
+  ASSERT_EQ(r.status, 0) << r.err << r.out;
+  EXPECT_NE(r.out.find(fmt::format("{} configurations from {} samples (3 rounds)", configs, 3 * configs)),
+            std::string::npos)
+      << r.out;
+  EXPECT_TRUE(r.err.empty()) << r.err;
+  const MachineProfile fitted = load_profile(path("fitted.json"));
+  EXPECT_EQ(fitted.metadata.at("fit_samples"), std::to_string(configs));
+  // The slow round is left out by the median of the rounds: the fit recovers the truth.
+  EXPECT_NEAR(fitted.get(Param::B_CG_pageable).value / truth.get(Param::B_CG_pageable).value, 1, 0.04);
+
+  r = test::run_dtflop(fmt::format("validate --store {} --machine {} --json", path("rounds.jsonl"),
+                                   path("fitted.json")));
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["configurations"], configs);
+  EXPECT_EQ(j["stored_samples"], 3 * configs);
+  EXPECT_EQ(j["rounds"]["max"], 3);
+  r = test::run_dtflop(fmt::format("validate --store {} --machine {}", path("rounds.jsonl"), path("fitted.json")));
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find(fmt::format("{} configurations from {} samples (3 rounds)", configs, 3 * configs)),
+            std::string::npos)
+      << r.out;
 }
 
 TEST_F(CalibCli, CalibrateRefusesBadInputAndWritesNothing) {

@@ -1,0 +1,134 @@
+#include "calibrate/rounds.hpp"
+
+#include <algorithm>
+#include <map>
+#include <utility>
+
+#include <fmt/format.h>
+
+#include "calibrate/machine.hpp"
+
+namespace dtflop::calib {
+
+namespace {
+
+constexpr std::string_view kRoundSuffix = "/round=";
+
+}  // namespace
+
+std::string round_key(const std::string& key, int round) {
+  return round <= 1 ? key : fmt::format("{}{}{}", key, kRoundSuffix, round);
+}
+
+std::string base_key(const std::string& key) {
+  const auto at = key.rfind(kRoundSuffix);
+  if (at == std::string::npos) return key;
+  const std::string digits = key.substr(at + kRoundSuffix.size());
+  if (digits.empty() || digits.size() > 9 || digits.front() == '0' ||
+      !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
+    return key;
+  return key.substr(0, at);
+}
+
+std::string MergedRounds::summary() const {
+  const std::string rounds = min_rounds == max_rounds
+                                 ? fmt::format("{} round{}", max_rounds, max_rounds == 1 ? "" : "s")
+                                 : fmt::format("{}-{} rounds", min_rounds, max_rounds);
+  return fmt::format("{} configuration{} from {} sample{} ({})", samples.size(), samples.size() == 1 ? "" : "s",
+                     input, input == 1 ? "" : "s", rounds);
+}
+
+MergedRounds merge_rounds(std::vector<Sample> samples) {
+  MergedRounds out;
+  out.input = static_cast<int>(samples.size());
+
+  // Configurations in the order first met; each with its rounds (by round number).
+  struct Config {
+    std::string key;  // without the round suffix
+    std::vector<Sample> rounds;
+  };
+  std::vector<Config> configs;
+  std::map<std::string, std::vector<std::size_t>> by_key;  // base key -> indices into configs
+  for (auto& s : samples) {
+    const std::string key = base_key(s.key);
+    std::vector<std::size_t>& candidates = by_key[key];
+    Config* cfg = nullptr;
+    for (std::size_t i : candidates) {
+      const Sample& first = configs[i].rounds.front();
+      if (first.workload == s.workload && first.backend == s.backend && same_machine(first.machine, s.machine)) {
+        cfg = &configs[i];
+        break;
+      }
+    }
+    if (!cfg) {
+      candidates.push_back(configs.size());
+      configs.push_back({key, {}});
+      cfg = &configs.back();
+    }
+    const bool duplicate = std::any_of(cfg->rounds.begin(), cfg->rounds.end(),
+                                       [&s](const Sample& r) { return r.round == s.round; });
+    if (duplicate) {
+      out.warnings.push_back(fmt::format("sample '{}' (round {} of '{}') appears more than once in the stores; "
+                                         "keeping the first",
+                                         s.key, s.round, key));
+      continue;
+    }
+    cfg->rounds.push_back(std::move(s));
+  }
+
+  int counts_differ = 0;
+  std::string counts_first;
+  for (auto& cfg : configs) {
+    std::stable_sort(cfg.rounds.begin(), cfg.rounds.end(),
+                     [](const Sample& a, const Sample& b) { return a.round < b.round; });
+    // Rounds timed with other steps per repetition than the first do not compare with it.
+    const Sample& head = cfg.rounds.front();
+    bool differ = false;
+    for (auto it = cfg.rounds.begin() + 1; it != cfg.rounds.end();) {
+      if (it->steps != head.steps) {
+        out.warnings.push_back(fmt::format("round {} of '{}' ran {} steps per repetition, round {} ran {}; "
+                                           "leaving round {} out",
+                                           it->round, cfg.key, it->steps, head.round, head.steps, it->round));
+        it = cfg.rounds.erase(it);
+        continue;
+      }
+      if (!(it->counts == head.counts)) differ = true;
+      ++it;
+    }
+    if (differ && counts_differ++ == 0) counts_first = cfg.key;
+
+    const int n = static_cast<int>(cfg.rounds.size());
+    out.min_rounds = out.samples.empty() ? n : std::min(out.min_rounds, n);
+    out.max_rounds = std::max(out.max_rounds, n);
+    if (n == 1) {
+      out.samples.push_back(std::move(cfg.rounds.front()));
+      continue;
+    }
+
+    Sample merged = cfg.rounds.front();
+    merged.key = cfg.key;
+    merged.round = 1;
+    const int reps = merged.repetitions();
+    merged.components.clear();
+    for (Component c : all_components()) {
+      std::vector<double> medians;
+      for (const auto& r : cfg.rounds)
+        if (const Stats* st = r.find(c)) medians.push_back(st->median);
+      if (!medians.empty()) merged.components[c] = summarize(std::move(medians));
+    }
+    const Stats& total = merged.components.at(Component::total);  // every sample has a total
+    if (!merged.detail.is_object()) merged.detail = nlohmann::json::object();
+    merged.detail["rounds"] = n;
+    merged.detail["round_spread"] = total.median > 0 ? (total.max - total.min) / total.median : 0.0;
+    merged.detail["repetitions_per_round"] = reps;
+    out.samples.push_back(std::move(merged));
+  }
+  if (counts_differ > 0)
+    out.warnings.push_back(fmt::format(
+        "{} configuration{} (first: '{}') {} rounds with different cost counts (measured by different dtflop "
+        "versions?); merged with the first round's counts",
+        counts_differ, counts_differ == 1 ? "" : "s", counts_first, counts_differ == 1 ? "has" : "have"));
+  return out;
+}
+
+}  // namespace dtflop::calib

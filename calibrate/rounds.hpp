@@ -1,0 +1,53 @@
+// Rounds: `dtflop sweep --rounds R` measures every configuration of a plan R times, in R
+// interleaved passes over the plan (round 1 measures every configuration once, then round 2,
+// ...). The machines' speed drifts over seconds to a minute (a shared host, clocks), and a
+// sample's repetitions are back to back, so one slow spell moves a whole sample; rounds spread
+// a configuration's measurements over the whole sweep, and their median shrugs a slow spell off.
+//
+// In the store every round is a sample of its own: round 1 keeps the configuration's plain key
+// (so stores measured before rounds existed stay valid), round r >= 2 has the key
+// "<key>/round=r" and the field "round": r. calibrate and validate merge the rounds of each
+// configuration into one sample (merge_rounds) right after reading the stores.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "calibrate/sample.hpp"
+
+namespace dtflop::calib {
+
+// The store key of round `round` (>= 1) of the configuration `key`: `key` itself for round 1,
+// "<key>/round=<round>" after.
+std::string round_key(const std::string& key, int round);
+
+// The configuration's key: `key` without a trailing "/round=N" (N a positive integer).
+std::string base_key(const std::string& key);
+
+struct MergedRounds {
+  std::vector<Sample> samples;        // one per configuration, in the order first met
+  std::vector<std::string> warnings;  // duplicated samples, rounds that cannot be merged
+  int input = 0;                      // samples given
+  int min_rounds = 0;                 // fewest and most rounds of a configuration (0 when none)
+  int max_rounds = 0;
+
+  // "82 configurations from 246 samples (3 rounds)"; "(1-3 rounds)" when they differ.
+  std::string summary() const;
+};
+
+// Groups the samples of one configuration (same key once the "/round=N" suffix is removed, same
+// machine (same_machine), same workload and backend) and returns one sample per configuration:
+//  - a configuration with one round is returned unchanged;
+//  - with several, the sample of its first round (the lowest round number) with, for each
+//    measured component, Stats over the rounds' medians (values: the rounds' medians in round
+//    order, so the median is the median of the medians and min/max/p25/p75 are over them), the
+//    configuration's key (no round suffix), round 1, and detail "rounds" (how many were merged),
+//    "round_spread" ((max - min) / median of the rounds' totals) and "repetitions_per_round".
+// Two samples of the same configuration and round (a line stored twice, a store named twice):
+// the first is kept, with a warning. A round measured with other steps per repetition than the
+// first round is left out, with a warning (its times are not comparable); rounds whose cost
+// counts differ (measured by different dtflop versions) are merged with the first round's
+// counts, with a warning.
+MergedRounds merge_rounds(std::vector<Sample> samples);
+
+}  // namespace dtflop::calib
