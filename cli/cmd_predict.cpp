@@ -37,6 +37,8 @@ void print_counts(const CostCounts& c) {
   t.row({"N_CC", count_str(c.N_CC), "values through host memory (extended model)"});
   t.row({"N_G", count_str(c.N_G), "FLOPs on the GPU"});
   t.row({"launches", count_str(c.launches), "kernel launches"});
+  t.row({"waves", count_str(c.waves), "rounds of thread blocks on the busiest GPU multiprocessor"});
+  t.row({"cpu_syncs", count_str(c.cpu_syncs), "CPU thread forks/joins and barriers"});
   t.row({"host memory", std::string(to_string(c.host_memory)), ""});
   fmt::print("{}", t.str());
 }
@@ -54,6 +56,8 @@ void print_prediction(const Prediction& p) {
     add("latency host->device", p.lat_CG);
     add("latency device->host", p.lat_GC);
     add("kernel launches", p.lat_launch);
+    add("waves of thread blocks", p.lat_wave);
+    add("CPU thread syncs (in dt_C)", p.lat_sync);
   }
   t.row({"total", format_duration(p.total), ""});
   fmt::print("{}", t.str());
@@ -65,22 +69,22 @@ void print_prediction(const Prediction& p) {
 void run(const PredictOptions& o, const PredictTarget& target, const CountsFn& fn) {
   const auto variant = variant_from_string(o.variant);
   if (!variant)
-    throw InputError(fmt::format("--variant '{}' is unknown; use seed, latency or extended", o.variant));
+    throw InputError(fmt::format("--variant '{}' is unknown; use {}", o.variant, variant_names()));
   std::optional<double> deadline;
   if (!o.deadline.empty()) deadline = parse_duration(o.deadline, "--deadline");
   if (deadline && o.machine.empty())
     throw InputError("--deadline needs a machine profile to predict against; add --machine "
                      "machine.json (try docs/examples/h200.json)");
 
-  const CountsResult r = fn();
+  MachineProfile profile;
+  if (!o.machine.empty()) profile = load_profile(o.machine);
+  const CountsResult r = fn(o.machine.empty() ? nullptr : &profile);
   nlohmann::json out = {{"workload", target.name},
                         {"description", r.description},
                         {"parameters", r.parameters},
                         {"counts", to_json(r.counts)}};
   std::optional<Prediction> pred;
-  MachineProfile profile;
   if (!o.machine.empty()) {
-    profile = load_profile(o.machine);
     pred = predict(profile, r.counts, *variant);
     out["machine"] = {{"file", o.machine},
                       {"cpu_model", profile.identity.cpu_model},
@@ -125,7 +129,7 @@ Registrar reg(20, [](CLI::App& root) {
   app->add_option("--machine,-m", opts->machine, "Machine profile (JSON) written by `dtflop probe`")
       ->check(CLI::ExistingFile);
   app->add_option("--deadline", opts->deadline, "Real-time deadline dt_p, e.g. 1ms or 250us");
-  app->add_option("--variant", opts->variant, "Model variant: seed (eqs. 3.2-3.9), latency, extended")
+  app->add_option("--variant", opts->variant, "Model variant: " + variant_names(", ") + " (docs/model.md)")
       ->capture_default_str();
   app->add_flag("--json", opts->json, "Print JSON instead of tables");
   // An unknown workload name is rejected by the parser as an unexpected argument, named in

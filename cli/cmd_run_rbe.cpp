@@ -48,7 +48,7 @@ void merge(rbe::RunResult& into, const rbe::RunResult& part) {
 
 void run(const RunRbeOptions& o) {
   const auto variant = variant_from_string(o.variant);
-  if (!variant) throw InputError(fmt::format("--variant '{}' is unknown; use seed, latency or extended", o.variant));
+  if (!variant) throw InputError(fmt::format("--variant '{}' is unknown; use {}", o.variant, variant_names()));
   if (o.steps < 1) throw InputError(fmt::format("--steps {} must be at least 1", o.steps));
   const auto g = parse_size2(o.grid, "--grid", 65536);
   const auto k = parse_size2(o.kernel, "--kernel", 65536);
@@ -138,6 +138,8 @@ void run(const RunRbeOptions& o) {
   c.row({"N_CC", fmt::format("{}", counts.N_CC)});
   c.row({"N_G", fmt::format("{}", counts.N_G)});
   c.row({"launches", fmt::format("{}", counts.launches)});
+  c.row({"waves", fmt::format("{}", counts.waves)});
+  c.row({"cpu_syncs", fmt::format("{}", counts.cpu_syncs)});
   fmt::print("{}", c.str());
   if (!pred) {
     fmt::print("\n(add --machine machine.json for the model's prediction)\n");
@@ -152,6 +154,8 @@ void run(const RunRbeOptions& o) {
   p.row({"dt_G   GPU arithmetic", us(pred->dt_G)});
   p.row({"dt_C   CPU", us(pred->dt_C)});
   p.row({"kernel launches", us(pred->lat_launch)});
+  p.row({"waves of thread blocks", us(pred->lat_wave)});
+  p.row({"CPU thread syncs (in dt_C)", us(pred->lat_sync)});
   p.row({"total", us(pred->total)});
   fmt::print("{}", p.str());
   fmt::print("predicted / measured: {:.2f}\n", pred->total / m.total);
@@ -176,7 +180,7 @@ Registrar reg(40, [](CLI::App& root) {
   app->add_option("--seed", o->seed, "Seed of the synthetic problem")->capture_default_str();
   app->add_option("--machine,-m", o->machine, "Machine profile (JSON) for the model's prediction")
       ->check(CLI::ExistingFile);
-  app->add_option("--variant", o->variant, "Model variant: seed, latency, extended")->capture_default_str();
+  app->add_option("--variant", o->variant, "Model variant: " + variant_names(", "))->capture_default_str();
   app->add_flag("--json", o->json, "Print JSON instead of tables");
   app->callback([o] { run(*o); });
 });

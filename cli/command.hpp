@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "model/cost_counts.hpp"
+#include "model/profile.hpp"
 
 namespace dtflop::cli {
 
@@ -33,7 +34,9 @@ struct CountsResult {
   nlohmann::json parameters;  // what the counts were computed for, for the report
   std::string description;    // one line, e.g. "seed GPU RBE pipeline, grid 1000x1000, kernel 33x33"
 };
-using CountsFn = std::function<CountsResult()>;
+// `machine`: the profile given with --machine, else null (counts that depend on the machine,
+// such as cuda-resident's waves, take it from its identity).
+using CountsFn = std::function<CountsResult(const MachineProfile* machine)>;
 struct PredictTarget {
   std::string name;
   std::string description;

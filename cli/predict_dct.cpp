@@ -55,7 +55,7 @@ PredictRegistrar cuda_target({"dct-cuda",
                               "MLS/FE on the device, fields back (estimated image shape)",
                               [](CLI::App& app) -> CountsFn {
                                 auto o = add_options(app, true);
-                                return [o] {
+                                return [o](const MachineProfile*) {
                                   nlohmann::json p;
                                   const auto s = shape_of(*o, p);
                                   return CountsResult{
@@ -70,7 +70,7 @@ PredictRegistrar cpu_target({"dct-cpu",
                              "One DCT frame on cpu-seq (--threads 1) or cpu-par, float64 (estimated image shape)",
                              [](CLI::App& app) -> CountsFn {
                                auto o = add_options(app, false);
-                               return [o] {
+                               return [o](const MachineProfile*) {
                                  nlohmann::json p;
                                  const auto s = shape_of(*o, p);
                                  p["threads"] = o->threads;

@@ -43,7 +43,7 @@ PredictRegistrar seed_gpu({"rbe-seed",
                            "back every step, sum on the CPU (eqs. 5.10-5.16)",
                            [](CLI::App& app) -> CountsFn {
                              auto o = add_shape_options(app, true);
-                             return [o] {
+                             return [o](const MachineProfile*) {
                                const auto s = parse_shape(*o);
                                const auto mem = o->pinned ? HostMemory::pinned : HostMemory::pageable;
                                return CountsResult{
@@ -59,7 +59,7 @@ PredictRegistrar conventional({"rbe-conventional",
                                "convolution (4.10) and correction, float64",
                                [](CLI::App& app) -> CountsFn {
                                  auto o = add_shape_options(app, false);
-                                 return [o] {
+                                 return [o](const MachineProfile*) {
                                    const auto s = parse_shape(*o);
                                    return CountsResult{
                                        rbe::conventional_cpu_counts(s), shape_json(s),
@@ -94,7 +94,7 @@ CountsFn backend_target(CLI::App& app, const std::string& backend) {
     app.add_option("--layout", o->layout, "Block layout BXxBY[xCELLS][:fused|:split], e.g. 32x8x16");
   if (backend == "cpu-par") app.add_option("--threads", o->threads, "CPU threads (0: all)")->capture_default_str();
   if (backend != "cuda-resident") app.add_flag("--full", o->full, "The full 2D convolution (4.10) instead of the separable one");
-  return [o, backend] {
+  return [o, backend](const MachineProfile* machine) {
     const auto g = parse_size2(o->grid, "--grid", 1 << 20);
     const auto k = parse_size2(o->kernel, "--kernel", 1 << 20);
     const rbe::Shape s{g.x, g.y, k.x, k.y};
@@ -103,12 +103,26 @@ CountsFn backend_target(CLI::App& app, const std::string& backend) {
     opts.threads = o->threads;
     if (!o->layout.empty()) opts.layout = rbe::parse_layout(o->layout);
     if (o->full) opts.prediction = rbe::Prediction::full;
+    // cuda-resident's waves are rounds of blocks on the profile's GPU; without one, this
+    // machine's GPU, else kDefaultGpuSms (counted_gpu_sms).
+    std::string sms_from;
+    if (backend == "cuda-resident") {
+      if (machine && machine->identity.gpu_sms > 0) {
+        opts.gpu_sms = machine->identity.gpu_sms;
+        sms_from = "the machine profile";
+      } else {
+        sms_from = rbe::cuda_device_sms() > 0 ? "this machine's GPU" : "the default, an H100/H200 SXM";
+        if (machine) sms_from += "; the profile does not say";
+        opts.gpu_sms = rbe::counted_gpu_sms(opts);
+      }
+    }
     const CostCounts c = rbe::step_counts(backend, s, opts);
     nlohmann::json params = {{"nx", s.nx}, {"ny", s.ny}, {"Ix", s.Ix}, {"Iy", s.Iy}, {"backend", backend}};
     std::string extra;
     if (backend == "cuda-resident") {
       params["layout"] = rbe::to_string(opts.layout);
-      extra = ", layout " + rbe::to_string(opts.layout);
+      params["gpu_sms"] = opts.gpu_sms;
+      extra = fmt::format(", layout {}, {} multiprocessors ({})", rbe::to_string(opts.layout), opts.gpu_sms, sms_from);
     }
     if (backend == "cpu-par") {
       params["threads"] = c.cpu_threads;

@@ -17,6 +17,8 @@ CostCounts& CostCounts::operator+=(const CostCounts& o) {
   transfers_CG += o.transfers_CG;
   transfers_GC += o.transfers_GC;
   launches += o.launches;
+  waves += o.waves;
+  cpu_syncs += o.cpu_syncs;
   cpu_threads = std::max(cpu_threads, o.cpu_threads);
   return *this;
 }
@@ -32,6 +34,8 @@ CostCounts CostCounts::scaled(std::int64_t steps) const {
   c.transfers_CG *= steps;
   c.transfers_GC *= steps;
   c.launches *= steps;
+  c.waves *= steps;
+  c.cpu_syncs *= steps;
   return c;
 }
 

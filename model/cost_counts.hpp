@@ -26,6 +26,11 @@ struct CostCounts {
   std::int64_t transfers_CG = 0;  // number of host->device copies
   std::int64_t transfers_GC = 0;  // number of device->host copies
   std::int64_t launches = 0;      // kernel launches
+  std::int64_t waves = 0;         // rounds of thread blocks the busiest multiprocessor runs,
+                                  // summed over the kernels (a kernel of B blocks on S
+                                  // multiprocessors: ceil(B / S) when one block fits per SM)
+  std::int64_t cpu_syncs = 0;     // times the CPU threads start together or wait for each other
+                                  // (a parallel region's fork and join, a barrier)
   HostMemory host_memory = HostMemory::pageable;
   int cpu_threads = 1;          // threads doing the CPU work
 

@@ -68,6 +68,7 @@ json to_json(const MachineProfile& p) {
              {"cpu_cores", p.identity.cpu_cores},
              {"cpu_threads", p.identity.cpu_threads},
              {"gpu_name", p.identity.gpu_name},
+             {"gpu_sms", p.identity.gpu_sms},
              {"gpu_driver", p.identity.gpu_driver},
              {"cuda_version", p.identity.cuda_version},
              {"measured_at", p.identity.measured_at}};
@@ -104,6 +105,7 @@ MachineProfile profile_from_json(const json& j) {
   p.identity.cpu_cores = get_count(id, "cpu_cores", "identity.");
   p.identity.cpu_threads = get_count(id, "cpu_threads", "identity.");
   p.identity.gpu_name = get_string(id, "gpu_name", "identity.", false);
+  p.identity.gpu_sms = get_count(id, "gpu_sms", "identity.");  // 0 when absent (older profiles)
   p.identity.gpu_driver = get_string(id, "gpu_driver", "identity.", false);
   p.identity.cuda_version = get_string(id, "cuda_version", "identity.", false);
   p.identity.measured_at = get_string(id, "measured_at", "identity.", false);
@@ -207,6 +209,8 @@ json to_json(const CostCounts& c) {
           {"transfers_CG", c.transfers_CG},
           {"transfers_GC", c.transfers_GC},
           {"launches", c.launches},
+          {"waves", c.waves},
+          {"cpu_syncs", c.cpu_syncs},
           {"host_memory", to_string(c.host_memory)},
           {"cpu_threads", c.cpu_threads}};
 }
@@ -232,6 +236,8 @@ CostCounts counts_from_json(const json& j) {
   c.transfers_CG = get_i64(j, "transfers_CG", 0);
   c.transfers_GC = get_i64(j, "transfers_GC", 0);
   c.launches = get_i64(j, "launches", 0);
+  c.waves = get_i64(j, "waves", 0);
+  c.cpu_syncs = get_i64(j, "cpu_syncs", 0);
   const std::string mem = get_string(j, "host_memory", "counts.", false);
   if (mem == "pinned") c.host_memory = HostMemory::pinned;
   else if (mem.empty() || mem == "pageable") c.host_memory = HostMemory::pageable;
@@ -244,6 +250,8 @@ json to_json(const Prediction& p) {
   return {{"variant", to_string(p.variant)}, {"dt_CG", p.dt_CG},   {"dt_GC", p.dt_GC},
           {"dt_GG", p.dt_GG},                {"dt_C", p.dt_C},     {"dt_G", p.dt_G},
           {"lat_CG", p.lat_CG},              {"lat_GC", p.lat_GC}, {"lat_launch", p.lat_launch},
+          {"lat_sync", p.lat_sync},
+          {"lat_wave", p.lat_wave},
           {"dt_trans", p.dt_trans()},        {"total", p.total}};
 }
 

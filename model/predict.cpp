@@ -12,14 +12,23 @@ std::string_view to_string(Variant v) {
   switch (v) {
     case Variant::seed: return "seed";
     case Variant::latency: return "latency";
+    case Variant::memory: return "memory";
     case Variant::extended: return "extended";
   }
   return "?";
 }
 
 const std::vector<Variant>& all_variants() {
-  static const std::vector<Variant> v = {Variant::seed, Variant::latency, Variant::extended};
+  static const std::vector<Variant> v = {Variant::seed, Variant::latency, Variant::memory, Variant::extended};
   return v;
+}
+
+std::string variant_names(std::string_view last_separator) {
+  std::string out;
+  const auto& v = all_variants();
+  for (std::size_t i = 0; i < v.size(); ++i)
+    out += fmt::format("{}{}", i == 0 ? "" : i + 1 == v.size() ? last_separator : std::string_view(", "), to_string(v[i]));
+  return out;
 }
 
 std::optional<Variant> variant_from_string(std::string_view s) {
@@ -79,7 +88,9 @@ std::vector<Param> required_params(const CostCounts& c, Variant variant) {
   if (lat && c.transfers_CG > 0) add(l_cg(c));
   if (lat && c.transfers_GC > 0) add(l_gc(c));
   if (lat && c.launches > 0) add(Param::L_launch);
-  if (variant == Variant::extended && c.N_CC > 0)
+  if (lat && c.waves > 0) add(Param::L_wave);
+  if (lat && c.cpu_syncs > 0) add(Param::L_sync);
+  if ((variant == Variant::memory || variant == Variant::extended) && c.N_CC > 0)
     for (auto p : cpu_params(Param::B_host_1, Param::B_host, c.cpu_threads)) add(p);
   return out;
 }
@@ -113,17 +124,20 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
   if (c.transfers_CG > 0) r.lat_CG = static_cast<double>(c.transfers_CG) * m.get(l_cg(c)).value;
   if (c.transfers_GC > 0) r.lat_GC = static_cast<double>(c.transfers_GC) * m.get(l_gc(c)).value;
   if (c.launches > 0) r.lat_launch = static_cast<double>(c.launches) * m.get(Param::L_launch).value;
-  const double latencies = r.lat_CG + r.lat_GC + r.lat_launch;
-  if (variant == Variant::latency) {
+  if (c.cpu_syncs > 0) r.lat_sync = static_cast<double>(c.cpu_syncs) * m.get(Param::L_sync).value;
+  if (c.waves > 0) r.lat_wave = static_cast<double>(c.waves) * m.get(Param::L_wave).value;
+  const double latencies = r.lat_CG + r.lat_GC + r.lat_launch + r.lat_wave;
+  const double host_traffic =
+      variant != Variant::latency && c.N_CC > 0 ? P * static_cast<double>(c.N_CC) / host_bandwidth(m, c.cpu_threads) : 0;
+  if (variant == Variant::latency || variant == Variant::memory) {
+    // memory: the CPU work's memory traffic adds to its arithmetic, as device traffic does.
+    r.dt_C += host_traffic + r.lat_sync;
     r.total = r.dt_CG + r.dt_GC + r.dt_GG + r.dt_C + r.dt_G + latencies;
     return r;
   }
   // extended: a kernel streams memory while it computes, so device time is the larger of
   // the two (roofline); CPU work likewise overlaps its memory traffic with arithmetic.
-  double host = r.dt_C;
-  if (c.N_CC > 0)
-    host = std::max(host, P * static_cast<double>(c.N_CC) / host_bandwidth(m, c.cpu_threads));
-  r.dt_C = host;
+  r.dt_C = std::max(r.dt_C, host_traffic) + r.lat_sync;
   r.total = r.dt_CG + r.dt_GC + std::max(r.dt_GG, r.dt_G) + r.dt_C + latencies;
   return r;
 }

@@ -10,27 +10,34 @@
 
 namespace dtflop {
 
-// Model variants (docs/model.md derives each):
+// Model variants (docs/model.md derives each), from the simplest:
 //  seed     - eqs. 3.2-3.9 exactly: every component P*N/B or N/V, summed.
-//  latency  - seed + a latency per transfer and per kernel launch (alpha + bytes/B).
+//  latency  - seed + a latency per transfer, per kernel launch, per round (wave) of thread
+//             blocks and per CPU thread sync (alpha + bytes/B).
+//  memory   - latency + the host memory traffic of CPU work, summed with its arithmetic as the
+//             seed sums device traffic with device arithmetic (no overlap anywhere).
 //  extended - latency + overlap: inside the device, memory traffic and arithmetic overlap
 //             (max instead of sum), and on the host, arithmetic and memory traffic overlap.
-enum class Variant { seed, latency, extended };
+enum class Variant { seed, latency, memory, extended };
 
 std::string_view to_string(Variant v);
 std::optional<Variant> variant_from_string(std::string_view s);
 const std::vector<Variant>& all_variants();
+// "seed, latency, memory or extended": the names, for help texts and messages.
+std::string variant_names(std::string_view last_separator = " or ");
 
 struct Prediction {
   Variant variant = Variant::seed;
   double dt_CG = 0;      // bandwidth part of host->device  [s]
   double dt_GC = 0;      // bandwidth part of device->host  [s]
   double dt_GG = 0;      // device memory traffic           [s]
-  double dt_C = 0;       // CPU work                        [s]
+  double dt_C = 0;       // CPU work, lat_sync included     [s]
   double dt_G = 0;       // GPU arithmetic                  [s]
   double lat_CG = 0;     // transfers_CG x per-transfer latency
   double lat_GC = 0;     // transfers_GC x per-transfer latency
   double lat_launch = 0; // launches x launch overhead
+  double lat_sync = 0;   // cpu_syncs x CPU thread sync (part of dt_C)
+  double lat_wave = 0;   // waves x per-wave cost of thread blocks
   double total = 0;
 
   double dt_trans() const { return dt_CG + dt_GC + dt_GG; }  // eq. 3.4

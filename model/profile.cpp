@@ -44,6 +44,8 @@ const std::vector<ParamInfo>& all_params() {
       {Param::V_G_fp32, "V_G_fp32", "FLOP/s", "GPU FP32 rate"},
       {Param::V_G_fp64, "V_G_fp64", "FLOP/s", "GPU FP64 rate"},
       {Param::L_launch, "L_launch", "s", "kernel launch overhead"},
+      {Param::L_sync, "L_sync", "s", "CPU threads' fork/join or barrier (all threads)"},
+      {Param::L_wave, "L_wave", "s", "fixed cost of one round of thread blocks on a GPU multiprocessor"},
   };
   return table;
 }

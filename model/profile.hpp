@@ -37,6 +37,8 @@ enum class Param {
   V_G_fp32,        // GPU FP32 rate                                         [FLOP/s]
   V_G_fp64,        // GPU FP64 rate                                         [FLOP/s]
   L_launch,        // kernel launch overhead                                [s]
+  L_sync,          // CPU threads' fork/join or barrier, all threads         [s]
+  L_wave,          // fixed cost of one round of thread blocks on a GPU SM   [s]
 };
 
 struct ParamInfo {
@@ -65,6 +67,7 @@ struct MachineIdentity {
   int cpu_threads = 0;     // hardware threads
   std::optional<double> cpu_clock_ghz;  // nominal clock when known
   std::string gpu_name;                 // empty when no GPU
+  int gpu_sms = 0;                      // the GPU's multiprocessors; 0 = unknown or no GPU
   std::string gpu_driver;
   std::string cuda_version;
   std::string measured_at;              // ISO 8601 UTC

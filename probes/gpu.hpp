@@ -96,4 +96,18 @@ struct LaunchTiming {
 // 10 x `reps` single launch + synchronize round trips.
 LaunchTiming time_launches(int batch, int reps);
 
+struct WaveTiming {
+  std::vector<int> waves;                  // rounds of blocks per launch: 1, 2, 4, 8
+  std::vector<double> seconds;             // median time of one launch of that many rounds
+  double per_wave = 0;                     // least-squares slope: seconds per extra round
+  int blocks_per_sm = 0;                   // resident blocks per SM the kernel allows (1)
+};
+
+// The fixed cost of a round of thread blocks (L_wave): a kernel whose blocks each take a
+// multiprocessor whole (shared memory beyond half an SM's) and do only what every tile kernel
+// does once (fill a shared array, a barrier, one global write), launched with 1, 2, 4 and 8
+// times as many blocks as there are SMs; events around batches of `batch` launches, median of
+// `reps`.
+WaveTiming time_waves(int batch, int reps);
+
 }  // namespace dtflop::probes::gpu

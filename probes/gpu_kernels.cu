@@ -65,6 +65,17 @@ __global__ void __launch_bounds__(kFmaThreads)
 
 __global__ void empty_kernel() {}
 
+// One round's fixed work of a tile kernel: every thread writes its part of a shared array, a
+// barrier, one thread writes the block's result. The shared array is sized so that one block
+// fills a multiprocessor.
+__global__ void wave_kernel(int* __restrict__ out) {
+  extern __shared__ int tile[];
+  const int words = static_cast<int>(blockDim.x) * 4;
+  for (int i = threadIdx.x; i < words; i += blockDim.x) tile[i] = i;
+  __syncthreads();
+  if (threadIdx.x == 0) out[blockIdx.x] = tile[words - 1] + static_cast<int>(blockIdx.x);
+}
+
 // Checks `bytes` of `dst` against the pattern `seed`; throws ValidationError naming `what`.
 void check_pattern(const DeviceBuffer& dst, std::size_t bytes, std::uint32_t seed,
                    const Stream& s, const char* what) {
@@ -233,6 +244,70 @@ LaunchTiming time_launches(int batch, int reps) {
     const auto t1 = std::chrono::steady_clock::now();
     r.round_trip.push_back(std::chrono::duration<double>(t1 - t0).count());
   }
+  return r;
+}
+
+WaveTiming time_waves(int batch, int reps) {
+  if (batch < 1 || reps < 1) throw std::invalid_argument("time_waves: batch and reps must be >= 1");
+  detail::use_device();
+  int sms = 0, max_smem = 0, smem_per_sm = 0;
+  DTFLOP_CUDA(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, 0));
+  DTFLOP_CUDA(cudaDeviceGetAttribute(&max_smem, cudaDevAttrMaxSharedMemoryPerBlockOptin, 0));
+  DTFLOP_CUDA(cudaDeviceGetAttribute(&smem_per_sm, cudaDevAttrMaxSharedMemoryPerMultiprocessor, 0));
+  const int threads = 256;
+  // More than half of what an SM holds, so one block per SM; at least what the tile needs.
+  const int smem = std::max(threads * 4 * static_cast<int>(sizeof(int)), std::min(max_smem, smem_per_sm / 2 + 1024));
+  DTFLOP_CUDA(cudaFuncSetAttribute(wave_kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, smem));
+  WaveTiming r;
+  DTFLOP_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&r.blocks_per_sm, wave_kernel, threads, smem));
+  if (r.blocks_per_sm < 1) throw ValidationError("the wave kernel cannot run: no block fits on a multiprocessor");
+  const int max_waves = 8;
+  const std::int64_t max_blocks = static_cast<std::int64_t>(max_waves) * sms * r.blocks_per_sm;
+  DeviceBuffer out(static_cast<std::size_t>(max_blocks) * sizeof(int));
+  Stream s;
+  Event start, stop;
+  for (int waves : {1, 2, 4, 8}) {
+    const int blocks = waves * sms * r.blocks_per_sm;
+    for (int i = 0; i < 20; ++i) {  // warm-up
+      wave_kernel<<<blocks, threads, smem, s.get()>>>(out.get<int>());
+      DTFLOP_CUDA_LAUNCHED();
+    }
+    std::vector<double> t;
+    for (int k = 0; k < reps; ++k) {
+      start.record(s);
+      for (int i = 0; i < batch; ++i) {
+        wave_kernel<<<blocks, threads, smem, s.get()>>>(out.get<int>());
+        DTFLOP_CUDA_LAUNCHED();
+      }
+      stop.record(s);
+      t.push_back(detail::elapsed(start, stop) / batch);
+    }
+    std::nth_element(t.begin(), t.begin() + static_cast<std::ptrdiff_t>(t.size() / 2), t.end());
+    r.waves.push_back(waves);
+    r.seconds.push_back(t[t.size() / 2]);
+    // Every block wrote its result: the kernel really ran.
+    std::vector<int> host(static_cast<std::size_t>(blocks));
+    DTFLOP_CUDA(cudaMemcpy(host.data(), out.get(), host.size() * sizeof(int), cudaMemcpyDeviceToHost));
+    const int last = threads * 4 - 1;
+    for (int b = 0; b < blocks; ++b)
+      if (host[static_cast<std::size_t>(b)] != last + b)
+        throw ValidationError("the wave kernel's block " + std::to_string(b) + " wrote " +
+                              std::to_string(host[static_cast<std::size_t>(b)]) + ", not " + std::to_string(last + b));
+  }
+  // Least-squares slope of time against rounds.
+  double mx = 0, my = 0;
+  for (std::size_t i = 0; i < r.waves.size(); ++i) {
+    mx += r.waves[i];
+    my += r.seconds[i];
+  }
+  mx /= static_cast<double>(r.waves.size());
+  my /= static_cast<double>(r.waves.size());
+  double sxy = 0, sxx = 0;
+  for (std::size_t i = 0; i < r.waves.size(); ++i) {
+    sxy += (r.waves[i] - mx) * (r.seconds[i] - my);
+    sxx += (r.waves[i] - mx) * (r.waves[i] - mx);
+  }
+  r.per_wave = sxy / sxx;
   return r;
 }
 

@@ -1,5 +1,6 @@
 // Kernel launch overhead: back-to-back launches of an empty kernel (events around a batch,
-// L_launch), and a single launch + synchronize round trip (host clock, reported beside it).
+// L_launch), and a single launch + synchronize round trip (host clock, reported beside it);
+// and the fixed cost of one round of thread blocks (L_wave, gpu::time_waves).
 #include <fmt/format.h>
 
 #include "probes/gpu.hpp"
@@ -29,6 +30,25 @@ ProbeReport run(const ProbeOptions& o) {
       fmt::format("host clock around one launch and its synchronize, median of {}", t.round_trip.size())));
   o.say(fmt::format("  launch: {:.2f} us back to back, {:.2f} us with synchronize",
                     r.measurements[0].value * 1e6, r.measurements[1].value * 1e6));
+  const auto w = gpu::time_waves(o.effort == Effort::smoke ? 5 : 50, reps);
+  Measurement m;
+  m.key = "wave";
+  m.label = "one round of thread blocks (one block per SM)";
+  m.unit = "s";
+  m.value = w.per_wave;
+  m.param = Param::L_wave;
+  std::string points;
+  for (std::size_t i = 0; i < w.waves.size(); ++i)
+    points += fmt::format("{}{} rounds {:.2f} us", i ? ", " : "", w.waves[i], w.seconds[i] * 1e6);
+  m.note = fmt::format("slope of launch time against rounds of blocks that each fill a multiprocessor ({} per "
+                       "SM), a shared-memory fill and a barrier per block: {}",
+                       w.blocks_per_sm, points);
+  if (!(m.value > 0)) {  // noise larger than the effect: report it, fill no parameter
+    m.param.reset();
+    m.note += "; the slope is not positive, so L_wave is left unmeasured";
+  }
+  r.measurements.push_back(m);
+  o.say(fmt::format("  one round of thread blocks: {:.2f} us", m.value * 1e6));
   return r;
 }
 
@@ -36,6 +56,6 @@ ProbeReport run(const ProbeOptions& o) {
 }  // namespace dtflop::probes
 
 DTFLOP_PROBE_UNIT(probe_gpu_launch) {
-  registry.add({"gpu-launch", "kernel launch overhead (empty kernel)", true, 60,
+  registry.add({"gpu-launch", "kernel launch overhead (empty kernel) and the fixed cost of a round of blocks", true, 60,
                 dtflop::probes::run});
 }

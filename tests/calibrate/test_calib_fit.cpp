@@ -182,7 +182,7 @@ TEST(CalibFit, CrossValidationPrefersTheVariantThatGeneratedTheData) {
   const auto samples = test::seed_pipeline_samples(truth, Variant::latency, 0.01, 5);
   FitOptions o;
   const auto cv = cross_validate(samples, perturbed(truth, 1.2), o, all_variants(), 5, 1);
-  ASSERT_EQ(cv.size(), 3u);
+  ASSERT_EQ(cv.size(), all_variants().size());
   for (const auto& c : cv) {
     EXPECT_EQ(c.failed_folds, 0) << to_string(c.variant) << ": " << c.failure;
     EXPECT_EQ(c.held_out, static_cast<int>(samples.size()));

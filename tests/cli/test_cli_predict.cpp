@@ -8,6 +8,8 @@
 #include "model/predict.hpp"
 #include "tests/cli/run_cli.hpp"
 #include "tests/model/fixtures.hpp"
+#include "workloads/rbe/backend.hpp"
+#include "workloads/rbe/backend_counts.hpp"
 #include "workloads/rbe/counts.hpp"
 
 namespace dtflop {
@@ -89,6 +91,32 @@ TEST_F(PredictCli, BadInputGivesOneLineAndNonZeroExit) {
   expect_one_line_error("predict rbe-seed --deadline 1ms", "--machine");
   expect_one_line_error("predict --machine " + path("m.json") + " rbe-seed --deadline soon", "--deadline");
   expect_one_line_error("predict --machine " + path("m.json") + " rbe-seed --variant magic", "--variant");
+}
+
+TEST_F(PredictCli, CudaResidentWavesOnTheProfilesMultiprocessors) {
+  // 1000 x 1000, k33, 32x8x8: 512 blocks. A profile of 100 multiprocessors: 6 waves.
+  auto m = profile_;
+  m.identity.gpu_sms = 100;
+  save_profile(m, dir_ / "sms.json");
+  const std::string args = " rbe-cuda-resident --grid 1000x1000 --kernel 33x33 --layout 32x8x8";
+  auto r = test::run_dtflop("predict --machine " + path("sms.json") + args + " --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j.at("parameters").at("gpu_sms"), 100);
+  const auto expected = rbe::cuda_resident_counts({1000, 1000, 33, 33}, rbe::parse_layout("32x8x8"), 100);
+  EXPECT_EQ(expected.waves, 6);
+  EXPECT_EQ(counts_from_json(j.at("counts")), expected);
+  EXPECT_DOUBLE_EQ(j.at("prediction").at("lat_wave").get<double>(), 6 * 2e-6);
+  r = test::run_dtflop("predict --machine " + path("sms.json") + args);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("100 multiprocessors (the machine profile)"), std::string::npos) << r.out;
+  // A profile that does not say: this machine's GPU, else 132.
+  r = test::run_dtflop("predict --machine " + path("m.json") + args + " --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  j = nlohmann::json::parse(r.out);
+  const int here = rbe::cuda_device_sms() > 0 ? rbe::cuda_device_sms() : rbe::kDefaultGpuSms;
+  EXPECT_EQ(j.at("parameters").at("gpu_sms"), here);
+  EXPECT_NE(j.at("description").get<std::string>().find("the profile does not say"), std::string::npos);
 }
 
 TEST_F(PredictCli, HelpListsWorkloads) {

@@ -31,6 +31,8 @@ inline MachineProfile round_profile() {
   set(Param::V_G_fp32, 50e12);
   set(Param::V_G_fp64, 25e12);
   set(Param::L_launch, 3e-6);
+  set(Param::L_wave, 2e-6);
+  set(Param::L_sync, 5e-6);
   return m;
 }
 

@@ -42,6 +42,20 @@ TEST(ProfileJson, RoundTripKeepsEverything) {
   EXPECT_EQ(back.metadata.at("variant"), "extended");
 }
 
+TEST(ProfileJson, GpuMultiprocessorsRoundTripAndMayBeAbsent) {
+  auto m = test::round_profile();
+  m.identity.gpu_sms = 132;
+  const json j = to_json(m);
+  EXPECT_EQ(j["identity"]["gpu_sms"], 132);
+  EXPECT_EQ(profile_from_json(json::parse(j.dump())).identity.gpu_sms, 132);
+  // Profiles written before the field existed read as unknown (0).
+  json old = j;
+  old["identity"].erase("gpu_sms");
+  EXPECT_EQ(profile_from_json(old).identity.gpu_sms, 0);
+  old["identity"]["gpu_sms"] = -1;
+  EXPECT_NE(error_of(old).find("identity.gpu_sms"), std::string::npos);
+}
+
 TEST(ProfileJson, BadFilesNameFieldValueAndExpectation) {
   const json good = to_json(test::round_profile());
 
@@ -125,9 +139,19 @@ TEST(CountsJson, RoundTrip) {
   c.transfers_CG = 7;
   c.transfers_GC = 8;
   c.launches = 9;
+  c.waves = 10;
+  c.cpu_syncs = 11;
   c.host_memory = HostMemory::pinned;
   c.cpu_threads = 16;
   EXPECT_EQ(counts_from_json(json::parse(to_json(c).dump())), c);
+  // Counts written before waves and cpu_syncs existed read as zero of each.
+  auto old = to_json(c);
+  old.erase("waves");
+  old.erase("cpu_syncs");
+  const CostCounts back = counts_from_json(old);
+  EXPECT_EQ(back.waves, 0);
+  EXPECT_EQ(back.cpu_syncs, 0);
+  EXPECT_EQ(back.launches, 9);
   auto j = to_json(c);
   j["N_G"] = -1;
   EXPECT_THROW(counts_from_json(j), InputError);

@@ -68,6 +68,53 @@ TEST(Predict, ExtendedVariantBoundsCpuWorkByHostMemory) {
   EXPECT_NEAR(predict(m, c, Variant::seed).dt_C, 10e-6, 1e-15);
 }
 
+TEST(Predict, MemoryVariantAddsHostTrafficToCpuArithmetic) {
+  const auto m = test::round_profile();
+  CostCounts c;
+  c.P = 4;
+  c.N_C = 1'000'000;   // 10 us at 100 GFLOP/s (one thread)
+  c.N_CC = 1'000'000;  // 4 MB at 20 GB/s (one thread) = 200 us
+  const auto p = predict(m, c, Variant::memory);
+  EXPECT_NEAR(p.dt_C, 210e-6, 1e-15);  // summed, where extended takes the larger
+  EXPECT_NEAR(p.total, 210e-6, 1e-15);
+  EXPECT_NEAR(predict(m, c, Variant::extended).dt_C, 200e-6, 1e-15);
+  EXPECT_NEAR(predict(m, c, Variant::latency).dt_C, 10e-6, 1e-15);  // latency leaves host traffic out
+  // The device side is the seed's sum, as in the latency variant.
+  const auto dev = sample_counts();
+  EXPECT_NEAR(predict(m, dev, Variant::memory).total, predict(m, dev, Variant::latency).total, 1e-18);
+}
+
+TEST(Predict, ThreadSyncsAndWavesAreFixedCostsOfTheLatencyVariants) {
+  const auto m = test::round_profile();
+  CostCounts c;
+  c.P = 4;
+  c.N_C = 6'000'000;  // 10 us on 8 threads (600 GFLOP/s)
+  c.cpu_threads = 8;
+  c.cpu_syncs = 3;    // 3 x 5 us
+  c.N_G = 50'000'000; // 1 us
+  c.launches = 2;     // 2 x 3 us
+  c.waves = 4;        // 4 x 2 us
+  EXPECT_NEAR(predict(m, c, Variant::seed).total, 11e-6, 1e-15);  // the seed has neither
+  for (auto v : {Variant::latency, Variant::memory, Variant::extended}) {
+    const auto p = predict(m, c, v);
+    EXPECT_NEAR(p.lat_sync, 15e-6, 1e-15) << to_string(v);
+    EXPECT_NEAR(p.dt_C, 25e-6, 1e-15) << to_string(v);  // syncs are CPU time
+    EXPECT_NEAR(p.lat_wave, 8e-6, 1e-15) << to_string(v);
+    EXPECT_NEAR(p.total, 25e-6 + 1e-6 + 6e-6 + 8e-6, 1e-15) << to_string(v);
+  }
+  auto m2 = m;
+  m2.erase(Param::L_sync);
+  m2.erase(Param::L_wave);
+  try {
+    predict(m2, c, Variant::latency);
+    FAIL() << "expected MissingParameter";
+  } catch (const MissingParameter& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find("L_sync"), std::string::npos) << w;
+    EXPECT_NE(w.find("L_wave"), std::string::npos) << w;
+  }
+}
+
 TEST(Predict, PageableMemoryUsesPageableFigures) {
   const auto m = test::round_profile();
   auto c = sample_counts();
@@ -137,6 +184,7 @@ TEST(Predict, DeadlineIsEquation3_1) {
 
 TEST(Predict, VariantNamesRoundTrip) {
   for (auto v : all_variants()) EXPECT_EQ(variant_from_string(to_string(v)), v);
+  EXPECT_EQ(variant_names(), "seed, latency, memory or extended");
   EXPECT_FALSE(variant_from_string("magic").has_value());
 }
 
@@ -145,6 +193,11 @@ TEST(CostCounts, ScaleAndAdd) {
   auto d = c.scaled(3);
   EXPECT_EQ(d.N_CG, 3'000'000);
   EXPECT_EQ(d.launches, 12);
+  c.waves = 2;
+  c.cpu_syncs = 5;
+  d = c.scaled(3);
+  EXPECT_EQ(d.waves, 6);
+  EXPECT_EQ(d.cpu_syncs, 15);
   EXPECT_EQ(d.P, 4);
   auto e = c;
   e += c;

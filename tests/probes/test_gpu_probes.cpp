@@ -109,6 +109,18 @@ TEST(GpuProbes, LaunchOverheadIsMicroseconds) {
   EXPECT_GT(summarize(t.round_trip).median, 0.5 * l);
 }
 
+TEST(GpuProbes, RoundsOfBlocksCostMoreWithEveryRound) {
+  DTFLOP_REQUIRE_GPU();
+  const auto w = gpu::time_waves(20, 3);
+  EXPECT_EQ(w.blocks_per_sm, 1);  // each block fills a multiprocessor
+  ASSERT_EQ(w.waves, (std::vector<int>{1, 2, 4, 8}));
+  ASSERT_EQ(w.seconds.size(), 4u);
+  // Eight rounds take clearly longer than one, and a round costs between 0.1 and 100 us.
+  EXPECT_GT(w.seconds[3], 1.5 * w.seconds[0]);
+  EXPECT_GT(w.per_wave, 1e-7);
+  EXPECT_LT(w.per_wave, 1e-4);
+}
+
 TEST(GpuProbes, EveryGpuProbeRunsAtSmokeEffort) {
   DTFLOP_REQUIRE_GPU();
   ProbeOptions o;

@@ -79,10 +79,13 @@ TEST(ProbeMachine, ProfileHoldsWhatWasMeasuredAndNothingElse) {
   if (gpu) {
     EXPECT_FALSE(prof.identity.gpu_name.empty());
     EXPECT_FALSE(prof.identity.cuda_version.empty());
+    EXPECT_EQ(prof.identity.gpu_sms, gpu::device_info().sm_count);
+    EXPECT_GT(prof.identity.gpu_sms, 0);
     for (Param p : kGpuParams) EXPECT_TRUE(prof.has(p)) << info(p).name;
   } else {
     // No device: the GPU parameters are absent (never zero), and the reason is recorded.
     EXPECT_TRUE(prof.identity.gpu_name.empty());
+    EXPECT_EQ(prof.identity.gpu_sms, 0);
     for (Param p : kGpuParams) EXPECT_FALSE(prof.has(p)) << info(p).name;
     EXPECT_EQ(prof.metadata.count("probe.gpu"), 1u);
     bool said = false;

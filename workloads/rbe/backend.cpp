@@ -50,6 +50,29 @@ std::string cuda_device_name() {
 #endif
 }
 
+int cuda_device_sms() {
+#ifdef DTFLOP_HAVE_CUDA
+  static const int sms = [] {  // device 0 of this process does not change
+    if (!cuda_unavailable_reason().empty()) return 0;
+    int n = 0;
+    if (cudaDeviceGetAttribute(&n, cudaDevAttrMultiProcessorCount, 0) != cudaSuccess) {
+      cudaGetLastError();
+      return 0;
+    }
+    return n;
+  }();
+  return sms;
+#else
+  return 0;
+#endif
+}
+
+int counted_gpu_sms(const BackendOptions& o) {
+  if (o.gpu_sms > 0) return o.gpu_sms;
+  const int here = cuda_device_sms();
+  return here > 0 ? here : kDefaultGpuSms;
+}
+
 // ---- Layout -------------------------------------------------------------------------------
 
 Layout parse_layout(std::string_view text) {

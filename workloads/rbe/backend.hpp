@@ -59,8 +59,13 @@ class DeviceUnavailable : public InputError {
 std::string cuda_unavailable_reason();
 // Name of device 0 ("NVIDIA H200"), empty without a device.
 std::string cuda_device_name();
+// Multiprocessors (SMs) of device 0 (132 on an H200), 0 without a device.
+int cuda_device_sms();
 
 // ---- Options ------------------------------------------------------------------------------
+
+// Multiprocessors assumed when no GPU tells: an H100 or H200 SXM (132).
+inline constexpr int kDefaultGpuSms = 132;
 
 // How cuda-resident lays out its work; the tuner searches this space. A block is
 // block_x x block_y threads; each thread computes cells_per_thread consecutive cells along y,
@@ -95,6 +100,10 @@ struct BackendOptions {
   HostMemory host_memory = HostMemory::pageable;  // cuda-seed: host buffers pageable or pinned
   int threads = 0;                                // cpu-par: 0 = every hardware thread
   Layout layout;                                  // cuda-resident
+  // cuda-resident: multiprocessors (SMs) of the GPU the counts are for; its `waves` and N_G
+  // count whole rounds of blocks on them (backend_counts.hpp). 0: the GPU of this machine when
+  // there is one, else kDefaultGpuSms. `dtflop predict` sets it from the profile's identity.
+  int gpu_sms = 0;
   // The prediction to use; empty: separable when the kernel is separable, else full.
   std::optional<Prediction> prediction;
   // cuda-resident: capture the step loop in a CUDA graph (default) or launch kernel by kernel.
@@ -103,6 +112,9 @@ struct BackendOptions {
   // shows up as NaN in the belief (tests use it; it costs nothing per step).
   bool poison = false;
 };
+// The multiprocessors cuda-resident's counts are for with `options`: gpu_sms when set (> 0),
+// else this machine's GPU (cuda_device_sms()), else kDefaultGpuSms.
+int counted_gpu_sms(const BackendOptions& options);
 
 // ---- Problem ----------------------------------------------------------------------------
 

@@ -26,8 +26,9 @@ CostCounts cpu_seq_counts(const Shape& s, Prediction prediction) {
   const std::int64_t correction = 3 * ng + 1;  // multiply, sum, A_c x sum, divide
   if (prediction == Prediction::separable) {
     c.N_C = 2 * s.ny * row_taps + 2 * s.nx * col_taps + correction;
-    // x-pass r+w, y-pass r+w, multiply (pred, l -> q), sum (q), divide (q -> p); kernels once.
-    c.N_CC = 2 * ng + 2 * ng + 3 * ng + ng + 2 * ng + s.Ix + s.Iy;
+    // x-pass r+w, y-pass (transpose, x-pass, transpose back) 3 x r+w, multiply (pred, l -> q),
+    // sum (q), divide (q -> p); kernels once.
+    c.N_CC = 2 * ng + 6 * ng + 3 * ng + ng + 2 * ng + s.Ix + s.Iy;
   } else {
     c.N_C = 2 * row_taps * col_taps + correction;
     c.N_CC = 2 * ng + 3 * ng + ng + 2 * ng + s.Ix * s.Iy;
@@ -48,8 +49,10 @@ CostCounts cpu_par_counts(const Shape& s, Prediction prediction, int threads) {
   const std::int64_t correction = 3 * ng + 2;
   // Prediction: read q, write the intermediate (u or the zero-padded copy); read it, write the
   // prediction. Correction: read the prediction and l, write q. Kernels once.
+  c.cpu_syncs = threads > 1 ? 3 : 0;
   if (prediction == Prediction::separable) {
-    c.N_C = 2 * ng * (s.Ix + s.Iy) + correction;
+    auto round_up = [](std::int64_t n, std::int64_t m) { return (n + m - 1) / m * m; };
+    c.N_C = 2 * s.ny * (s.Ix * round_up(s.nx, kCpuParXBlock) + s.Iy * round_up(s.nx, kCpuParYStrip)) + correction;
     c.N_CC = 7 * ng + s.Ix + s.Iy;
   } else {
     c.N_C = 2 * ng * s.Ix * s.Iy + correction;
@@ -136,10 +139,15 @@ ResidentPlan resident_plan(const Shape& s, const Layout& l, std::size_t max_shar
   return p;
 }
 
-CostCounts cuda_resident_counts(const Shape& s, const Layout& l) {
+CostCounts cuda_resident_counts(const Shape& s, const Layout& l, int sms) {
+  if (sms < 1) throw InputError(fmt::format("a GPU of {} multiprocessors cannot run cuda-resident; give at least 1", sms));
   const ResidentPlan p = resident_plan(s, l);
   const std::int64_t ng = s.cells();
   const std::int64_t W = p.tile_w, H = p.tile_h, B = p.blocks();
+  // Waves of a kernel of n blocks, and the blocks counted for it: every multiprocessor runs as
+  // many rounds as the busiest one (backend_counts.hpp).
+  const std::int64_t S = sms;
+  auto waves = [S](std::int64_t n) { return (n + S - 1) / S; };
   CostCounts c;
   c.P = 4;
   c.precision = Precision::fp32;
@@ -149,20 +157,23 @@ CostCounts cuda_resident_counts(const Shape& s, const Layout& l) {
   const std::int64_t correct_block = 2 * s.Iy * W * H + 3 * W * H + 2;
   if (p.passes == Layout::Passes::fused) {
     c.launches = 1;
-    c.N_G = B * (2 * s.Ix * W * (H + s.Iy - 1) + correct_block);
+    c.waves = waves(B);
+    c.N_G = waves(B) * S * (2 * s.Ix * W * (H + s.Iy - 1) + correct_block);
     c.N_GG = 3 * ng + s.Ix + s.Iy + 2 + 2 * B;
   } else {
     c.launches = 2;
-    c.N_G = p.xblocks() * 2 * s.Ix * p.xtile_w * p.xtile_h + B * correct_block;
+    c.waves = waves(p.xblocks()) + waves(B);
+    c.N_G = waves(p.xblocks()) * S * 2 * s.Ix * p.xtile_w * p.xtile_h + waves(B) * S * correct_block;
     c.N_GG = 5 * ng + s.Ix + s.Iy + 2 + 2 * B;
   }
   return c;
 }
 
-CostCounts cuda_resident_run_counts(const Shape& s, const Layout& l, std::int64_t steps, std::int64_t chunk) {
+CostCounts cuda_resident_run_counts(const Shape& s, const Layout& l, int sms, std::int64_t steps,
+                                    std::int64_t chunk) {
   if (steps < 1) throw InputError(fmt::format("a run needs at least one step, got {}", steps));
   if (chunk < 1) throw InputError(fmt::format("chunk of {} steps must be at least 1", chunk));
-  CostCounts c = cuda_resident_counts(s, l).scaled(steps);
+  CostCounts c = cuda_resident_counts(s, l, sms).scaled(steps);
   const std::int64_t chunks = (steps + chunk - 1) / chunk;
   // Per chunk: zero its sums (2 values each, written), carry the last sum in and out (two
   // 8-byte device copies, read + write), copy the chunk's sums to the host in one copy.

@@ -16,17 +16,26 @@ namespace dtflop::rbe {
 // over the outputs of a row (see cpu_seq_counts).
 std::int64_t edge_taps(std::int64_t kernel_size);
 
-// cpu-seq, float64, one thread, bounds-checked loops (taps outside the grid are skipped):
+// cpu-seq, float64, one thread, loops over the taps that fall inside the grid only:
 //   valid taps along x, whole grid: T_x = n_y (I_x n_x - S(I_x)), along y: T_y = n_x (I_y n_y - S(I_y))
-//   separable: N_C = 2 T_x + 2 T_y + 3 n_g + 1,  N_CC = 10 n_g + I_x + I_y
+//   separable: N_C = 2 T_x + 2 T_y + 3 n_g + 1,  N_CC = 14 n_g + I_x + I_y
+//   (the y-pass is an x-pass between two transposes: 6 n_g values moved instead of 2)
 //   full:      N_C = 2 (I_x n_x - S(I_x)) (I_y n_y - S(I_y)) + 3 n_g + 1,  N_CC = 8 n_g + I_x I_y
 //   (multiply by l: n_g, sum: n_g, A_c x sum: 1, divide: n_g)
 CostCounts cpu_seq_counts(const Shape& s, Prediction prediction);
 
-// cpu-par, float32, `threads` threads, zero-padded buffers so every output takes every tap:
-//   separable: N_C = 2 n_g (I_x + I_y) + 3 n_g + 2,  N_CC = 7 n_g + I_x + I_y
-//   full:      N_C = 2 n_g I_x I_y + 3 n_g + 2,      N_CC = 7 n_g + I_x I_y
+// cpu-par, float32, `threads` threads, zero-padded buffers so every output takes every tap. The
+// separable passes compute whole blocks of kCpuParXBlock outputs along a row (x-pass) and whole
+// strips of kCpuParYStrip columns (y-pass), a row's last one partly outside the grid, so with
+// the row widths rounded up to them, X = kCpuParXBlock ceil(n_x / kCpuParXBlock) and
+// Y = kCpuParYStrip ceil(n_x / kCpuParYStrip):
+//   separable: N_C = 2 n_y (I_x X + I_y Y) + 3 n_g + 2,  N_CC = 7 n_g + I_x + I_y
+//   full:      N_C = 2 n_g I_x I_y + 3 n_g + 2,          N_CC = 7 n_g + I_x I_y
+//   cpu_syncs = 3 with two threads or more (the prediction's parallel region, the barrier between
+//   its two loops, the correction's region), 0 on one thread
 // (the previous step's normalization 1 / (A_c S) is folded into this step's multiply by l).
+inline constexpr int kCpuParXBlock = 64;
+inline constexpr int kCpuParYStrip = 32;
 CostCounts cpu_par_counts(const Shape& s, Prediction prediction, int threads);
 
 // cuda-seed: eqs. 5.10-5.16 (seed_gpu_counts) plus the one multiplication A_c x sum on the CPU
@@ -54,20 +63,25 @@ inline constexpr std::size_t kMaxSharedBytes = 232448;
 // cells_per_thread one of 1, 2, 4, 8, 16; the tile's shared memory within `max_shared`.
 ResidentPlan resident_plan(const Shape& s, const Layout& layout, std::size_t max_shared = kMaxSharedBytes);
 
-// cuda-resident, float32, one steady-state step inside a run (see cuda_resident.cu):
-//   fused: launches 1, N_GG = 3 n_g + I_x + I_y + 2 + 2 B,
-//          N_G = B [2 I_x W (H + I_y - 1) + (2 I_y + 3) W H + 2]
-//   split: launches 2, N_GG = 5 n_g + I_x + I_y + 2 + 2 B,
-//          N_G = B_x 2 I_x W_x H_x + B [(2 I_y + 3) W H + 2]
+// cuda-resident, float32, one steady-state step inside a run (see cuda_resident.cu), on a GPU
+// of S = `sms` multiprocessors; a kernel of B blocks runs in q(B) = ceil(B / S) waves:
+//   fused: launches 1, waves = q(B), N_GG = 3 n_g + I_x + I_y + 2 + 2 B,
+//          N_G = q(B) S [2 I_x W (H + I_y - 1) + (2 I_y + 3) W H + 2]
+//   split: launches 2, waves = q(B_x) + q(B), N_GG = 5 n_g + I_x + I_y + 2 + 2 B,
+//          N_G = q(B_x) S 2 I_x W_x H_x + q(B) S [(2 I_y + 3) W H + 2]
 // with B blocks of W x H outputs (B_x blocks of W_x x H_x in the x-pass; fused and x-pass tiles
 // of a row start (-h_x) mod 4 cells left of multiples of their width, resident_geometry.hpp, so
 // B = ceil((n_x + shift) / W) ceil(n_y / H) there). Halo values re-read
 // by neighbouring blocks come from L2 and are not counted in N_GG; every tile computes all of
 // its outputs (those outside the grid are zeros and not stored), so N_G counts them.
-CostCounts cuda_resident_counts(const Shape& s, const Layout& layout);
+// Wave quantization: a kernel lasts as long as its busiest multiprocessor, which runs q(B)
+// rounds of blocks, so N_G counts q(B) S blocks, as if every multiprocessor ran q(B) (>= B
+// blocks; equal when B is a multiple of S), and each round adds a fixed cost (waves x L_wave,
+// docs/model.md). Throws InputError when sms < 1.
+CostCounts cuda_resident_counts(const Shape& s, const Layout& layout, int sms);
 // A run of `steps` steps in chunks of `chunk` steps (one CUDA graph each): adds per chunk one
 // memset of the chunk's sums, one 8-byte device copy and one device->host copy of the sums.
-CostCounts cuda_resident_run_counts(const Shape& s, const Layout& layout, std::int64_t steps,
+CostCounts cuda_resident_run_counts(const Shape& s, const Layout& layout, int sms, std::int64_t steps,
                                     std::int64_t chunk);
 
 }  // namespace dtflop::rbe

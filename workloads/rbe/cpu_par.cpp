@@ -23,50 +23,122 @@ namespace {
 #else
 #define DTFLOP_VECTOR_CLONES
 #endif
+// Helpers of the cloned functions are forced inline so that they are compiled for each clone's
+// instruction set (a call would run the baseline build of the helper).
+#if defined(__GNUC__)
+#define DTFLOP_INLINE [[gnu::always_inline]] inline
+#else
+#define DTFLOP_INLINE inline
+#endif
 
-// out[x] = sum_a k[a] in[x + a], x in [0, n): `in` holds n + I - 1 values. Blocks of 32
-// outputs stay in registers (4 AVX vectors) while the taps stream past.
+// Outputs per block of the x-pass and columns per strip of the y-pass (backend_counts.hpp:
+// whole blocks are computed, and counted).
+constexpr int kXBlock = kCpuParXBlock;
+constexpr int kYStrip = kCpuParYStrip;
+
+// out[x] = sum_a k[a] in[x + a] for B consecutive x: B accumulators stay in registers while
+// the taps stream past (B = 64 is eight AVX vectors, enough independent FMA chains to keep both
+// FMA pipes busy).
+template <int B>
+DTFLOP_INLINE void correlate_block(const float* __restrict in, const float* __restrict k, std::int64_t I,
+                            float* __restrict out) {
+  float acc[B] = {};
+  for (std::int64_t a = 0; a < I; ++a) {
+    const float c = k[a];
+    const float* s = in + a;
+    for (int j = 0; j < B; ++j) acc[j] += c * s[j];
+  }
+  for (int j = 0; j < B; ++j) out[j] = acc[j];
+}
+
+// out[x] = sum_a k[a] in[x + a], x in [0, n): `in` holds n + I - 1 values and kXBlock - 1
+// readable ones after them. Every block is a full one: the last, partial block is computed
+// whole into a scratch block and its first values copied out, so each output costs the same
+// whatever n is (a narrow tail would run one FMA chain at a time). cpu_par_counts() counts the
+// FLOPs of whole blocks.
 DTFLOP_VECTOR_CLONES
 void correlate_row(const float* __restrict in, const float* __restrict k, std::int64_t I,
                    float* __restrict out, std::int64_t n) {
-  constexpr int B = 32;
   std::int64_t x = 0;
-  for (; x + B <= n; x += B) {
-    float acc[B] = {};
-    for (std::int64_t a = 0; a < I; ++a) {
-      const float c = k[a];
-      const float* s = in + x + a;
-      for (int j = 0; j < B; ++j) acc[j] += c * s[j];
-    }
-    for (int j = 0; j < B; ++j) out[x + j] = acc[j];
-  }
-  for (; x < n; ++x) {
-    float acc = 0;
-    for (std::int64_t a = 0; a < I; ++a) acc += k[a] * in[x + a];
-    out[x] = acc;
+  for (; x + kXBlock <= n; x += kXBlock) correlate_block<kXBlock>(in + x, k, I, out + x);
+  if (x < n) {
+    float part[kXBlock];
+    correlate_block<kXBlock>(in + x, k, I, part);
+    std::copy_n(part, n - x, out + x);
   }
 }
 
-// out[x] = sum_b k[b] in[b * pitch + x], x in [0, n): I rows of `in` combined column-wise.
-DTFLOP_VECTOR_CLONES
-void combine_rows(const float* __restrict in, std::int64_t pitch, const float* __restrict k, std::int64_t I,
-                  float* __restrict out, std::int64_t n) {
-  constexpr int B = 64;
-  std::int64_t x = 0;
-  for (; x + B <= n; x += B) {
-    float acc[B] = {};
+// The y-pass for B columns of two neighbouring output rows: out0[x] = sum_b k[b] in[b pitch + x]
+// and out1[x] = sum_b k[b] in[(b + 1) pitch + x]. The two outputs share I - 1 of their input
+// rows, so each row segment loaded feeds two FMAs (2B accumulators in registers). Taps are
+// summed in the same order as for one row at a time. Without out1, one row.
+template <int B>
+DTFLOP_INLINE void combine_block(const float* __restrict in, std::int64_t pitch, const float* __restrict k, std::int64_t I,
+                          float* __restrict out0, float* __restrict out1) {
+  float a0[B] = {};
+  if (out1 == nullptr) {
     for (std::int64_t b = 0; b < I; ++b) {
       const float c = k[b];
-      const float* s = in + b * pitch + x;
-      for (int j = 0; j < B; ++j) acc[j] += c * s[j];
+      const float* s = in + b * pitch;
+      for (int j = 0; j < B; ++j) a0[j] += c * s[j];
     }
-    for (int j = 0; j < B; ++j) out[x + j] = acc[j];
+    for (int j = 0; j < B; ++j) out0[j] = a0[j];
+    return;
   }
-  for (; x < n; ++x) {
-    float acc = 0;
-    for (std::int64_t b = 0; b < I; ++b) acc += k[b] * in[b * pitch + x];
-    out[x] = acc;
+  float a1[B] = {};
+  for (int j = 0; j < B; ++j) a0[j] += k[0] * in[j];
+  for (std::int64_t b = 1; b < I; ++b) {
+    const float c0 = k[b], c1 = k[b - 1];
+    const float* s = in + b * pitch;
+    for (int j = 0; j < B; ++j) {
+      a0[j] += c0 * s[j];
+      a1[j] += c1 * s[j];
+    }
   }
+  const float* s = in + I * pitch;
+  for (int j = 0; j < B; ++j) a1[j] += k[I - 1] * s[j];
+  for (int j = 0; j < B; ++j) {
+    out0[j] = a0[j];
+    out1[j] = a1[j];
+  }
+}
+
+// One strip of kYStrip columns starting at column x, output rows [y0, y1), two rows at a time;
+// only the first w columns are written (the last strip of a row is computed whole into scratch
+// rows, as in the x-pass).
+DTFLOP_INLINE void combine_strip(const float* __restrict in, std::int64_t pitch, const float* __restrict k,
+                                 std::int64_t I, float* __restrict out, std::int64_t y0, std::int64_t y1,
+                                 std::int64_t x, std::int64_t w) {
+  float part0[kYStrip], part1[kYStrip];
+  const bool whole = w == kYStrip;
+  std::int64_t y = y0;
+  for (; y + 2 <= y1; y += 2) {
+    float* o0 = out + y * pitch + x;
+    float* o1 = o0 + pitch;
+    combine_block<kYStrip>(in + y * pitch + x, pitch, k, I, whole ? o0 : part0, whole ? o1 : part1);
+    if (!whole) {
+      std::copy_n(part0, w, o0);
+      std::copy_n(part1, w, o1);
+    }
+  }
+  if (y < y1) {
+    float* o0 = out + y * pitch + x;
+    combine_block<kYStrip>(in + y * pitch + x, pitch, k, I, whole ? o0 : part0, nullptr);
+    if (!whole) std::copy_n(part0, w, o0);
+  }
+}
+
+// The y-pass over rows [y0, y1) of the output: `in` is the zero-padded u (row y of the output
+// reads rows y .. y + I - 1), both with `pitch` columns, n of them computed; `in` has
+// kYStrip - 1 readable values after its last row. Columns are taken in strips of kYStrip,
+// each strip top to bottom, so the I row segments a strip reads (I x 128 bytes, 25 KiB at
+// I = 200) stay in the L1 cache from one output row to the next: the pass reads u from memory
+// once, whatever the kernel height.
+DTFLOP_VECTOR_CLONES
+void combine_rows(const float* __restrict in, std::int64_t pitch, const float* __restrict k, std::int64_t I,
+                  float* __restrict out, std::int64_t y0, std::int64_t y1, std::int64_t n) {
+  for (std::int64_t x = 0; x < n; x += kYStrip)
+    combine_strip(in, pitch, k, I, out, y0, y1, x, std::min<std::int64_t>(kYStrip, n - x));
 }
 
 // out[x] = sum_b sum_a k[b Ix + a] in[b pitch + x + a], x in [0, n): the full 2D prediction.
@@ -155,7 +227,7 @@ class CpuPar final : public Backend {
       ky_.resize(static_cast<std::size_t>(Iy_));
       for (std::int64_t a = 0; a < Ix_; ++a) kx_[std::size_t(a)] = float(problem.kernel.kx()[std::size_t(Ix_ - 1 - a)]);
       for (std::int64_t b = 0; b < Iy_; ++b) ky_[std::size_t(b)] = float(problem.kernel.ky()[std::size_t(Iy_ - 1 - b)]);
-      upad_.assign(static_cast<std::size_t>((ny_ + Iy_ - 1) * nx_), 0.0f);
+      upad_.assign(static_cast<std::size_t>((ny_ + Iy_ - 1) * nx_ + kYStrip), 0.0f);  // + slack read by a last strip
       std::fill_n(upad_.begin() + hy_ * nx_, ny_ * nx_, fill);  // the rows the x-pass writes
       rows_.assign(static_cast<std::size_t>(threads_ * row_pitch()), 0.0f);
     } else {
@@ -192,7 +264,7 @@ class CpuPar final : public Backend {
   const std::vector<float>& prediction() const { return pred_; }
 
  private:
-  std::int64_t row_pitch() const { return nx_ + Ix_ - 1 + 64; }
+  std::int64_t row_pitch() const { return nx_ + Ix_ - 1 + kXBlock; }
 
   void set_likelihood(const std::vector<double>& l) { l_.assign(l.begin(), l.end()); }
 
@@ -207,9 +279,9 @@ class CpuPar final : public Backend {
           std::copy_n(q_.data() + y * nx, nx, row + hx_);
           correlate_row(row, kx_.data(), Ix_, upad_.data() + (y + hy_) * nx, nx);
         }
-#pragma omp for schedule(static)
-        for (std::int64_t y = 0; y < ny; ++y)
-          combine_rows(upad_.data() + y * nx, nx, ky_.data(), Iy_, pred_.data() + y * nx, nx);
+        // (the implicit barrier of the loop above: every row of u is written)
+        const std::int64_t id = omp_get_thread_num(), nt = omp_get_num_threads();
+        combine_rows(upad_.data(), nx, ky_.data(), Iy_, pred_.data(), ny * id / nt, ny * (id + 1) / nt, nx);
       }
     } else {
       const std::int64_t pw = nx + Ix_ - 1;

@@ -39,6 +39,7 @@ class CpuSeq final : public Backend {
     const auto n = p_.size();
     const double fill = options_.poison ? std::numeric_limits<double>::quiet_NaN() : 0.0;
     u_.assign(n, fill);
+    work_.assign(2 * n, fill);
     pred_.assign(n, fill);
     q_.assign(n, fill);
     steps_ = 0;
@@ -71,7 +72,7 @@ class CpuSeq final : public Backend {
       Range range("rbe/predict");
       if (prediction_ == Prediction::separable) {
         reference::pass_x(nx, ny, kernel_.kx().data(), kernel_.Ix(), p_.data(), u_.data());
-        reference::pass_y(nx, ny, kernel_.ky().data(), kernel_.Iy(), u_.data(), pred_.data());
+        reference::pass_y(nx, ny, kernel_.ky().data(), kernel_.Iy(), u_.data(), pred_.data(), work_.data());
       } else {
         reference::convolve_full(nx, ny, dense_.data(), kernel_.Ix(), kernel_.Iy(), p_.data(), pred_.data());
       }
@@ -104,7 +105,7 @@ class CpuSeq final : public Backend {
   std::vector<double> dense_;
   Prediction prediction_ = Prediction::separable;
   std::vector<std::uint8_t> mask_;
-  std::vector<double> p_, l_, u_, pred_, q_;
+  std::vector<double> p_, l_, u_, pred_, q_, work_;
   std::int64_t steps_ = 0;
   bool ready_ = false;
   bool failed_ = false;

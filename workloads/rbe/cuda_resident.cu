@@ -547,12 +547,13 @@ class CudaResident final : public Backend {
   }
   bool needs_gpu() const override { return true; }
   const BackendOptions& options() const override { return options_; }
+  // Counts for o.gpu_sms multiprocessors; 0: this machine's GPU (counted_gpu_sms).
   CostCounts step_counts(const Shape& s, const BackendOptions& o) const override {
-    return cuda_resident_counts(s, o.layout);
+    return cuda_resident_counts(s, o.layout, counted_gpu_sms(o));
   }
   CostCounts run_counts(const Shape& s, const BackendOptions& o, std::int64_t steps) const override {
     // Each segment of up to kSegment steps brings its sums back in one copy.
-    return cuda_resident_run_counts(s, o.layout, steps, kSegment);
+    return cuda_resident_run_counts(s, o.layout, counted_gpu_sms(o), steps, kSegment);
   }
   std::vector<std::string_view> kernel_names() const override {
     return {"rbe_resident_fused", "rbe_resident_xpass", "rbe_resident_ypass"};
@@ -570,6 +571,8 @@ class CudaResident final : public Backend {
     DTFLOP_CUDA(cudaGetDevice(&dev));
     DTFLOP_CUDA(cudaDeviceGetAttribute(&max_smem, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
     plan_ = resident_plan(shape_, options_.layout, static_cast<std::size_t>(max_smem));
+    // The counts (options()) are for this device's multiprocessors unless the caller chose.
+    if (options_.gpu_sms <= 0) DTFLOP_CUDA(cudaDeviceGetAttribute(&options_.gpu_sms, cudaDevAttrMultiProcessorCount, dev));
     prepare_kernels();
 
     graphs_.clear();

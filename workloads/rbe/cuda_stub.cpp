@@ -16,7 +16,7 @@ class CudaUnavailable final : public Backend {
   bool needs_gpu() const override { return true; }
   const BackendOptions& options() const override { return options_; }
   CostCounts step_counts(const Shape& s, const BackendOptions& o) const override {
-    return resident_ ? cuda_resident_counts(s, o.layout) : cuda_seed_counts(s, o.host_memory);
+    return resident_ ? cuda_resident_counts(s, o.layout, counted_gpu_sms(o)) : cuda_seed_counts(s, o.host_memory);
   }
   void init(const Problem&) override { fail(); }
   RunResult run(std::int64_t) override { fail(); }

@@ -9,6 +9,14 @@
 
 namespace dtflop::rbe::reference {
 
+// The taps a of a kernel of size I (centre c) that reach inside a line of n cells from output
+// i: j = i - (a - c) in [0, n). Loops run over exactly these, so that the work done is the
+// FLOPs counted (no iterations spent testing taps that fall outside the grid).
+inline std::int64_t first_tap(std::int64_t i, std::int64_t c, std::int64_t n) {
+  return i + c - (n - 1) > 0 ? i + c - (n - 1) : 0;
+}
+inline std::int64_t end_tap(std::int64_t i, std::int64_t c, std::int64_t I) { return i + c + 1 < I ? i + c + 1 : I; }
+
 // Convolution along x with kernel k of size I (5.3): u[i] = sum_a k[a] p[i - (a - c)], taps
 // outside the grid skipped (zero belief there).
 template <class T>
@@ -17,27 +25,35 @@ void pass_x(std::int64_t nx, std::int64_t ny, const T* k, std::int64_t I, const 
   for (std::int64_t iy = 0; iy < ny; ++iy)
     for (std::int64_t ix = 0; ix < nx; ++ix) {
       T acc = T(0);
-      for (std::int64_t a = 0; a < I; ++a) {
-        const std::int64_t j = ix - (a - c);
-        if (j >= 0 && j < nx) acc = acc + k[a] * p[iy * nx + j];
-      }
+      for (std::int64_t a = first_tap(ix, c, nx), a1 = end_tap(ix, c, I); a < a1; ++a)
+        acc = acc + k[a] * p[iy * nx + ix - (a - c)];
       u[iy * nx + ix] = acc;
     }
 }
 
-// Convolution along y (5.4).
+// out[x ny + y] = in[y nx + x]: the transpose of an nx-wide, ny-tall array, in 32 x 32 tiles
+// so that both the reads and the writes use whole cache lines.
 template <class T>
-void pass_y(std::int64_t nx, std::int64_t ny, const T* k, std::int64_t I, const T* u, T* out) {
-  const std::int64_t c = kernel_centre(I);
-  for (std::int64_t iy = 0; iy < ny; ++iy)
-    for (std::int64_t ix = 0; ix < nx; ++ix) {
-      T acc = T(0);
-      for (std::int64_t b = 0; b < I; ++b) {
-        const std::int64_t j = iy - (b - c);
-        if (j >= 0 && j < ny) acc = acc + k[b] * u[j * nx + ix];
-      }
-      out[iy * nx + ix] = acc;
-    }
+void transpose(std::int64_t nx, std::int64_t ny, const T* in, T* out) {
+  constexpr std::int64_t kTile = 32;
+  for (std::int64_t y0 = 0; y0 < ny; y0 += kTile)
+    for (std::int64_t x0 = 0; x0 < nx; x0 += kTile)
+      for (std::int64_t y = y0; y < y0 + kTile && y < ny; ++y)
+        for (std::int64_t x = x0; x < x0 + kTile && x < nx; ++x) out[x * ny + y] = in[y * nx + x];
+}
+
+// Convolution along y (5.4): the x-pass of the transposed array, transposed back. A column
+// read in place touches a new cache line, and for wide grids a new page, at every tap; through
+// the transpose both passes read contiguous memory and cost the same per tap, whatever the grid
+// width. Each output sums the same taps in the same order as the direct form
+// out[y nx + x] = sum_b k[b] u[(y - (b - c)) nx + x]. `work` holds 2 nx ny values.
+template <class T>
+void pass_y(std::int64_t nx, std::int64_t ny, const T* k, std::int64_t I, const T* u, T* out, T* work) {
+  T* ut = work;
+  T* vt = work + nx * ny;
+  transpose(nx, ny, u, ut);
+  pass_x(ny, nx, k, I, ut, vt);
+  transpose(ny, nx, vt, out);
 }
 
 // The conventional 2D convolution (4.10) with a full Ix x Iy kernel (row-major, [b Ix + a]).
@@ -48,13 +64,10 @@ void convolve_full(std::int64_t nx, std::int64_t ny, const T* k, std::int64_t Ix
   for (std::int64_t iy = 0; iy < ny; ++iy)
     for (std::int64_t ix = 0; ix < nx; ++ix) {
       T acc = T(0);
-      for (std::int64_t b = 0; b < Iy; ++b) {
-        const std::int64_t jy = iy - (b - cy);
-        if (jy < 0 || jy >= ny) continue;
-        for (std::int64_t a = 0; a < Ix; ++a) {
-          const std::int64_t jx = ix - (a - cx);
-          if (jx >= 0 && jx < nx) acc = acc + k[b * Ix + a] * p[jy * nx + jx];
-        }
+      const std::int64_t a0 = first_tap(ix, cx, nx), a1 = end_tap(ix, cx, Ix);
+      for (std::int64_t b = first_tap(iy, cy, ny), b1 = end_tap(iy, cy, Iy); b < b1; ++b) {
+        const std::int64_t row = (iy - (b - cy)) * nx + ix + cx;  // row + (-a) is the cell read
+        for (std::int64_t a = a0; a < a1; ++a) acc = acc + k[b * Ix + a] * p[row - a];
       }
       out[iy * nx + ix] = acc;
     }

@@ -32,11 +32,11 @@ std::int64_t counted_step(const Shape& s, Prediction prediction) {
   std::vector<Counted> kx(static_cast<std::size_t>(s.Ix), Counted(0.1));
   std::vector<Counted> ky(static_cast<std::size_t>(s.Iy), Counted(0.2));
   std::vector<Counted> k2(static_cast<std::size_t>(s.Ix * s.Iy), Counted(0.1));
-  std::vector<Counted> p(N, Counted(1)), l(N, Counted(0.5)), u(N), pred(N), q(N);
+  std::vector<Counted> p(N, Counted(1)), l(N, Counted(0.5)), u(N), pred(N), q(N), work(2 * N);
   Ops::reset();
   if (prediction == Prediction::separable) {
     reference::pass_x(s.nx, s.ny, kx.data(), s.Ix, p.data(), u.data());
-    reference::pass_y(s.nx, s.ny, ky.data(), s.Iy, u.data(), pred.data());
+    reference::pass_y(s.nx, s.ny, ky.data(), s.Iy, u.data(), pred.data(), work.data());
   } else {
     reference::convolve_full(s.nx, s.ny, k2.data(), s.Ix, s.Iy, p.data(), pred.data());
   }
@@ -64,7 +64,8 @@ TEST(RbeBackendCounts, CpuSeqByHand) {
   const Shape s{10, 8, 3, 4};
   const auto c = cpu_seq_counts(s, Prediction::separable);
   EXPECT_EQ(c.N_C, 2 * 8 * 28 + 2 * 10 * 28 + 3 * 80 + 1);
-  EXPECT_EQ(c.N_CC, 10 * 80 + 3 + 4);
+  EXPECT_EQ(c.N_CC, 14 * 80 + 3 + 4);  // the y-pass through two transposes
+  EXPECT_EQ(c.cpu_syncs, 0);
   EXPECT_EQ(c.P, 8);
   EXPECT_EQ(c.cpu_threads, 1);
   EXPECT_EQ(cpu_seq_counts(s, Prediction::full).N_C, 2 * 28 * 28 + 3 * 80 + 1);
@@ -73,8 +74,15 @@ TEST(RbeBackendCounts, CpuSeqByHand) {
 TEST(RbeBackendCounts, CpuParByHand) {
   const Shape s{1000, 1000, 33, 33};
   const auto c = cpu_par_counts(s, Prediction::separable, 2);
-  EXPECT_EQ(c.N_C, 2LL * 1000000 * 66 + 3LL * 1000000 + 2);  // 5.5 plus the correction
+  // 5.5 plus the correction, over rows rounded up to whole x-pass blocks (1024 = 16 x 64) and
+  // whole y-pass strips (1024 = 32 x 32).
+  EXPECT_EQ(c.N_C, 2LL * 1000 * (33 * 1024 + 33 * 1024) + 3LL * 1000000 + 2);
   EXPECT_EQ(c.N_CC, 7LL * 1000000 + 66);
+  EXPECT_EQ(c.cpu_syncs, 3);
+  // 100 columns: 128 in x-pass blocks, 128 in y-pass strips; 96 columns: 128 and 96.
+  EXPECT_EQ(cpu_par_counts({100, 10, 3, 5}, Prediction::separable, 2).N_C, 2LL * 10 * (3 * 128 + 5 * 128) + 3 * 1000 + 2);
+  EXPECT_EQ(cpu_par_counts({96, 10, 3, 5}, Prediction::separable, 2).N_C, 2LL * 10 * (3 * 128 + 5 * 96) + 3 * 960 + 2);
+  EXPECT_EQ(cpu_par_counts(s, Prediction::separable, 1).cpu_syncs, 0);  // nothing to wait for
   EXPECT_EQ(c.P, 4);
   EXPECT_EQ(c.cpu_threads, 2);
   EXPECT_EQ(c.N_CG + c.N_GC + c.N_GG + c.N_G, 0);
@@ -115,19 +123,26 @@ TEST(RbeBackendCounts, CudaResidentFusedByHand) {
   EXPECT_EQ(p.tile_h, 64);
   EXPECT_EQ(p.blocks(), 32 * 16);
   const std::int64_t B = 512, W = 32, H = 64;
-  const auto c = cuda_resident_counts(s, l);
+  const std::int64_t per_block = 2 * 33 * W * (H + 32) + 2 * 33 * W * H + 3 * W * H + 2;
+  // 132 multiprocessors: 512 blocks run in ceil(512 / 132) = 4 waves, counted as 4 x 132 blocks.
+  const auto c = cuda_resident_counts(s, l, 132);
   EXPECT_EQ(c.launches, 1);
-  EXPECT_EQ(c.N_G, B * (2 * 33 * W * (H + 32) + 2 * 33 * W * H + 3 * W * H + 2));
+  EXPECT_EQ(c.waves, 4);
+  EXPECT_EQ(c.N_G, 4 * 132 * per_block);
   EXPECT_EQ(c.N_GG, 3 * 1000000 + 66 + 2 + 2 * B);
+  // 128 multiprocessors: 4 whole waves, N_G is the blocks' own FLOPs.
+  EXPECT_EQ(cuda_resident_counts(s, l, 128).N_G, B * per_block);
+  EXPECT_EQ(cuda_resident_counts(s, l, 128).waves, 4);
   EXPECT_EQ(c.N_CG + c.N_GC + c.N_C, 0);
   // Shared memory: 34 doubles; kernels 8*5 + 8*5 floats; input tile 96 rows x pitch 76 (72
   // columns, 4 more so that pitch / 4 is odd); u tile (64 + 40) rows x pitch 36 (32 + 4).
   EXPECT_EQ(p.smem_bytes, 34 * 8 + 4 * (40 + 40 + 96 * 76 + 104 * 36));
   // A run of 2500 steps: 3 segments of up to 1000, each bringing its sums back in one copy.
-  const auto r = cuda_resident_run_counts(s, l, 2500, 1000);
+  const auto r = cuda_resident_run_counts(s, l, 132, 2500, 1000);
   EXPECT_EQ(r.N_GC, 2 * 2500);
   EXPECT_EQ(r.transfers_GC, 3);
   EXPECT_EQ(r.N_G, 2500 * c.N_G);
+  EXPECT_EQ(r.waves, 2500 * 4);
   EXPECT_EQ(r.N_GG, 2500 * c.N_GG + 2 * 2500 + 3 * 8);
 }
 
@@ -141,7 +156,8 @@ TEST(RbeBackendCounts, CudaResidentShiftedTilesByHand) {
   EXPECT_EQ(p.blocks_x, 2);
   EXPECT_EQ(p.blocks_y, 2);
   const std::int64_t B = 4, W = 32, H = 32;
-  EXPECT_EQ(cuda_resident_counts(s, parse_layout("32x8x4")).N_G,
+  // On 4 multiprocessors: one whole wave, N_G is the 4 blocks' FLOPs.
+  EXPECT_EQ(cuda_resident_counts(s, parse_layout("32x8x4"), 4).N_G,
             B * (2 * 31 * W * (H + 4) + 2 * 5 * W * H + 3 * W * H + 2));
   // Grid 64 x 40: 65 columns, 3 blocks of tiles per row.
   EXPECT_EQ(resident_plan({64, 40, 31, 5}, parse_layout("32x8x4")).blocks_x, 3);
@@ -164,12 +180,89 @@ TEST(RbeBackendCounts, CudaResidentSplitByHand) {
   EXPECT_EQ(p.xtile_h, 16);
   const std::int64_t B = 32 * 16, XB = 8 * 63;
   EXPECT_EQ(p.xblocks(), XB);
-  const auto c = cuda_resident_counts(s, l);
+  const auto c = cuda_resident_counts(s, l, 132);
   EXPECT_EQ(c.launches, 2);
-  EXPECT_EQ(c.N_G, XB * 2 * 201 * 128 * 16 + B * (2 * 201 * 32 * 64 + 3 * 32 * 64 + 2));
+  // 132 multiprocessors: x-pass ceil(504 / 132) = 4 waves, y-pass ceil(512 / 132) = 4.
+  EXPECT_EQ(c.waves, 4 + 4);
+  EXPECT_EQ(c.N_G, 4 * 132 * 2 * 201 * 128 * 16 + 4 * 132 * (2 * 201 * 32 * 64 + 3 * 32 * 64 + 2));
+  // 8 multiprocessors divide both grids: N_G is the blocks' own FLOPs.
+  EXPECT_EQ(cuda_resident_counts(s, l, 8).N_G, XB * 2 * 201 * 128 * 16 + B * (2 * 201 * 32 * 64 + 3 * 32 * 64 + 2));
+  EXPECT_EQ(cuda_resident_counts(s, l, 8).waves, XB / 8 + B / 8);
   EXPECT_EQ(c.N_GG, 5 * 1000000 + 402 + 2 + 2 * B);
   EXPECT_EQ(resident_plan(s, parse_layout("32x8x8:split")).passes, Layout::Passes::split);
   EXPECT_THROW(resident_plan(s, parse_layout("32x8x8:fused")), InputError);  // does not fit
+}
+
+TEST(RbeBackendCounts, CudaResidentWavesByHand) {
+  // Kernel 33 x 33 (h_x = 16: tiles do not shift), layout 32x8x4: fused tiles 32 x 32, so a
+  // grid of 32a x 32b cells is a x b blocks. S = 132 multiprocessors.
+  const int S = 132;
+  const Layout fused = parse_layout("32x8x4:fused");
+  const std::int64_t W = 32, H = 32;
+  const std::int64_t per_block = 2 * 33 * W * (H + 32) + 2 * 33 * W * H + 3 * W * H + 2;
+  struct Case {
+    std::int64_t nx, ny, blocks, waves;
+  };
+  for (const Case& k : {Case{320, 320, 100, 1},    // B < S: one wave, 32 multiprocessors idle
+                        Case{384, 352, 132, 1},    // B = S: one full wave
+                        Case{224, 608, 133, 2},    // B = S + 1: a second wave for one block
+                        Case{384, 704, 264, 2}}) { // B = 2S
+    const Shape s{k.nx, k.ny, 33, 33};
+    ASSERT_EQ(resident_plan(s, fused).blocks(), k.blocks) << k.nx << "x" << k.ny;
+    const auto c = cuda_resident_counts(s, fused, S);
+    EXPECT_EQ(c.waves, k.waves) << k.nx << "x" << k.ny;
+    EXPECT_EQ(c.N_G, k.waves * S * per_block) << k.nx << "x" << k.ny;
+    EXPECT_GE(c.N_G, k.blocks * per_block);
+    EXPECT_EQ(c.N_GG, 3 * k.nx * k.ny + 66 + 2 + 2 * k.blocks);  // unchanged by waves
+  }
+  // The same 133 blocks on 100 multiprocessors: 2 waves of 100.
+  EXPECT_EQ(cuda_resident_counts({224, 608, 33, 33}, fused, 100).N_G, 2 * 100 * per_block);
+
+  // Split, two kernels, each quantized on its own. Y-pass tiles 32 x 32, x-pass tiles 128 x 16
+  // (256 threads / 16).
+  const Layout split = parse_layout("32x8x4:split");
+  const std::int64_t ypass_block = 2 * 33 * W * H + 3 * W * H + 2, xpass_block = 2 * 33 * 128 * 16;
+  {
+    // Grid 384 x 352: y-pass 12 x 11 = 132 blocks (1 wave), x-pass 3 x 22 = 66 (1 wave).
+    const Shape s{384, 352, 33, 33};
+    const auto p = resident_plan(s, split);
+    ASSERT_EQ(p.passes, Layout::Passes::split);
+    ASSERT_EQ(p.xtile_w, 128);
+    ASSERT_EQ(p.xtile_h, 16);
+    ASSERT_EQ(p.blocks(), 132);
+    ASSERT_EQ(p.xblocks(), 66);
+    const auto c = cuda_resident_counts(s, split, S);
+    EXPECT_EQ(c.launches, 2);
+    EXPECT_EQ(c.waves, 1 + 1);
+    EXPECT_EQ(c.N_G, 1 * S * xpass_block + 1 * S * ypass_block);
+    EXPECT_EQ(c.N_GG, 5 * 384 * 352 + 66 + 2 + 2 * 132);
+  }
+  {
+    // Grid 224 x 608: y-pass 7 x 19 = 133 blocks (2 waves), x-pass 2 x 38 = 76 (1 wave).
+    const Shape s{224, 608, 33, 33};
+    const auto p = resident_plan(s, split);
+    ASSERT_EQ(p.blocks(), 133);
+    ASSERT_EQ(p.xblocks(), 76);
+    const auto c = cuda_resident_counts(s, split, S);
+    EXPECT_EQ(c.waves, 1 + 2);
+    EXPECT_EQ(c.N_G, 1 * S * xpass_block + 2 * S * ypass_block);
+    // A run: waves and N_G per step times the steps.
+    const auto r = cuda_resident_run_counts(s, split, S, 250, 100);
+    EXPECT_EQ(r.waves, 250 * 3);
+    EXPECT_EQ(r.N_G, 250 * c.N_G);
+  }
+  EXPECT_THROW(cuda_resident_counts({384, 352, 33, 33}, fused, 0), InputError);
+
+  // Through the registry: gpu_sms chooses the multiprocessors; 0 is this machine's GPU, else
+  // kDefaultGpuSms.
+  BackendOptions o;
+  o.layout = fused;
+  o.gpu_sms = 100;
+  EXPECT_EQ(step_counts("cuda-resident", {224, 608, 33, 33}, o).N_G, 2 * 100 * per_block);
+  o.gpu_sms = 0;
+  const int here = cuda_device_sms() > 0 ? cuda_device_sms() : kDefaultGpuSms;
+  EXPECT_EQ(counted_gpu_sms(o), here);
+  EXPECT_EQ(step_counts("cuda-resident", {224, 608, 33, 33}, o).N_G, ((133 + here - 1) / here) * here * per_block);
 }
 
 TEST(RbeLayout, ParsesAndRejectsWithAMessage) {
