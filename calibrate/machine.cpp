@@ -32,6 +32,7 @@ MachineIdentity this_machine() {
   const probes::gpu::DeviceInfo d = probes::gpu::device_info();
   if (d.usable) {
     id.gpu_name = d.name;
+    id.gpu_sms = d.sm_count;
     id.gpu_driver = d.driver_version;
     id.cuda_version = d.runtime_version;
   }
