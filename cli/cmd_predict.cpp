@@ -38,6 +38,7 @@ void print_counts(const CostCounts& c) {
   t.row({"N_G", count_str(c.N_G), "FLOPs on the GPU"});
   t.row({"launches", count_str(c.launches), "kernel launches"});
   t.row({"waves", count_str(c.waves), "rounds of thread blocks on the busiest GPU multiprocessor"});
+  t.row({"host_waits", count_str(c.host_waits), "host submits device work and waits for it"});
   t.row({"cpu_syncs", count_str(c.cpu_syncs), "CPU thread forks/joins and barriers"});
   t.row({"host memory", std::string(to_string(c.host_memory)), ""});
   fmt::print("{}", t.str());
@@ -57,6 +58,7 @@ void print_prediction(const Prediction& p) {
     add("latency device->host", p.lat_GC);
     add("kernel launches", p.lat_launch);
     add("waves of thread blocks", p.lat_wave);
+    add("host waits for the device", p.lat_wait);
     add("CPU thread syncs (in dt_C)", p.lat_sync);
   }
   t.row({"total", format_duration(p.total), ""});

@@ -139,6 +139,7 @@ void run(const RunRbeOptions& o) {
   c.row({"N_G", fmt::format("{}", counts.N_G)});
   c.row({"launches", fmt::format("{}", counts.launches)});
   c.row({"waves", fmt::format("{}", counts.waves)});
+  c.row({"host_waits", fmt::format("{}", counts.host_waits)});
   c.row({"cpu_syncs", fmt::format("{}", counts.cpu_syncs)});
   fmt::print("{}", c.str());
   if (!pred) {
@@ -155,6 +156,7 @@ void run(const RunRbeOptions& o) {
   p.row({"dt_C   CPU", us(pred->dt_C)});
   p.row({"kernel launches", us(pred->lat_launch)});
   p.row({"waves of thread blocks", us(pred->lat_wave)});
+  p.row({"host waits for the device", us(pred->lat_wait)});
   p.row({"CPU thread syncs (in dt_C)", us(pred->lat_sync)});
   p.row({"total", us(pred->total)});
   fmt::print("{}", p.str());

@@ -18,6 +18,7 @@ CostCounts& CostCounts::operator+=(const CostCounts& o) {
   transfers_GC += o.transfers_GC;
   launches += o.launches;
   waves += o.waves;
+  host_waits += o.host_waits;
   cpu_syncs += o.cpu_syncs;
   cpu_threads = std::max(cpu_threads, o.cpu_threads);
   return *this;
@@ -35,6 +36,7 @@ CostCounts CostCounts::scaled(std::int64_t steps) const {
   c.transfers_GC *= steps;
   c.launches *= steps;
   c.waves *= steps;
+  c.host_waits *= steps;
   c.cpu_syncs *= steps;
   return c;
 }

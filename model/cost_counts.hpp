@@ -29,6 +29,8 @@ struct CostCounts {
   std::int64_t waves = 0;         // rounds of thread blocks the busiest multiprocessor runs,
                                   // summed over the kernels (a kernel of B blocks on S
                                   // multiprocessors: ceil(B / S) when one block fits per SM)
+  std::int64_t host_waits = 0;    // times the host submits work to the device and waits for it
+                                  // to finish (a graph launch and a synchronize)
   std::int64_t cpu_syncs = 0;     // times the CPU threads start together or wait for each other
                                   // (a parallel region's fork and join, a barrier)
   HostMemory host_memory = HostMemory::pageable;

@@ -210,6 +210,7 @@ json to_json(const CostCounts& c) {
           {"transfers_GC", c.transfers_GC},
           {"launches", c.launches},
           {"waves", c.waves},
+          {"host_waits", c.host_waits},
           {"cpu_syncs", c.cpu_syncs},
           {"host_memory", to_string(c.host_memory)},
           {"cpu_threads", c.cpu_threads}};
@@ -237,6 +238,7 @@ CostCounts counts_from_json(const json& j) {
   c.transfers_GC = get_i64(j, "transfers_GC", 0);
   c.launches = get_i64(j, "launches", 0);
   c.waves = get_i64(j, "waves", 0);
+  c.host_waits = get_i64(j, "host_waits", 0);
   c.cpu_syncs = get_i64(j, "cpu_syncs", 0);
   const std::string mem = get_string(j, "host_memory", "counts.", false);
   if (mem == "pinned") c.host_memory = HostMemory::pinned;
@@ -252,6 +254,7 @@ json to_json(const Prediction& p) {
           {"lat_CG", p.lat_CG},              {"lat_GC", p.lat_GC}, {"lat_launch", p.lat_launch},
           {"lat_sync", p.lat_sync},
           {"lat_wave", p.lat_wave},
+          {"lat_wait", p.lat_wait},
           {"dt_trans", p.dt_trans()},        {"total", p.total}};
 }
 

@@ -89,6 +89,7 @@ std::vector<Param> required_params(const CostCounts& c, Variant variant) {
   if (lat && c.transfers_GC > 0) add(l_gc(c));
   if (lat && c.launches > 0) add(Param::L_launch);
   if (lat && c.waves > 0) add(Param::L_wave);
+  if (lat && c.host_waits > 0) add(Param::L_wait);
   if (lat && c.cpu_syncs > 0) add(Param::L_sync);
   if ((variant == Variant::memory || variant == Variant::extended) && c.N_CC > 0)
     for (auto p : cpu_params(Param::B_host_1, Param::B_host, c.cpu_threads)) add(p);
@@ -126,7 +127,8 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
   if (c.launches > 0) r.lat_launch = static_cast<double>(c.launches) * m.get(Param::L_launch).value;
   if (c.cpu_syncs > 0) r.lat_sync = static_cast<double>(c.cpu_syncs) * m.get(Param::L_sync).value;
   if (c.waves > 0) r.lat_wave = static_cast<double>(c.waves) * m.get(Param::L_wave).value;
-  const double latencies = r.lat_CG + r.lat_GC + r.lat_launch + r.lat_wave;
+  if (c.host_waits > 0) r.lat_wait = static_cast<double>(c.host_waits) * m.get(Param::L_wait).value;
+  const double latencies = r.lat_CG + r.lat_GC + r.lat_launch + r.lat_wave + r.lat_wait;
   const double host_traffic =
       variant != Variant::latency && c.N_CC > 0 ? P * static_cast<double>(c.N_CC) / host_bandwidth(m, c.cpu_threads) : 0;
   if (variant == Variant::latency || variant == Variant::memory) {

@@ -39,6 +39,7 @@ enum class Param {
   L_launch,        // kernel launch overhead                                [s]
   L_sync,          // CPU threads' fork/join or barrier, all threads         [s]
   L_wave,          // fixed cost of one round of thread blocks on a GPU SM   [s]
+  L_wait,          // host submits device work and waits for it (round trip) [s]
 };
 
 struct ParamInfo {

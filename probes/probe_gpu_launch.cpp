@@ -26,7 +26,7 @@ ProbeReport run(const ProbeOptions& o) {
                   "median of {}",
                   batch, reps)));
   r.measurements.push_back(time_measurement(
-      "launch_sync", "empty kernel, launch + cudaStreamSynchronize", t.round_trip, std::nullopt,
+      "launch_sync", "empty kernel, launch + cudaStreamSynchronize", t.round_trip, Param::L_wait,
       fmt::format("host clock around one launch and its synchronize, median of {}", t.round_trip.size())));
   o.say(fmt::format("  launch: {:.2f} us back to back, {:.2f} us with synchronize",
                     r.measurements[0].value * 1e6, r.measurements[1].value * 1e6));

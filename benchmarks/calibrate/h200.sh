@@ -1,44 +1,60 @@
 #!/usr/bin/env bash
-# The calibration run on the lent H200 (one device call): CUPTI checks, a quick probe for start
-# values, then the sweeps of the seed's Test 1 and Test 2 and 50 random held-out configurations
-# for cuda-seed (pageable host memory, the seed's setting; Test 2 and held-out also pinned) and
-# cuda-resident. Each sweep is resumable and bounded in time, so a slow one cannot take the
-# whole lease; whatever was measured comes back. Fitting and validation run afterwards on the
-# developer's machine from the stores (docs/PERFORMANCE.md, "Calibration and validation").
-#   device:  bash benchmarks/calibrate/h200.sh        (writes to $OUT, or ./h200-out)
+# The calibration run on the lent H200: GPU tests, a quick probe for start values, then the
+# sweeps, in replicate rounds (docs/calibration.md, "Rounds"). Two parts, so that each fits in
+# one device call (10 minutes):
+#   bash benchmarks/calibrate/h200.sh fit    training set: Test 1 (2 rounds), Test 2 and a
+#                                            random training set (seed 7, 3 rounds), for
+#                                            cuda-seed pageable, cuda-seed pinned, cuda-resident
+#   bash benchmarks/calibrate/h200.sh held   GPU tests, then the held-out set: random:50 with
+#                                            the default seed, 3 rounds, same three setups
+# Each sweep is resumable and bounded in time, so a slow one cannot take the whole lease;
+# whatever was measured comes back in $OUT (or ./h200-out). Fitting and validation run
+# afterwards on the developer's machine from the stores (docs/PERFORMANCE.md).
 set -uo pipefail
 cd "$(dirname "$0")/../.."
 export LD_LIBRARY_PATH=$PWD/.carry-calib/lib:${LD_LIBRARY_PATH:-}
 B=.carry-calib/bin
 O=${OUT:-h200-out}
+part=${1:-}
+[[ "$part" == fit || "$part" == held ]] || { echo "usage: $0 fit|held" >&2; exit 2; }
 mkdir -p "$O"
-log="$O/log.txt"
+log="$O/log-$part.txt"
 say() { echo "== $* ($(date -u +%H:%M:%S))" | tee -a "$log"; }
-
-say machine
-nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm,clocks.mem,temperature.gpu,power.draw \
-  --format=csv 2>&1 | tee -a "$log"
-nproc | tee -a "$log"
-say "GPU tests (CUPTI)"
-timeout 45 $B/test_calibrate_gpu > "$O/gpu-tests.txt" 2>&1
-grep -E "^\[  |Failure|Expected|Which is|Value of|Actual" "$O/gpu-tests.txt" | tail -n 30 | tee -a "$log"
-say probe
-timeout 60 $B/dtflop probe --quick -o "$O/probed.json" > "$O/probe.txt" 2>&1
-tail -n 40 "$O/probe.txt" >> "$log"
-
 sweep() {  # sweep LIMIT_S STORE ARGS...
   local limit=$1 store=$2
   shift 2
   say "sweep $* -> $store"
   timeout "$limit" $B/dtflop sweep rbe --store "$O/$store" --quiet "$@" 2>&1 | tee -a "$log"
 }
-sweep 140 fit.jsonl  --backend cuda-seed --plan seed-test1
-sweep 30  fit.jsonl  --backend cuda-seed --plan seed-test2
-sweep 40  fit.jsonl  --backend cuda-resident --plan seed-test1
-sweep 20  fit.jsonl  --backend cuda-resident --plan seed-test2
-sweep 20  fit.jsonl  --backend cuda-seed --memory pinned --plan seed-test2
-sweep 40  held.jsonl --backend cuda-seed --plan random:50
-sweep 20  held.jsonl --backend cuda-resident --plan random:50
-sweep 20  held.jsonl --backend cuda-seed --memory pinned --plan random:50
+
+say machine
+nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm,clocks.mem,temperature.gpu,power.draw \
+  --format=csv 2>&1 | tee -a "$log"
+nproc | tee -a "$log"
+
+if [[ "$part" == fit ]]; then
+  say probe
+  timeout 60 $B/dtflop probe --quick -o "$O/probed.json" > "$O/probe.txt" 2>&1
+  tail -n 40 "$O/probe.txt" >> "$log"
+  for setup in "--backend cuda-seed" "--backend cuda-seed --memory pinned" "--backend cuda-resident"; do
+    # shellcheck disable=SC2086
+    sweep 100 fit.jsonl $setup --plan seed-test2 --rounds 3
+    # shellcheck disable=SC2086
+    sweep 60 fit.jsonl $setup --plan random:50 --seed 7 --rounds 3
+  done
+  sweep 200 fit.jsonl --backend cuda-seed --plan seed-test1 --rounds 2
+  sweep 60 fit.jsonl --backend cuda-resident --plan seed-test1 --rounds 2
+else
+  say "GPU tests"
+  for t in test_calibrate_gpu test_rbe_gpu test_probes_gpu; do
+    timeout 90 $B/$t > "$O/$t.txt" 2>&1
+    echo "$t: exit $?, $(grep -cE '^\[       OK \]' "$O/$t.txt") passed, $(grep -cE '^\[  FAILED  \]' "$O/$t.txt") failed lines" | tee -a "$log"
+    grep -E "Failure|Expected|Which is|Value of|Actual" "$O/$t.txt" | head -n 20 | tee -a "$log"
+  done
+  for setup in "--backend cuda-seed" "--backend cuda-seed --memory pinned" "--backend cuda-resident"; do
+    # shellcheck disable=SC2086
+    sweep 90 held.jsonl $setup --plan random:50 --rounds 3
+  done
+fi
 say done
 wc -l "$O"/*.jsonl | tee -a "$log"

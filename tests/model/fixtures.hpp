@@ -33,6 +33,7 @@ inline MachineProfile round_profile() {
   set(Param::L_launch, 3e-6);
   set(Param::L_wave, 2e-6);
   set(Param::L_sync, 5e-6);
+  set(Param::L_wait, 20e-6);
   return m;
 }
 

@@ -141,6 +141,7 @@ TEST(CountsJson, RoundTrip) {
   c.launches = 9;
   c.waves = 10;
   c.cpu_syncs = 11;
+  c.host_waits = 12;
   c.host_memory = HostMemory::pinned;
   c.cpu_threads = 16;
   EXPECT_EQ(counts_from_json(json::parse(to_json(c).dump())), c);
@@ -148,9 +149,11 @@ TEST(CountsJson, RoundTrip) {
   auto old = to_json(c);
   old.erase("waves");
   old.erase("cpu_syncs");
+  old.erase("host_waits");
   const CostCounts back = counts_from_json(old);
   EXPECT_EQ(back.waves, 0);
   EXPECT_EQ(back.cpu_syncs, 0);
+  EXPECT_EQ(back.host_waits, 0);
   EXPECT_EQ(back.launches, 9);
   auto j = to_json(c);
   j["N_G"] = -1;

@@ -84,7 +84,7 @@ TEST(Predict, MemoryVariantAddsHostTrafficToCpuArithmetic) {
   EXPECT_NEAR(predict(m, dev, Variant::memory).total, predict(m, dev, Variant::latency).total, 1e-18);
 }
 
-TEST(Predict, ThreadSyncsAndWavesAreFixedCostsOfTheLatencyVariants) {
+TEST(Predict, ThreadSyncsWavesAndHostWaitsAreFixedCostsOfTheLatencyVariants) {
   const auto m = test::round_profile();
   CostCounts c;
   c.P = 4;
@@ -94,17 +94,20 @@ TEST(Predict, ThreadSyncsAndWavesAreFixedCostsOfTheLatencyVariants) {
   c.N_G = 50'000'000; // 1 us
   c.launches = 2;     // 2 x 3 us
   c.waves = 4;        // 4 x 2 us
-  EXPECT_NEAR(predict(m, c, Variant::seed).total, 11e-6, 1e-15);  // the seed has neither
+  c.host_waits = 1;   // 20 us, in the total only
+  EXPECT_NEAR(predict(m, c, Variant::seed).total, 11e-6, 1e-15);  // the seed has none of them
   for (auto v : {Variant::latency, Variant::memory, Variant::extended}) {
     const auto p = predict(m, c, v);
     EXPECT_NEAR(p.lat_sync, 15e-6, 1e-15) << to_string(v);
     EXPECT_NEAR(p.dt_C, 25e-6, 1e-15) << to_string(v);  // syncs are CPU time
     EXPECT_NEAR(p.lat_wave, 8e-6, 1e-15) << to_string(v);
-    EXPECT_NEAR(p.total, 25e-6 + 1e-6 + 6e-6 + 8e-6, 1e-15) << to_string(v);
+    EXPECT_NEAR(p.lat_wait, 20e-6, 1e-15) << to_string(v);
+    EXPECT_NEAR(p.total, 25e-6 + 1e-6 + 6e-6 + 8e-6 + 20e-6, 1e-15) << to_string(v);
   }
   auto m2 = m;
   m2.erase(Param::L_sync);
   m2.erase(Param::L_wave);
+  m2.erase(Param::L_wait);
   try {
     predict(m2, c, Variant::latency);
     FAIL() << "expected MissingParameter";
@@ -112,6 +115,7 @@ TEST(Predict, ThreadSyncsAndWavesAreFixedCostsOfTheLatencyVariants) {
     const std::string w = e.what();
     EXPECT_NE(w.find("L_sync"), std::string::npos) << w;
     EXPECT_NE(w.find("L_wave"), std::string::npos) << w;
+    EXPECT_NE(w.find("L_wait"), std::string::npos) << w;
   }
 }
 
@@ -195,7 +199,9 @@ TEST(CostCounts, ScaleAndAdd) {
   EXPECT_EQ(d.launches, 12);
   c.waves = 2;
   c.cpu_syncs = 5;
+  c.host_waits = 7;
   d = c.scaled(3);
+  EXPECT_EQ(d.host_waits, 21);
   EXPECT_EQ(d.waves, 6);
   EXPECT_EQ(d.cpu_syncs, 15);
   EXPECT_EQ(d.P, 4);

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "model/errors.hpp"
+#include "workloads/rbe/reference.hpp"
 #include "workloads/rbe/resident_geometry.hpp"
 
 namespace dtflop::rbe {
@@ -17,7 +18,7 @@ std::int64_t edge_taps(std::int64_t I) {
 CostCounts cpu_seq_counts(const Shape& s, Prediction prediction) {
   validate(s);
   const std::int64_t ng = s.cells();
-  const std::int64_t row_taps = s.Ix * s.nx - edge_taps(s.Ix);  // valid (output, tap) pairs, one row
+  const std::int64_t row_taps = s.Ix * s.nx - edge_taps(s.Ix);  // full 2D: valid (output, tap) pairs, one row
   const std::int64_t col_taps = s.Iy * s.ny - edge_taps(s.Iy);  // ... one column
   CostCounts c;
   c.P = 8;
@@ -25,7 +26,10 @@ CostCounts cpu_seq_counts(const Shape& s, Prediction prediction) {
   c.cpu_threads = 1;
   const std::int64_t correction = 3 * ng + 1;  // multiply, sum, A_c x sum, divide
   if (prediction == Prediction::separable) {
-    c.N_C = 2 * s.ny * row_taps + 2 * s.nx * col_taps + correction;
+    // Zero-padded lines, every output taking every tap, rows in whole groups of
+    // reference::kGroup outputs: the x-pass runs n_y rows of n_x, the y-pass n_x of n_y.
+    auto whole = [](std::int64_t n) { return (n + reference::kGroup - 1) / reference::kGroup * reference::kGroup; };
+    c.N_C = 2 * (s.ny * whole(s.nx) * s.Ix + s.nx * whole(s.ny) * s.Iy) + correction;
     // x-pass r+w, y-pass (transpose, x-pass, transpose back) 3 x r+w, multiply (pred, l -> q),
     // sum (q), divide (q -> p); kernels once.
     c.N_CC = 2 * ng + 6 * ng + 3 * ng + ng + 2 * ng + s.Ix + s.Iy;
@@ -180,6 +184,7 @@ CostCounts cuda_resident_run_counts(const Shape& s, const Layout& l, int sms, st
   c.N_GG += 2 * steps + chunks * 2 * (2 + 2);
   c.N_GC += 2 * steps;
   c.transfers_GC += chunks;
+  c.host_waits += chunks;  // the host launches each chunk's graph and waits for it
   return c;
 }
 

@@ -16,10 +16,13 @@ namespace dtflop::rbe {
 // over the outputs of a row (see cpu_seq_counts).
 std::int64_t edge_taps(std::int64_t kernel_size);
 
-// cpu-seq, float64, one thread, loops over the taps that fall inside the grid only:
-//   valid taps along x, whole grid: T_x = n_y (I_x n_x - S(I_x)), along y: T_y = n_x (I_y n_y - S(I_y))
-//   separable: N_C = 2 T_x + 2 T_y + 3 n_g + 1,  N_CC = 14 n_g + I_x + I_y
-//   (the y-pass is an x-pass between two transposes: 6 n_g values moved instead of 2)
+// cpu-seq, float64, one thread. Separable: both passes run over zero-padded lines, every
+// output taking every tap; the y-pass is an x-pass between two transposes (6 n_g values moved
+// instead of 2). Full 2D: loops over the taps inside the grid only, with
+//   valid taps along x, one row: I_x n_x - S(I_x), along y, one column: I_y n_y - S(I_y)
+//   separable: N_C = 2 (n_y X I_x + n_x Y I_y) + 3 n_g + 1,  N_CC = 14 n_g + I_x + I_y
+//   with the lines rounded up to whole groups of reference::kGroup outputs:
+//   X = kGroup ceil(n_x / kGroup), Y = kGroup ceil(n_y / kGroup)
 //   full:      N_C = 2 (I_x n_x - S(I_x)) (I_y n_y - S(I_y)) + 3 n_g + 1,  N_CC = 8 n_g + I_x I_y
 //   (multiply by l: n_g, sum: n_g, A_c x sum: 1, divide: n_g)
 CostCounts cpu_seq_counts(const Shape& s, Prediction prediction);
@@ -80,7 +83,8 @@ ResidentPlan resident_plan(const Shape& s, const Layout& layout, std::size_t max
 // docs/model.md). Throws InputError when sms < 1.
 CostCounts cuda_resident_counts(const Shape& s, const Layout& layout, int sms);
 // A run of `steps` steps in chunks of `chunk` steps (one CUDA graph each): adds per chunk one
-// memset of the chunk's sums, one 8-byte device copy and one device->host copy of the sums.
+// memset of the chunk's sums, one 8-byte device copy, one device->host copy of the sums and one
+// host wait (the graph's launch and the synchronize that waits for it).
 CostCounts cuda_resident_run_counts(const Shape& s, const Layout& layout, int sms, std::int64_t steps,
                                     std::int64_t chunk);
 

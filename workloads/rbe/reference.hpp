@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "workloads/rbe/motion.hpp"
 
@@ -17,18 +18,37 @@ inline std::int64_t first_tap(std::int64_t i, std::int64_t c, std::int64_t n) {
 }
 inline std::int64_t end_tap(std::int64_t i, std::int64_t c, std::int64_t I) { return i + c + 1 < I ? i + c + 1 : I; }
 
-// Convolution along x with kernel k of size I (5.3): u[i] = sum_a k[a] p[i - (a - c)], taps
-// outside the grid skipped (zero belief there).
+// Convolution along x with kernel k of size I (5.3): u[i] = sum_a k[a] p[i - (a - c)], zero
+// belief outside the grid. Each row is copied into a zero-padded line so that every output
+// takes all I taps (a tap outside the grid adds k[a] x 0 = +0 and leaves the sum exactly as if
+// it had been skipped), and each output sums its taps in order, one dependent addition after
+// another. Outputs are taken kGroup at a time so that kGroup such chains run side by side: one
+// chain at a time, the time per tap would depend on the kernel size (the processor overlaps
+// consecutive outputs' chains only when an output has few taps), and on how many outputs sit
+// near an edge; this way it is the same for every tap, and the FLOPs predict the time. The last
+// group of a row is computed whole too (its outputs past the row are dropped), so a row costs
+// kGroup ceil(n_x / kGroup) outputs' taps.
+inline constexpr std::int64_t kGroup = 8;
 template <class T>
 void pass_x(std::int64_t nx, std::int64_t ny, const T* k, std::int64_t I, const T* p, T* u) {
-  const std::int64_t c = kernel_centre(I);
-  for (std::int64_t iy = 0; iy < ny; ++iy)
-    for (std::int64_t ix = 0; ix < nx; ++ix) {
-      T acc = T(0);
-      for (std::int64_t a = first_tap(ix, c, nx), a1 = end_tap(ix, c, I); a < a1; ++a)
-        acc = acc + k[a] * p[iy * nx + ix - (a - c)];
-      u[iy * nx + ix] = acc;
+  const std::int64_t left = I - 1 - kernel_centre(I);  // padding before the row
+  // line[left + j] = p[row + j]; output ix reads line[ix + I - 1 - a] for a = 0 .. I - 1.
+  const std::int64_t groups = (nx + kGroup - 1) / kGroup;
+  std::vector<T> line(static_cast<std::size_t>(groups * kGroup + I - 1), T(0));
+  for (std::int64_t iy = 0; iy < ny; ++iy) {
+    for (std::int64_t j = 0; j < nx; ++j) line[static_cast<std::size_t>(left + j)] = p[iy * nx + j];
+    const T* src = line.data() + (I - 1);
+    T* out = u + iy * nx;
+    for (std::int64_t ix = 0; ix < nx; ix += kGroup) {
+      T acc[kGroup];
+      for (std::int64_t j = 0; j < kGroup; ++j) acc[j] = T(0);
+      for (std::int64_t a = 0; a < I; ++a) {
+        const T w = k[a];
+        for (std::int64_t j = 0; j < kGroup; ++j) acc[j] = acc[j] + w * src[ix + j - a];
+      }
+      for (std::int64_t j = 0; j < kGroup && ix + j < nx; ++j) out[ix + j] = acc[j];
     }
+  }
 }
 
 // out[x ny + y] = in[y nx + x]: the transpose of an nx-wide, ny-tall array, in 32 x 32 tiles

@@ -63,7 +63,9 @@ TEST(RbeBackendCounts, CpuSeqByHand) {
   EXPECT_EQ(edge_taps(4), 4);
   const Shape s{10, 8, 3, 4};
   const auto c = cpu_seq_counts(s, Prediction::separable);
-  EXPECT_EQ(c.N_C, 2 * 8 * 28 + 2 * 10 * 28 + 3 * 80 + 1);
+  // Zero-padded lines in whole groups of 8 outputs: 8 rows of 16 (10 rounded up) with 3 taps,
+  // 10 columns of 8 with 4 taps.
+  EXPECT_EQ(c.N_C, 2 * (8 * 16 * 3 + 10 * 8 * 4) + 3 * 80 + 1);
   EXPECT_EQ(c.N_CC, 14 * 80 + 3 + 4);  // the y-pass through two transposes
   EXPECT_EQ(c.cpu_syncs, 0);
   EXPECT_EQ(c.P, 8);
@@ -141,6 +143,7 @@ TEST(RbeBackendCounts, CudaResidentFusedByHand) {
   const auto r = cuda_resident_run_counts(s, l, 132, 2500, 1000);
   EXPECT_EQ(r.N_GC, 2 * 2500);
   EXPECT_EQ(r.transfers_GC, 3);
+  EXPECT_EQ(r.host_waits, 3);  // each segment's graph launched and waited for
   EXPECT_EQ(r.N_G, 2500 * c.N_G);
   EXPECT_EQ(r.waves, 2500 * 4);
   EXPECT_EQ(r.N_GG, 2500 * c.N_GG + 2 * 2500 + 3 * 8);
