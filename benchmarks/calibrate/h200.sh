@@ -7,6 +7,8 @@
 #                                            cuda-seed pageable, cuda-seed pinned, cuda-resident
 #   bash benchmarks/calibrate/h200.sh held   GPU tests, then the held-out set: random:50 with
 #                                            the default seed, 3 rounds, same three setups
+#   bash benchmarks/calibrate/h200.sh resident   both sets for cuda-resident alone, with a probe
+#                                            and the GPU tests (about 2 minutes)
 # Each sweep is resumable and bounded in time, so a slow one cannot take the whole lease;
 # whatever was measured comes back in $OUT (or ./h200-out). Fitting and validation run
 # afterwards on the developer's machine from the stores (docs/PERFORMANCE.md).
@@ -16,7 +18,7 @@ export LD_LIBRARY_PATH=$PWD/.carry-calib/lib:${LD_LIBRARY_PATH:-}
 B=.carry-calib/bin
 O=${OUT:-h200-out}
 part=${1:-}
-[[ "$part" == fit || "$part" == held ]] || { echo "usage: $0 fit|held" >&2; exit 2; }
+[[ "$part" == fit || "$part" == held || "$part" == resident ]] || { echo "usage: $0 fit|held|resident" >&2; exit 2; }
 mkdir -p "$O"
 log="$O/log-$part.txt"
 say() { echo "== $* ($(date -u +%H:%M:%S))" | tee -a "$log"; }
@@ -32,7 +34,25 @@ nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm,clocks.mem,te
   --format=csv 2>&1 | tee -a "$log"
 nproc | tee -a "$log"
 
-if [[ "$part" == fit ]]; then
+gpu_tests() {
+  say "GPU tests"
+  for t in test_calibrate_gpu test_rbe_gpu test_probes_gpu; do
+    timeout 90 $B/$t > "$O/$t.txt" 2>&1
+    echo "$t: exit $?, $(grep -cE '^\[       OK \]' "$O/$t.txt") passed, $(grep -cE '^\[  FAILED  \]' "$O/$t.txt") failed lines" | tee -a "$log"
+    grep -E "Failure|Expected|Which is|Value of|Actual" "$O/$t.txt" | head -n 20 | tee -a "$log"
+  done
+}
+
+if [[ "$part" == resident ]]; then
+  say probe
+  timeout 60 $B/dtflop probe --quick -o "$O/probed.json" > "$O/probe.txt" 2>&1
+  tail -n 40 "$O/probe.txt" >> "$log"
+  gpu_tests
+  sweep 60 fit.jsonl --backend cuda-resident --plan seed-test2 --rounds 3
+  sweep 60 fit.jsonl --backend cuda-resident --plan random:50 --seed 7 --rounds 3
+  sweep 90 fit.jsonl --backend cuda-resident --plan seed-test1 --rounds 2
+  sweep 60 held.jsonl --backend cuda-resident --plan random:50 --rounds 3
+elif [[ "$part" == fit ]]; then
   say probe
   timeout 60 $B/dtflop probe --quick -o "$O/probed.json" > "$O/probe.txt" 2>&1
   tail -n 40 "$O/probe.txt" >> "$log"
@@ -45,12 +65,7 @@ if [[ "$part" == fit ]]; then
   sweep 200 fit.jsonl --backend cuda-seed --plan seed-test1 --rounds 2
   sweep 60 fit.jsonl --backend cuda-resident --plan seed-test1 --rounds 2
 else
-  say "GPU tests"
-  for t in test_calibrate_gpu test_rbe_gpu test_probes_gpu; do
-    timeout 90 $B/$t > "$O/$t.txt" 2>&1
-    echo "$t: exit $?, $(grep -cE '^\[       OK \]' "$O/$t.txt") passed, $(grep -cE '^\[  FAILED  \]' "$O/$t.txt") failed lines" | tee -a "$log"
-    grep -E "Failure|Expected|Which is|Value of|Actual" "$O/$t.txt" | head -n 20 | tee -a "$log"
-  done
+  gpu_tests
   for setup in "--backend cuda-seed" "--backend cuda-seed --memory pinned" "--backend cuda-resident"; do
     # shellcheck disable=SC2086
     sweep 90 held.jsonl $setup --plan random:50 --rounds 3
