@@ -59,7 +59,7 @@ void print_prediction(const Prediction& p) {
     add("kernel launches", p.lat_launch);
     add("waves of thread blocks", p.lat_wave);
     add("host waits for the device", p.lat_wait);
-    add("CPU thread syncs (in dt_C)", p.lat_sync);
+    t.row({"  of which CPU thread syncs", format_duration(p.lat_sync), "(in dt_C)"});
   }
   t.row({"total", format_duration(p.total), ""});
   fmt::print("{}", t.str());

@@ -27,8 +27,8 @@ struct CostCounts {
   std::int64_t transfers_GC = 0;  // number of device->host copies
   std::int64_t launches = 0;      // kernel launches
   std::int64_t waves = 0;         // rounds of thread blocks the busiest multiprocessor runs,
-                                  // summed over the kernels (a kernel of B blocks on S
-                                  // multiprocessors: ceil(B / S) when one block fits per SM)
+                                  // summed over the kernels, as the backend counts them (e.g.
+                                  // ceil(B / S) for B blocks on S multiprocessors, one at a time)
   std::int64_t host_waits = 0;    // times the host submits work to the device and waits for it
                                   // to finish (a graph launch and a synchronize)
   std::int64_t cpu_syncs = 0;     // times the CPU threads start together or wait for each other

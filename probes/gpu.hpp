@@ -97,7 +97,7 @@ struct LaunchTiming {
 LaunchTiming time_launches(int batch, int reps);
 
 struct WaveTiming {
-  std::vector<int> waves;                  // rounds of blocks per launch: 1, 2, 4, 8
+  std::vector<int> waves;                  // rounds of blocks per launch: 4, 8, 16, 32
   std::vector<double> seconds;             // median time of one launch of that many rounds
   double per_wave = 0;                     // least-squares slope: seconds per extra round
   int blocks_per_sm = 0;                   // resident blocks per SM the kernel allows (1)
@@ -105,9 +105,10 @@ struct WaveTiming {
 
 // The fixed cost of a round of thread blocks (L_wave): a kernel whose blocks each take a
 // multiprocessor whole (shared memory beyond half an SM's) and do only what every tile kernel
-// does once (fill a shared array, a barrier, one global write), launched with 1, 2, 4 and 8
-// times as many blocks as there are SMs; events around batches of `batch` launches, median of
-// `reps`.
+// does once (fill a shared array, a barrier, one global write), launched with 4, 8, 16 and 32
+// times as many blocks as there are SMs (fewer rounds run shorter than the launch interval of
+// back-to-back launches); events around batches of `batch` launches, median of `reps`. Each
+// size is checked first: every block writes its own result into a poisoned buffer.
 WaveTiming time_waves(int batch, int reps);
 
 }  // namespace dtflop::probes::gpu

@@ -261,13 +261,28 @@ WaveTiming time_waves(int batch, int reps) {
   WaveTiming r;
   DTFLOP_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&r.blocks_per_sm, wave_kernel, threads, smem));
   if (r.blocks_per_sm < 1) throw ValidationError("the wave kernel cannot run: no block fits on a multiprocessor");
-  const int max_waves = 8;
+  // Rounds enough that a launch lasts longer than the launch rate allows (back-to-back launches
+  // of a kernel shorter than that all take the launch interval, and their slope would be zero).
+  const std::vector<int> rounds = {4, 8, 16, 32};
+  const int max_waves = rounds.back();
   const std::int64_t max_blocks = static_cast<std::int64_t>(max_waves) * sms * r.blocks_per_sm;
   DeviceBuffer out(static_cast<std::size_t>(max_blocks) * sizeof(int));
   Stream s;
   Event start, stop;
-  for (int waves : {1, 2, 4, 8}) {
+  for (int waves : rounds) {
     const int blocks = waves * sms * r.blocks_per_sm;
+    DTFLOP_CUDA(cudaMemsetAsync(out.get(), 0xFF, out.bytes(), s.get()));  // poison: -1 everywhere
+    wave_kernel<<<blocks, threads, smem, s.get()>>>(out.get<int>());  // writes every block's result
+    DTFLOP_CUDA_LAUNCHED();
+    // Every block wrote its result: the kernel really ran, with that many blocks.
+    std::vector<int> host(static_cast<std::size_t>(blocks));
+    DTFLOP_CUDA(cudaMemcpyAsync(host.data(), out.get(), host.size() * sizeof(int), cudaMemcpyDeviceToHost, s.get()));
+    s.sync();
+    const int last = threads * 4 - 1;
+    for (int b = 0; b < blocks; ++b)
+      if (host[static_cast<std::size_t>(b)] != last + b)
+        throw ValidationError("the wave kernel's block " + std::to_string(b) + " wrote " +
+                              std::to_string(host[static_cast<std::size_t>(b)]) + ", not " + std::to_string(last + b));
     for (int i = 0; i < 20; ++i) {  // warm-up
       wave_kernel<<<blocks, threads, smem, s.get()>>>(out.get<int>());
       DTFLOP_CUDA_LAUNCHED();
@@ -285,14 +300,6 @@ WaveTiming time_waves(int batch, int reps) {
     std::nth_element(t.begin(), t.begin() + static_cast<std::ptrdiff_t>(t.size() / 2), t.end());
     r.waves.push_back(waves);
     r.seconds.push_back(t[t.size() / 2]);
-    // Every block wrote its result: the kernel really ran.
-    std::vector<int> host(static_cast<std::size_t>(blocks));
-    DTFLOP_CUDA(cudaMemcpy(host.data(), out.get(), host.size() * sizeof(int), cudaMemcpyDeviceToHost));
-    const int last = threads * 4 - 1;
-    for (int b = 0; b < blocks; ++b)
-      if (host[static_cast<std::size_t>(b)] != last + b)
-        throw ValidationError("the wave kernel's block " + std::to_string(b) + " wrote " +
-                              std::to_string(host[static_cast<std::size_t>(b)]) + ", not " + std::to_string(last + b));
   }
   // Least-squares slope of time against rounds.
   double mx = 0, my = 0;

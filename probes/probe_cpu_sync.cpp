@@ -26,27 +26,36 @@ ProbeReport run(const ProbeOptions& o) {
   }
   const int batch = o.effort == Effort::full ? 20000 : o.effort == Effort::quick ? 5000 : 200;
   const int reps = o.effort == Effort::full ? 15 : o.effort == Effort::quick ? 7 : 3;
-  int entered = 0;  // every thread of every region checks in: the regions really ran
+  // Every thread of every region checks in, and the regions' team sizes are summed: the regions
+  // really ran, and on as many threads as asked (OMP_DYNAMIC or OMP_THREAD_LIMIT may grant fewer).
+  long entered = 0, team = 0;
   auto regions = [&](int n) {
     for (int i = 0; i < n; ++i) {
 #pragma omp parallel num_threads(threads) reduction(+ : entered)
       {
         entered += 1;
 #pragma omp barrier
+#pragma omp single nowait  // no second barrier: two syncs per region, as counted
+        team += omp_get_num_threads();
       }
     }
   };
   regions(batch / 10 + 1);  // start the thread pool and let it spin
   entered = 0;
+  team = 0;
   std::vector<double> per_sync;
   for (int k = 0; k < reps; ++k) {
     const double t0 = omp_get_wtime();
     regions(batch);
     per_sync.push_back((omp_get_wtime() - t0) / (2.0 * batch));
   }
-  if (entered != threads * batch * reps)
-    throw ValidationError(fmt::format("{} threads x {} regions x {} runs should have checked in {} times, got {}",
-                                      threads, batch, reps, threads * batch * reps, entered));
+  if (entered != team)
+    throw ValidationError(fmt::format("{} regions' threads should have checked in {} times, got {}", batch * reps,
+                                      team, entered));
+  if (team != static_cast<long>(threads) * batch * reps)
+    throw ValidationError(fmt::format("OpenMP gave the regions {:.2f} threads on average, not {} (OMP_DYNAMIC or "
+                                      "OMP_THREAD_LIMIT?): L_sync would not be that of {} threads",
+                                      static_cast<double>(team) / (batch * reps), threads, threads));
   r.measurements.push_back(time_measurement(
       "sync", fmt::format("{} threads, fork/join or barrier", threads), per_sync, Param::L_sync,
       fmt::format("OpenMP: {} back-to-back parallel regions holding one barrier each, on {} threads; "

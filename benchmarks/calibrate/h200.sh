@@ -1,7 +1,13 @@
 #!/usr/bin/env bash
 # The calibration run on the lent H200: GPU tests, a quick probe for start values, then the
-# sweeps, in replicate rounds (docs/calibration.md, "Rounds"). Two parts, so that each fits in
-# one device call (10 minutes):
+# sweeps, in replicate rounds (docs/calibration.md, "Rounds").
+#   bash benchmarks/calibrate/h200.sh all    everything below in one device call (309 s on
+#                                            2026-11-21; the time limits below bound a stuck
+#                                            sweep, they do not add up to under 10 minutes), the
+#                                            training and held-out sets measured round by round
+#                                            in turn (round 1 of both, round 2 of both, ...), so
+#                                            that a drift of the host's speed falls on both alike
+# or in parts:
 #   bash benchmarks/calibrate/h200.sh fit    training set: Test 1 (2 rounds), Test 2 and a
 #                                            random training set (seed 7, 3 rounds), for
 #                                            cuda-seed pageable, cuda-seed pinned, cuda-resident
@@ -18,7 +24,8 @@ export LD_LIBRARY_PATH=$PWD/.carry-calib/lib:${LD_LIBRARY_PATH:-}
 B=.carry-calib/bin
 O=${OUT:-h200-out}
 part=${1:-}
-[[ "$part" == fit || "$part" == held || "$part" == resident ]] || { echo "usage: $0 fit|held|resident" >&2; exit 2; }
+[[ "$part" == all || "$part" == fit || "$part" == held || "$part" == resident ]] ||
+  { echo "usage: $0 all|fit|held|resident" >&2; exit 2; }
 mkdir -p "$O"
 log="$O/log-$part.txt"
 say() { echo "== $* ($(date -u +%H:%M:%S))" | tee -a "$log"; }
@@ -37,13 +44,33 @@ nproc | tee -a "$log"
 gpu_tests() {
   say "GPU tests"
   for t in test_calibrate_gpu test_rbe_gpu test_probes_gpu; do
-    timeout 90 $B/$t > "$O/$t.txt" 2>&1
+    timeout 60 $B/$t > "$O/$t.txt" 2>&1
     echo "$t: exit $?, $(grep -cE '^\[       OK \]' "$O/$t.txt") passed, $(grep -cE '^\[  FAILED  \]' "$O/$t.txt") failed lines" | tee -a "$log"
     grep -E "Failure|Expected|Which is|Value of|Actual" "$O/$t.txt" | head -n 20 | tee -a "$log"
   done
 }
 
-if [[ "$part" == resident ]]; then
+if [[ "$part" == all ]]; then
+  say probe
+  timeout 60 $B/dtflop probe --quick -o "$O/probed.json" > "$O/probe.txt" 2>&1
+  tail -n 40 "$O/probe.txt" >> "$log"
+  gpu_tests
+  # Rounds are resumable: `--rounds r` on a store holding rounds 1..r-1 measures round r only.
+  for r in 1 2 3; do
+    for setup in "--backend cuda-seed" "--backend cuda-seed --memory pinned" "--backend cuda-resident"; do
+      # shellcheck disable=SC2086
+      sweep 60 fit.jsonl $setup --plan seed-test2 --rounds $r
+      # shellcheck disable=SC2086
+      sweep 60 fit.jsonl $setup --plan random:50 --seed 7 --rounds $r
+      # shellcheck disable=SC2086
+      sweep 60 held.jsonl $setup --plan random:50 --rounds $r
+    done
+    if (( r <= 2 )); then
+      sweep 120 fit.jsonl --backend cuda-seed --plan seed-test1 --rounds $r
+      sweep 60 fit.jsonl --backend cuda-resident --plan seed-test1 --rounds $r
+    fi
+  done
+elif [[ "$part" == resident ]]; then
   say probe
   timeout 60 $B/dtflop probe --quick -o "$O/probed.json" > "$O/probe.txt" 2>&1
   tail -n 40 "$O/probe.txt" >> "$log"
@@ -58,12 +85,12 @@ elif [[ "$part" == fit ]]; then
   tail -n 40 "$O/probe.txt" >> "$log"
   for setup in "--backend cuda-seed" "--backend cuda-seed --memory pinned" "--backend cuda-resident"; do
     # shellcheck disable=SC2086
-    sweep 100 fit.jsonl $setup --plan seed-test2 --rounds 3
+    sweep 60 fit.jsonl $setup --plan seed-test2 --rounds 3
     # shellcheck disable=SC2086
-    sweep 60 fit.jsonl $setup --plan random:50 --seed 7 --rounds 3
+    sweep 40 fit.jsonl $setup --plan random:50 --seed 7 --rounds 3
   done
-  sweep 200 fit.jsonl --backend cuda-seed --plan seed-test1 --rounds 2
-  sweep 60 fit.jsonl --backend cuda-resident --plan seed-test1 --rounds 2
+  sweep 150 fit.jsonl --backend cuda-seed --plan seed-test1 --rounds 2
+  sweep 40 fit.jsonl --backend cuda-resident --plan seed-test1 --rounds 2
 else
   gpu_tests
   for setup in "--backend cuda-seed" "--backend cuda-seed --memory pinned" "--backend cuda-resident"; do

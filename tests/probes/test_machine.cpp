@@ -10,6 +10,7 @@
 #include "model/json_io.hpp"
 #include "probes/gpu.hpp"
 #include "probes/machine.hpp"
+#include "probes/team.hpp"
 
 namespace dtflop::probes {
 namespace {
@@ -18,7 +19,7 @@ const std::vector<Param> kGpuParams = {
     Param::B_CG_pinned,   Param::B_GC_pinned,   Param::B_CG_pageable, Param::B_GC_pageable,
     Param::L_CG_pinned,   Param::L_GC_pinned,   Param::L_CG_pageable, Param::L_GC_pageable,
     Param::B_GG,          Param::B_GG_copy,     Param::V_G_fp32,      Param::V_G_fp64,
-    Param::L_launch};
+    Param::L_launch,      Param::L_wait,        Param::L_wave};
 const std::vector<Param> kCpuParams = {Param::B_host_1,  Param::B_host,    Param::V_C1_fp32,
                                        Param::V_C_fp32,  Param::V_C1_fp64, Param::V_C_fp64};
 
@@ -74,6 +75,15 @@ TEST(ProbeMachine, ProfileHoldsWhatWasMeasuredAndNothingElse) {
     EXPECT_EQ(prof.get(p).provenance, Provenance::probed);
     EXPECT_TRUE(prof.get(p).spread.has_value()) << info(p).name;
     EXPECT_FALSE(prof.get(p).note.empty());
+  }
+  // Thread syncs are measured wherever two threads can wait for each other.
+  if (usable_cpus() >= 2) {
+    ASSERT_TRUE(prof.has(Param::L_sync));
+    EXPECT_GT(prof.get(Param::L_sync).value, 1e-9);
+    EXPECT_LT(prof.get(Param::L_sync).value, 1e-2);
+    EXPECT_TRUE(prof.get(Param::L_sync).spread.has_value());
+  } else {
+    EXPECT_FALSE(prof.has(Param::L_sync));
   }
   const bool gpu = gpu::device_info().usable;
   if (gpu) {

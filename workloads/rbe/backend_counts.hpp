@@ -83,8 +83,9 @@ ResidentPlan resident_plan(const Shape& s, const Layout& layout, std::size_t max
 // docs/model.md). Throws InputError when sms < 1.
 CostCounts cuda_resident_counts(const Shape& s, const Layout& layout, int sms);
 // A run of `steps` steps in chunks of `chunk` steps (one CUDA graph each): adds per chunk one
-// memset of the chunk's sums, one 8-byte device copy, one device->host copy of the sums and one
-// host wait (the graph's launch and the synchronize that waits for it).
+// memset of the chunk's sums, two 8-byte device copies (the last sum carried in and out), one
+// device->host copy of the sums and one host wait (the graph's launch and the synchronize that
+// waits for it).
 CostCounts cuda_resident_run_counts(const Shape& s, const Layout& layout, int sms, std::int64_t steps,
                                     std::int64_t chunk);
 

@@ -39,7 +39,8 @@ class CpuSeq final : public Backend {
     const auto n = p_.size();
     const double fill = options_.poison ? std::numeric_limits<double>::quiet_NaN() : 0.0;
     u_.assign(n, fill);
-    work_.assign(2 * n, fill);
+    if (prediction_ == Prediction::separable) work_.assign(2 * n, fill);  // the y-pass's transposes
+    else work_.clear();
     pred_.assign(n, fill);
     q_.assign(n, fill);
     steps_ = 0;
