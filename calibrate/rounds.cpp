@@ -38,8 +38,23 @@ std::string MergedRounds::summary() const {
                      input, input == 1 ? "" : "s", rounds);
 }
 
-MergedRounds merge_rounds(std::vector<Sample> samples) {
+std::string_view to_string(RoundCombine c) { return c == RoundCombine::fastest ? "fastest" : "median"; }
+
+std::optional<RoundCombine> round_combine_from_string(std::string_view s) {
+  if (s == "median") return RoundCombine::median;
+  if (s == "fastest") return RoundCombine::fastest;
+  return std::nullopt;
+}
+
+std::string MergedRounds::how() const {
+  if (max_rounds <= 1) return "";
+  return combine == RoundCombine::fastest ? "; a configuration's time is its fastest round's median"
+                                          : "; a configuration's time is the median of its rounds' medians";
+}
+
+MergedRounds merge_rounds(std::vector<Sample> samples, RoundCombine combine) {
   MergedRounds out;
+  out.combine = combine;
   out.input = static_cast<int>(samples.size());
 
   // Configurations in the order first met; each with its rounds (by round number).
@@ -110,16 +125,21 @@ MergedRounds merge_rounds(std::vector<Sample> samples) {
     merged.round = 1;
     const int reps = merged.repetitions();
     merged.components.clear();
+    double round_spread = 0;
     for (Component c : all_components()) {
       std::vector<double> medians;
       for (const auto& r : cfg.rounds)
         if (const Stats* st = r.find(c)) medians.push_back(st->median);
-      if (!medians.empty()) merged.components[c] = summarize(std::move(medians));
+      if (medians.empty()) continue;
+      Stats st = summarize(std::move(medians));
+      if (c == Component::total) round_spread = st.median > 0 ? (st.max - st.min) / st.median : 0.0;
+      if (combine == RoundCombine::fastest) st.median = st.min;  // the value the model is compared with
+      merged.components[c] = std::move(st);
     }
-    const Stats& total = merged.components.at(Component::total);  // every sample has a total
     if (!merged.detail.is_object()) merged.detail = nlohmann::json::object();
     merged.detail["rounds"] = n;
-    merged.detail["round_spread"] = total.median > 0 ? (total.max - total.min) / total.median : 0.0;
+    merged.detail["round_spread"] = round_spread;  // (slowest - fastest) / median of the rounds' totals
+    merged.detail["rounds_combined_by"] = std::string(to_string(combine));
     merged.detail["repetitions_per_round"] = reps;
     out.samples.push_back(std::move(merged));
   }

@@ -10,7 +10,9 @@
 // configuration into one sample (merge_rounds) right after reading the stores.
 #pragma once
 
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "calibrate/sample.hpp"
@@ -24,15 +26,30 @@ std::string round_key(const std::string& key, int round);
 // The configuration's key: `key` without a trailing "/round=N" (N a positive integer).
 std::string base_key(const std::string& key);
 
+// Which round's time stands for a configuration (its Stats' `median`; min, max, quartiles and
+// values still describe all the rounds):
+//  median  - the median of the rounds' medians: robust to one disturbed round in three;
+//  fastest - the fastest round's median. Interference from outside (co-tenants of a shared
+//            host, another process) only ever adds time, so on a machine whose slow spells
+//            can cover most of a configuration's rounds the fastest round is the best estimate
+//            of what the machine does undisturbed, which is what the model describes.
+enum class RoundCombine { median, fastest };
+std::string_view to_string(RoundCombine c);
+std::optional<RoundCombine> round_combine_from_string(std::string_view s);
+
 struct MergedRounds {
   std::vector<Sample> samples;        // one per configuration, in the order first met
   std::vector<std::string> warnings;  // duplicated samples, rounds that cannot be merged
   int input = 0;                      // samples given
   int min_rounds = 0;                 // fewest and most rounds of a configuration (0 when none)
   int max_rounds = 0;
+  RoundCombine combine = RoundCombine::median;
 
   // "82 configurations from 246 samples (3 rounds)"; "(1-3 rounds)" when they differ.
   std::string summary() const;
+  // "; a configuration's time is the median of its rounds' medians" (or "... its fastest
+  // round's median"); empty when no configuration has more than one round.
+  std::string how() const;
 };
 
 // Groups the samples of one configuration (same key once the "/round=N" suffix is removed, same
@@ -48,6 +65,6 @@ struct MergedRounds {
 // first round is left out, with a warning (its times are not comparable); rounds whose cost
 // counts differ (measured by different dtflop versions) are merged with the first round's
 // counts, with a warning.
-MergedRounds merge_rounds(std::vector<Sample> samples);
+MergedRounds merge_rounds(std::vector<Sample> samples, RoundCombine combine = RoundCombine::median);
 
 }  // namespace dtflop::calib

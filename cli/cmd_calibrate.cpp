@@ -38,6 +38,7 @@ struct CalibrateOptions {
   std::vector<std::string> match;  // sample keys must contain each
   bool total_only = false;
   std::uint64_t seed = 1;
+  std::string rounds_combine = "median";
 };
 
 bool matches(const Sample& s, const std::vector<std::string>& match) {
@@ -122,7 +123,10 @@ void run(const CalibrateOptions& o) {
 
   const MachineProfile probed = load_profile(o.machine);
   // The rounds of one configuration (`dtflop sweep --rounds`) become one sample: the median of their medians.
-  const MergedRounds merged = merge_rounds(load_samples(o.stores, o.backends, o.match));
+  const auto combine = round_combine_from_string(o.rounds_combine);
+  if (!combine)
+    throw InputError(fmt::format("--rounds-combine '{}' is unknown; use median or fastest", o.rounds_combine));
+  const MergedRounds merged = merge_rounds(load_samples(o.stores, o.backends, o.match), *combine);
   for (const auto& w : merged.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
   const std::vector<Sample>& samples = merged.samples;
   check_machine(samples, probed, o.machine);
@@ -157,8 +161,7 @@ void run(const CalibrateOptions& o) {
   for (const auto& s : samples) per_backend[s.backend] += 1;
   std::string backends;
   for (const auto& [b, n] : per_backend) backends += fmt::format("{}{} {}", backends.empty() ? "" : ", ", n, b);
-  fmt::print("Samples: {}{}.\n", merged.summary(),
-             merged.max_rounds > 1 ? "; a configuration's time is the median of its rounds' medians" : "");
+  fmt::print("Samples: {}{}.\n", merged.summary(), merged.how());
   fmt::print("Fitted {} samples ({}) from {} to the {} variant: {} residuals, {} free parameters, "
              "rms relative residual {:.2f}%, {} iterations.\n",
              samples.size(), backends, describe(probed.identity), to_string(r.variant), r.residuals,
@@ -199,8 +202,10 @@ void run(const CalibrateOptions& o) {
   out.metadata["model_variant"] = std::string(to_string(r.variant));
   out.metadata["model_variant_reason"] = choice.reason;
   out.metadata["fit_samples"] = std::to_string(samples.size());
-  if (merged.max_rounds > 1)
-    out.metadata["fit_rounds"] = merged.summary() + "; each configuration the median of its rounds' medians";
+  if (merged.max_rounds > 1) {
+    out.metadata["fit_rounds"] = merged.summary() + merged.how();
+    out.metadata["fit_rounds_combine"] = std::string(to_string(merged.combine));  // validate's default
+  }
   out.metadata["fit_stores"] = stores;
   out.metadata["fit_rms_relative"] = fmt::format("{:.4g}", r.rms_relative);
   out.metadata["fit_loss"] = fmt::format("{} (scale {})", to_string(fo.loss), fo.loss_scale);
@@ -239,6 +244,10 @@ Registrar reg(40, [](CLI::App& root) {
       ->capture_default_str();
   app->add_flag("--total-only", o->total_only, "Fit totals only, not the measured components");
   app->add_option("--seed", o->seed, "Seed of the fold assignment")->capture_default_str();
+  app->add_option("--rounds-combine", o->rounds_combine,
+                  "How the rounds of a configuration (sweep --rounds) give its time: median (of the rounds' "
+                  "medians) or fastest (the fastest round's median: interference only adds time)")
+      ->capture_default_str();
   app->callback([o] { run(*o); });
 });
 

@@ -39,6 +39,7 @@ struct ValidateOptions {
   int worst = 5;
   bool strict = false;
   bool json = false;
+  std::string rounds_combine;  // empty: the fitted profile's (metadata.fit_rounds_combine), else median
 };
 
 const char* component_label(Component c) {
@@ -109,7 +110,14 @@ int run(const ValidateOptions& o) {
   }
   if (loaded.empty()) throw InputError("no sample in the stores matches --backend / --match");
   // The rounds of one configuration (`dtflop sweep --rounds`) become one sample: the median of their medians.
-  const MergedRounds merged = merge_rounds(std::move(loaded));
+  std::string combine_name = o.rounds_combine;
+  if (combine_name.empty()) {
+    auto it = profile.metadata.find("fit_rounds_combine");
+    combine_name = it != profile.metadata.end() ? it->second : "median";
+  }
+  const auto combine = round_combine_from_string(combine_name);
+  if (!combine) throw InputError(fmt::format("--rounds-combine '{}' is unknown; use median or fastest", combine_name));
+  const MergedRounds merged = merge_rounds(std::move(loaded), *combine);
   for (const auto& w : merged.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
   const std::vector<Sample>& samples = merged.samples;
   for (const auto& s : samples) {
@@ -131,13 +139,12 @@ int run(const ValidateOptions& o) {
   if (v.groups.size() <= 3) groups = {"all"};  // one backend, one plan: the rest repeats "all"
 
   if (!o.json)
-    fmt::print("Samples: {}{}.\n", merged.summary(),
-               merged.max_rounds > 1 ? "; a configuration's time is the median of its rounds' medians" : "");
+    fmt::print("Samples: {}{}.\n", merged.summary(), merged.how());
   bool all_met = true;
   nlohmann::json out = {{"machine", o.machine},        {"variant", to_string(variant)},
                         {"samples", samples.size()},   {"targets", {{"mean_rel", tmean}, {"max_rel", tmax}}},
                         {"configurations", samples.size()}, {"stored_samples", merged.input},
-                        {"rounds", {{"min", merged.min_rounds}, {"max", merged.max_rounds}}},
+                        {"rounds", {{"min", merged.min_rounds}, {"max", merged.max_rounds}, {"combine", to_string(merged.combine)}}},
                         {"groups", nlohmann::json::object()}};
   for (const auto& g : groups) {
     const auto& comps = v.groups.at(g);
@@ -215,6 +222,9 @@ Registrar reg(50, [](CLI::App& root) {
   app->add_option("--worst", o->worst, "Show this many worst samples")->capture_default_str();
   app->add_flag("--strict", o->strict, "Exit with status 3 when a target is missed");
   app->add_flag("--json", o->json, "Print JSON instead of tables");
+  app->add_option("--rounds-combine", o->rounds_combine,
+                  "How the rounds of a configuration give its time: median or fastest (default: what the fit "
+                  "used, from the profile; else median)");
   app->callback([o] {
     if (run(*o) != 0) {
       std::fflush(stdout);

@@ -298,6 +298,24 @@ TEST_F(CalibCli, CalibrateAndValidateMergeRounds) {
   EXPECT_NE(r.out.find(fmt::format("{} configurations from {} samples (3 rounds)", configs, 3 * configs)),
             std::string::npos)
       << r.out;
+
+  // --rounds-combine fastest: every round 2 here is +30%, so the fastest round is round 1 or 3
+  // and the fit recovers the truth too; the profile records the choice and validate follows it.
+  r = test::run_dtflop(fmt::format("calibrate --store {} --machine {} -o {} --variant latency --rounds-combine fastest",
+                                   path("rounds.jsonl"), path("probed.json"), path("fitted-fast.json")));
+  ASSERT_EQ(r.status, 0) << r.err << r.out;
+  EXPECT_NE(r.out.find("its fastest round's median"), std::string::npos) << r.out;
+  const MachineProfile fast = load_profile(path("fitted-fast.json"));
+  EXPECT_EQ(fast.metadata.at("fit_rounds_combine"), "fastest");
+  EXPECT_NEAR(fast.get(Param::B_CG_pageable).value / truth.get(Param::B_CG_pageable).value, 1, 0.04);
+  r = test::run_dtflop(fmt::format("validate --store {} --machine {} --json", path("rounds.jsonl"),
+                                   path("fitted-fast.json")));
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["rounds"]["combine"], "fastest");
+  r = test::run_dtflop(fmt::format("validate --store {} --machine {} --rounds-combine mean", path("rounds.jsonl"),
+                                   path("fitted-fast.json")));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--rounds-combine 'mean'"), std::string::npos) << r.err;
 }
 
 TEST_F(CalibCli, CalibrateRefusesBadInputAndWritesNothing) {
@@ -332,6 +350,7 @@ TEST_F(CalibCli, CalibrateRefusesBadInputAndWritesNothing) {
 
   write_store("good.jsonl", test::seed_pipeline_samples(truth, Variant::latency, 0.0));
   expect_error(calibrate(path("good.jsonl"), "--variant fancy"), "fancy");
+  expect_error(calibrate(path("good.jsonl"), "--rounds-combine mean"), "--rounds-combine 'mean'");
   expect_error(calibrate(path("good.jsonl"), "--folds 1"), "--folds");
   const auto r = test::run_dtflop(fmt::format("calibrate --store {} --machine {} -o {}", path("good.jsonl"),
                                               path("probed.json"), path("probed.json")));

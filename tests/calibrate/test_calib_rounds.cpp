@@ -125,6 +125,35 @@ TEST(CalibRounds, MergeTakesTheMedianOfTheRoundsMedians) {
   ASSERT_EQ(two.samples.size(), 1u);
   EXPECT_DOUBLE_EQ(two.samples[0].find(Component::total)->median, 1.5);
   EXPECT_EQ(two.summary(), "1 configuration from 2 samples (2 rounds)");
+  EXPECT_EQ(two.how(), "; a configuration's time is the median of its rounds' medians");
+}
+
+TEST(CalibRounds, FastestTakesTheFastestRoundsMedian) {
+  const std::vector<Sample> in = {
+      hand_sample("a", 1, {1.0, 1.1, 0.9, 1.05, 0.97}, {0.30, 0.31, 0.29}),  // median 1.0, CG 0.30
+      hand_sample("a", 2, {1.6, 1.7, 1.5}, {0.50, 0.52, 0.51}),              // a slow round: 1.6, CG 0.51
+      hand_sample("a", 3, {1.5, 1.5, 1.5}),                                  // another: 1.5, no CG
+      hand_sample("b", 1, {2.0, 2.0, 2.0}),                                  // one round: unchanged
+  };
+  const MergedRounds m = merge_rounds(in, RoundCombine::fastest);
+  ASSERT_EQ(m.samples.size(), 2u);
+  EXPECT_EQ(m.combine, RoundCombine::fastest);
+  EXPECT_EQ(m.how(), "; a configuration's time is its fastest round's median");
+  const Sample& a = m.samples[0];
+  const Stats& t = a.components.at(Component::total);
+  EXPECT_DOUBLE_EQ(t.median, 1.0);  // the fastest round, where the median of the three would be 1.5
+  EXPECT_EQ(t.values, (std::vector<double>{1.0, 1.6, 1.5}));  // the rounds, as with median
+  EXPECT_DOUBLE_EQ(t.max, 1.6);
+  EXPECT_DOUBLE_EQ(a.components.at(Component::CG).median, 0.30);
+  // The spread is still taken over the median of the rounds, not the fastest one.
+  EXPECT_DOUBLE_EQ(a.detail["round_spread"].get<double>(), (1.6 - 1.0) / 1.5);
+  EXPECT_EQ(a.detail["rounds_combined_by"], "fastest");
+  EXPECT_DOUBLE_EQ(m.samples[1].find(Component::total)->median, 2.0);
+  // Names.
+  EXPECT_EQ(round_combine_from_string("fastest"), RoundCombine::fastest);
+  EXPECT_EQ(round_combine_from_string("median"), RoundCombine::median);
+  EXPECT_FALSE(round_combine_from_string("mean").has_value());
+  EXPECT_EQ(to_string(RoundCombine::fastest), "fastest");
 }
 
 TEST(CalibRounds, OneRoundPassesThroughUnchanged) {
