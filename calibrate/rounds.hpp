@@ -57,7 +57,8 @@ struct MergedRounds {
 //  - a configuration with one round is returned unchanged;
 //  - with several, the sample of its first round (the lowest round number) with, for each
 //    measured component, Stats over the rounds' medians (values: the rounds' medians in round
-//    order, so the median is the median of the medians and min/max/p25/p75 are over them), the
+//    order, so the median is the median of the medians, or with RoundCombine::fastest the
+//    fastest round's, and min/max/p25/p75 are over them), the
 //    configuration's key (no round suffix), round 1, and detail "rounds" (how many were merged),
 //    "round_spread" ((max - min) / median of the rounds' totals) and "repetitions_per_round".
 // Two samples of the same configuration and round (a line stored twice, a store named twice):

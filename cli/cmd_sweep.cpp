@@ -129,9 +129,10 @@ Registrar reg(30, [](CLI::App& root) {
   app->add_option("--rounds", o->rounds,
                   "Measure the whole plan this many times, round after round: a sample's repetitions run back "
                   "to back, so a slow spell of the machine (seconds to a minute) moves a whole sample; rounds "
-                  "spread each configuration over the sweep, and calibrate/validate take the median of its "
-                  "rounds. Round r >= 2 is stored under the key <key>/round=r; resuming measures only the "
-                  "missing rounds")
+                  "spread each configuration over the sweep, and calibrate/validate combine its rounds (the "
+                  "median, or the fastest: --rounds-combine). Round r >= 2 is stored under the key "
+                  "<key>/round=r; resuming measures only the missing rounds, so --rounds r on a store holding "
+                  "r - 1 rounds adds one round (interleave sweeps round by round that way)")
       ->capture_default_str();
   app->add_option("--seed", o->seed, "Seed of random plans and of the synthetic problems")->capture_default_str();
   app->add_flag("--no-cupti", o->no_cupti, "Time device work with host clocks only");
