@@ -7,12 +7,6 @@
 #                                            training and held-out sets measured round by round
 #                                            in turn (round 1 of both, round 2 of both, ...), so
 #                                            that a drift of the host's speed falls on both alike
-# or in parts:
-#   bash benchmarks/calibrate/h200.sh fit    training set: Test 1 (2 rounds), Test 2 and a
-#                                            random training set (seed 7, 3 rounds), for
-#                                            cuda-seed pageable, cuda-seed pinned, cuda-resident
-#   bash benchmarks/calibrate/h200.sh held   GPU tests, then the held-out set: random:50 with
-#                                            the default seed, 3 rounds, same three setups
 #   bash benchmarks/calibrate/h200.sh resident   both sets for cuda-resident alone, with a probe
 #                                            and the GPU tests (about 2 minutes)
 # Each sweep is resumable and bounded in time, so a slow one cannot take the whole lease;
@@ -24,8 +18,7 @@ export LD_LIBRARY_PATH=$PWD/.carry-calib/lib:${LD_LIBRARY_PATH:-}
 B=.carry-calib/bin
 O=${OUT:-h200-out}
 part=${1:-}
-[[ "$part" == all || "$part" == fit || "$part" == held || "$part" == resident ]] ||
-  { echo "usage: $0 all|fit|held|resident" >&2; exit 2; }
+[[ "$part" == all || "$part" == resident ]] || { echo "usage: $0 all|resident" >&2; exit 2; }
 mkdir -p "$O"
 log="$O/log-$part.txt"
 say() { echo "== $* ($(date -u +%H:%M:%S))" | tee -a "$log"; }
@@ -41,6 +34,12 @@ nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm,clocks.mem,te
   --format=csv 2>&1 | tee -a "$log"
 nproc | tee -a "$log"
 
+probe_quick() {  # start values for the fit (and the identity the stores are checked against)
+  say probe
+  timeout 60 $B/dtflop probe --quick -o "$O/probed.json" > "$O/probe.txt" 2>&1
+  tail -n 40 "$O/probe.txt" >> "$log"
+}
+
 gpu_tests() {
   say "GPU tests"
   for t in test_calibrate_gpu test_rbe_gpu test_probes_gpu; do
@@ -51,9 +50,7 @@ gpu_tests() {
 }
 
 if [[ "$part" == all ]]; then
-  say probe
-  timeout 60 $B/dtflop probe --quick -o "$O/probed.json" > "$O/probe.txt" 2>&1
-  tail -n 40 "$O/probe.txt" >> "$log"
+  probe_quick
   gpu_tests
   # Rounds are resumable: `--rounds r` on a store holding rounds 1..r-1 measures round r only.
   for r in 1 2 3; do
@@ -71,32 +68,12 @@ if [[ "$part" == all ]]; then
     fi
   done
 elif [[ "$part" == resident ]]; then
-  say probe
-  timeout 60 $B/dtflop probe --quick -o "$O/probed.json" > "$O/probe.txt" 2>&1
-  tail -n 40 "$O/probe.txt" >> "$log"
+  probe_quick
   gpu_tests
   sweep 60 fit.jsonl --backend cuda-resident --plan seed-test2 --rounds 3
   sweep 60 fit.jsonl --backend cuda-resident --plan random:50 --seed 7 --rounds 3
   sweep 90 fit.jsonl --backend cuda-resident --plan seed-test1 --rounds 2
   sweep 60 held.jsonl --backend cuda-resident --plan random:50 --rounds 3
-elif [[ "$part" == fit ]]; then
-  say probe
-  timeout 60 $B/dtflop probe --quick -o "$O/probed.json" > "$O/probe.txt" 2>&1
-  tail -n 40 "$O/probe.txt" >> "$log"
-  for setup in "--backend cuda-seed" "--backend cuda-seed --memory pinned" "--backend cuda-resident"; do
-    # shellcheck disable=SC2086
-    sweep 60 fit.jsonl $setup --plan seed-test2 --rounds 3
-    # shellcheck disable=SC2086
-    sweep 40 fit.jsonl $setup --plan random:50 --seed 7 --rounds 3
-  done
-  sweep 150 fit.jsonl --backend cuda-seed --plan seed-test1 --rounds 2
-  sweep 40 fit.jsonl --backend cuda-resident --plan seed-test1 --rounds 2
-else
-  gpu_tests
-  for setup in "--backend cuda-seed" "--backend cuda-seed --memory pinned" "--backend cuda-resident"; do
-    # shellcheck disable=SC2086
-    sweep 90 held.jsonl $setup --plan random:50 --rounds 3
-  done
 fi
 say done
 wc -l "$O"/*.jsonl | tee -a "$log"
