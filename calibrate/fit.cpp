@@ -35,7 +35,7 @@ double default_start(Param p) {
   const auto unit = info(p).unit;
   if (unit == "s") return 10e-6;
   if (p == Param::V_G_fp32 || p == Param::V_G_fp64) return 10e12;
-  if (p == Param::B_GG || p == Param::B_GG_copy) return 1e12;
+  if (p == Param::B_GG || p == Param::B_GG_copy || p == Param::B_GS) return 1e12;
   return 10e9;  // host bandwidths and CPU rates
 }
 
@@ -45,7 +45,7 @@ bool exercised(const CostCounts& k, Component c) {
     case Component::total: return true;
     case Component::CG: return k.N_CG > 0 || k.transfers_CG > 0;
     case Component::GC: return k.N_GC > 0 || k.transfers_GC > 0;
-    case Component::G: return k.N_GG > 0 || k.N_G > 0 || k.launches > 0 || k.waves > 0;
+    case Component::G: return k.N_GG > 0 || k.N_G > 0 || k.launches > 0 || k.waves > 0 || k.N_GS > 0;
     case Component::C: return k.N_C > 0 || k.N_CC > 0 || k.cpu_syncs > 0;
   }
   return false;

@@ -36,6 +36,7 @@ void print_counts(const CostCounts& c) {
                                               c.cpu_threads == 1 ? "" : "s")});
   t.row({"N_CC", count_str(c.N_CC), "values through host memory (extended model)"});
   t.row({"N_G", count_str(c.N_G), "FLOPs on the GPU"});
+  t.row({"N_GS", count_str(c.N_GS), "values kernels copy into shared-memory tiles (per busiest-SM round x SMs)"});
   t.row({"launches", count_str(c.launches), "kernel launches"});
   t.row({"waves", count_str(c.waves), "rounds of thread blocks on the busiest GPU multiprocessor"});
   t.row({"host_waits", count_str(c.host_waits), "host submits device work and waits for it"});
@@ -58,6 +59,7 @@ void print_prediction(const Prediction& p) {
     add("latency device->host", p.lat_GC);
     add("kernel launches", p.lat_launch);
     add("waves of thread blocks", p.lat_wave);
+    add("shared-memory tile fills", p.dt_GS);
     add("host waits for the device", p.lat_wait);
     t.row({"  of which CPU thread syncs", format_duration(p.lat_sync), "(in dt_C)"});
   }

@@ -137,6 +137,7 @@ void run(const RunRbeOptions& o) {
   c.row({"N_C", fmt::format("{} on {} thread{}", counts.N_C, counts.cpu_threads, counts.cpu_threads == 1 ? "" : "s")});
   c.row({"N_CC", fmt::format("{}", counts.N_CC)});
   c.row({"N_G", fmt::format("{}", counts.N_G)});
+  c.row({"N_GS", fmt::format("{}", counts.N_GS)});
   c.row({"launches", fmt::format("{}", counts.launches)});
   c.row({"waves", fmt::format("{}", counts.waves)});
   c.row({"host_waits", fmt::format("{}", counts.host_waits)});
@@ -156,6 +157,7 @@ void run(const RunRbeOptions& o) {
   p.row({"dt_C   CPU", us(pred->dt_C)});
   p.row({"kernel launches", us(pred->lat_launch)});
   p.row({"waves of thread blocks", us(pred->lat_wave)});
+  p.row({"shared-memory tile fills", us(pred->dt_GS)});
   p.row({"host waits for the device", us(pred->lat_wait)});
   p.row({"CPU thread syncs (in dt_C)", us(pred->lat_sync)});
   p.row({"total", us(pred->total)});

@@ -19,6 +19,7 @@ CostCounts& CostCounts::operator+=(const CostCounts& o) {
   launches += o.launches;
   waves += o.waves;
   host_waits += o.host_waits;
+  N_GS += o.N_GS;
   cpu_syncs += o.cpu_syncs;
   cpu_threads = std::max(cpu_threads, o.cpu_threads);
   return *this;
@@ -37,6 +38,7 @@ CostCounts CostCounts::scaled(std::int64_t steps) const {
   c.launches *= steps;
   c.waves *= steps;
   c.host_waits *= steps;
+  c.N_GS *= steps;
   c.cpu_syncs *= steps;
   return c;
 }

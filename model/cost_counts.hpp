@@ -23,6 +23,9 @@ struct CostCounts {
   std::int64_t N_C = 0;         // FLOPs on the CPU
   std::int64_t N_G = 0;         // FLOPs on the GPU
   std::int64_t N_CC = 0;        // values moved through host memory by CPU work (extended model)
+  std::int64_t N_GS = 0;        // values kernels copy from device memory into shared-memory tiles
+                                // (halos included), counted per round of blocks on the busiest
+                                // multiprocessor times the multiprocessors, like N_G (latency+)
   std::int64_t transfers_CG = 0;  // number of host->device copies
   std::int64_t transfers_GC = 0;  // number of device->host copies
   std::int64_t launches = 0;      // kernel launches

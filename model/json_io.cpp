@@ -212,6 +212,7 @@ json to_json(const CostCounts& c) {
           {"waves", c.waves},
           {"host_waits", c.host_waits},
           {"cpu_syncs", c.cpu_syncs},
+          {"N_GS", c.N_GS},
           {"host_memory", to_string(c.host_memory)},
           {"cpu_threads", c.cpu_threads}};
 }
@@ -240,6 +241,7 @@ CostCounts counts_from_json(const json& j) {
   c.waves = get_i64(j, "waves", 0);
   c.host_waits = get_i64(j, "host_waits", 0);
   c.cpu_syncs = get_i64(j, "cpu_syncs", 0);
+  c.N_GS = get_i64(j, "N_GS", 0);
   const std::string mem = get_string(j, "host_memory", "counts.", false);
   if (mem == "pinned") c.host_memory = HostMemory::pinned;
   else if (mem.empty() || mem == "pageable") c.host_memory = HostMemory::pageable;
@@ -255,6 +257,7 @@ json to_json(const Prediction& p) {
           {"lat_sync", p.lat_sync},
           {"lat_wave", p.lat_wave},
           {"lat_wait", p.lat_wait},
+          {"dt_GS", p.dt_GS},
           {"dt_trans", p.dt_trans()},        {"total", p.total}};
 }
 

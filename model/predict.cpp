@@ -91,6 +91,7 @@ std::vector<Param> required_params(const CostCounts& c, Variant variant) {
   if (lat && c.waves > 0) add(Param::L_wave);
   if (lat && c.host_waits > 0) add(Param::L_wait);
   if (lat && c.cpu_syncs > 0) add(Param::L_sync);
+  if (lat && c.N_GS > 0) add(Param::B_GS);
   if ((variant == Variant::memory || variant == Variant::extended) && c.N_CC > 0)
     for (auto p : cpu_params(Param::B_host_1, Param::B_host, c.cpu_threads)) add(p);
   return out;
@@ -128,7 +129,9 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
   if (c.cpu_syncs > 0) r.lat_sync = static_cast<double>(c.cpu_syncs) * m.get(Param::L_sync).value;
   if (c.waves > 0) r.lat_wave = static_cast<double>(c.waves) * m.get(Param::L_wave).value;
   if (c.host_waits > 0) r.lat_wait = static_cast<double>(c.host_waits) * m.get(Param::L_wait).value;
-  const double latencies = r.lat_CG + r.lat_GC + r.lat_launch + r.lat_wave + r.lat_wait;
+  // A block fills its tile before it computes on it: the fills add to the kernels' time.
+  if (c.N_GS > 0) r.dt_GS = P * static_cast<double>(c.N_GS) / m.get(Param::B_GS).value;
+  const double latencies = r.lat_CG + r.lat_GC + r.lat_launch + r.lat_wave + r.lat_wait + r.dt_GS;
   const double host_traffic =
       variant != Variant::latency && c.N_CC > 0 ? P * static_cast<double>(c.N_CC) / host_bandwidth(m, c.cpu_threads) : 0;
   if (variant == Variant::latency || variant == Variant::memory) {

@@ -13,7 +13,8 @@ namespace dtflop {
 // Model variants (docs/model.md derives each), from the simplest:
 //  seed     - eqs. 3.2-3.9 exactly: every component P*N/B or N/V, summed.
 //  latency  - seed + a latency per transfer, per kernel launch, per round (wave) of thread
-//             blocks, per host wait for the device and per CPU thread sync (alpha + bytes/B).
+//             blocks, per host wait for the device and per CPU thread sync (alpha + bytes/B),
+//             and the kernels' shared-memory tile fills before they compute.
 //  memory   - latency + the host memory traffic of CPU work, summed with its arithmetic as the
 //             seed sums device traffic with device arithmetic (no overlap anywhere).
 //  extended - latency + overlap: inside the device, memory traffic and arithmetic overlap
@@ -39,6 +40,7 @@ struct Prediction {
   double lat_sync = 0;   // cpu_syncs x CPU thread sync (part of dt_C)
   double lat_wave = 0;   // waves x per-wave cost of thread blocks
   double lat_wait = 0;   // host_waits x host round trip to the device (in the total only)
+  double dt_GS = 0;      // shared-memory tile fills, P N_GS / B_GS (latency+; device component)
   double total = 0;
 
   double dt_trans() const { return dt_CG + dt_GC + dt_GG; }  // eq. 3.4

@@ -47,6 +47,7 @@ const std::vector<ParamInfo>& all_params() {
       {Param::L_sync, "L_sync", "s", "CPU threads' fork/join or barrier (all threads)"},
       {Param::L_wave, "L_wave", "s", "fixed cost of one round of thread blocks on a GPU multiprocessor"},
       {Param::L_wait, "L_wait", "s", "host round trip to the GPU: submit work and wait for it to finish"},
+      {Param::B_GS, "B_GS", "B/s", "kernels' tile fills, device memory -> shared memory, all multiprocessors"},
   };
   return table;
 }

@@ -40,6 +40,7 @@ enum class Param {
   L_sync,          // CPU threads' fork/join or barrier, all threads         [s]
   L_wave,          // fixed cost of one round of thread blocks on a GPU SM   [s]
   L_wait,          // host submits device work and waits for it (round trip) [s]
+  B_GS,            // device memory -> shared-memory tile fills, all SMs    [B/s]
 };
 
 struct ParamInfo {

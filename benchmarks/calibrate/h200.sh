@@ -47,6 +47,12 @@ gpu_tests() {
     echo "$t: exit $?, $(grep -cE '^\[       OK \]' "$O/$t.txt") passed, $(grep -cE '^\[  FAILED  \]' "$O/$t.txt") failed lines" | tee -a "$log"
     grep -E "Failure|Expected|Which is|Value of|Actual" "$O/$t.txt" | head -n 20 | tee -a "$log"
   done
+  # cuda-resident's other tile copy (16-byte cp.async, where the tensor memory accelerator is not
+  # there or is switched off), on the same cases.
+  t=test_rbe_gpu_no_tma
+  DTFLOP_RBE_NO_TMA=1 timeout 60 $B/test_rbe_gpu --gtest_filter='RbeCudaResident.*' > "$O/$t.txt" 2>&1
+  echo "$t: exit $?, $(grep -cE '^\[       OK \]' "$O/$t.txt") passed, $(grep -cE '^\[  FAILED  \]' "$O/$t.txt") failed lines" | tee -a "$log"
+  grep -E "Failure|Expected|Which is|Value of|Actual" "$O/$t.txt" | head -n 20 | tee -a "$log"
 }
 
 if [[ "$part" == all ]]; then

@@ -142,6 +142,7 @@ TEST(CountsJson, RoundTrip) {
   c.waves = 10;
   c.cpu_syncs = 11;
   c.host_waits = 12;
+  c.N_GS = 13;
   c.host_memory = HostMemory::pinned;
   c.cpu_threads = 16;
   EXPECT_EQ(counts_from_json(json::parse(to_json(c).dump())), c);
@@ -150,7 +151,9 @@ TEST(CountsJson, RoundTrip) {
   old.erase("waves");
   old.erase("cpu_syncs");
   old.erase("host_waits");
+  old.erase("N_GS");
   const CostCounts back = counts_from_json(old);
+  EXPECT_EQ(back.N_GS, 0);
   EXPECT_EQ(back.waves, 0);
   EXPECT_EQ(back.cpu_syncs, 0);
   EXPECT_EQ(back.host_waits, 0);

@@ -103,10 +103,12 @@ ResidentPlan resident_plan(const Shape& s, const Layout& l, std::size_t max_shar
   } else if (l.passes == Layout::Passes::split) {
     p.passes = Layout::Passes::split;
   } else {
-    // Fused when its tile fits with room for two blocks per multiprocessor and the x-pass
-    // recomputes at most as many halo rows as the tile has rows; else split.
-    p.passes = (fused.smem_bytes <= max_shared / 2 && s.Iy - 1 <= p.tile_h) ? Layout::Passes::fused
-                                                                            : Layout::Passes::split;
+    // Fused when a multiprocessor runs two of its blocks at once (each block's shared memory and
+    // the 1 KiB its runtime takes) and the x-pass recomputes at most as many halo rows as the
+    // tile has rows; else split.
+    const bool two = 2 * (fused.smem_bytes + resident::kSharedReservedPerBlock) <= resident::kSmShared &&
+                     fused.smem_bytes <= max_shared;
+    p.passes = (two && s.Iy - 1 <= p.tile_h) ? Layout::Passes::fused : Layout::Passes::split;
   }
   constexpr std::int64_t kMaxGridY = 65535;
   if (p.blocks_y > kMaxGridY)
@@ -159,16 +161,28 @@ CostCounts cuda_resident_counts(const Shape& s, const Layout& l, int sms) {
   // multiplications per output; the sum: one addition per output (reductions are counted as one
   // addition per value summed, see docs/rbe.md); the scale 1 / (A_c S): 2 operations.
   const std::int64_t correct_block = 2 * s.Iy * W * H + 3 * W * H + 2;
+  // Tile fills: rounds of blocks running at once on the busiest multiprocessor (a kernel's
+  // q(B) blocks there, occ at a time), each filling its tile (and kernel coefficients) from
+  // device memory, counted on every multiprocessor like N_G.
+  auto fills = [&](std::int64_t blocks, int regs, const resident::TileGeometry& g, std::int64_t tile_values) {
+    const int occ = resident::blocks_per_sm(p.threads, regs, g.smem_bytes);
+    return (waves(blocks) + occ - 1) / occ * S * (tile_values + g.kx_len + g.ky_len);
+  };
   if (p.passes == Layout::Passes::fused) {
+    const auto g = resident::fused_geometry(s, l);
     c.launches = 1;
     c.waves = waves(B);
     c.N_G = waves(B) * S * (2 * s.Ix * W * (H + s.Iy - 1) + correct_block);
     c.N_GG = 3 * ng + s.Ix + s.Iy + 2 + 2 * B;
+    c.N_GS = fills(B, resident::kFusedRegs, g, std::int64_t{g.in_rows} * g.in_cols);
   } else {
+    const auto gx = resident::xpass_geometry(s, l), gy = resident::ypass_geometry(s, l);
     c.launches = 2;
     c.waves = waves(p.xblocks()) + waves(B);
     c.N_G = waves(p.xblocks()) * S * 2 * s.Ix * p.xtile_w * p.xtile_h + waves(B) * S * correct_block;
     c.N_GG = 5 * ng + s.Ix + s.Iy + 2 + 2 * B;
+    c.N_GS = fills(p.xblocks(), resident::kXpassRegs, gx, std::int64_t{gx.in_rows} * gx.in_cols) +
+             fills(B, resident::kYpassRegs, gy, std::int64_t{gy.u_rows} * gy.out_w);
   }
   return c;
 }

@@ -80,7 +80,14 @@ ResidentPlan resident_plan(const Shape& s, const Layout& layout, std::size_t max
 // Wave quantization: a kernel lasts as long as its busiest multiprocessor, which runs q(B)
 // rounds of blocks, so N_G counts q(B) S blocks, as if every multiprocessor ran q(B) (>= B
 // blocks; equal when B is a multiple of S), and each round adds a fixed cost (waves x L_wave,
-// docs/model.md). Throws InputError when sms < 1.
+// docs/model.md). Tile fills: a block copies its input tile (halo included) and the kernel
+// coefficients from device memory into shared memory before it computes; a multiprocessor runs
+// occ blocks at once (resident::blocks_per_sm, from the kernel's register bound, its shared
+// memory and the 1 KiB reserved per block), so the busiest one fills ceil(q(B) / occ) rounds:
+//   fused: N_GS = ceil(q(B) / occ) S [(H + I_y - 1) (W + kx) + kx + ky]
+//   split: N_GS = ceil(q(B_x) / occ_x) S [H_x (128 + kx) + kx] + ceil(q(B) / occ_y) S [u_rows W + ky]
+// with kx = 8 ceil(I_x / 8), ky = the y coefficients padded (resident_geometry.hpp), u_rows =
+// H + R ceil(I_y / R). Throws InputError when sms < 1.
 CostCounts cuda_resident_counts(const Shape& s, const Layout& layout, int sms);
 // A run of `steps` steps in chunks of `chunk` steps (one CUDA graph each): adds per chunk one
 // memset of the chunk's sums, two 8-byte device copies (the last sum carried in and out), one

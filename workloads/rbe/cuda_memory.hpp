@@ -34,6 +34,16 @@ class DeviceArray {
     DTFLOP_CUDA(cudaMemcpy(p_, host, n * sizeof(T), cudaMemcpyHostToDevice));
   }
   void upload(const std::vector<T>& host) { upload(host.data(), host.size()); }
+  // Rows of a pitched grid: `rows` rows of `width` values, `pitch` values apart here and
+  // `width` apart (packed) on the host; the padding between rows is left as it is.
+  void upload_rows(const T* host, std::size_t width, std::size_t rows, std::size_t pitch) {
+    DTFLOP_CUDA(cudaMemcpy2D(p_, pitch * sizeof(T), host, width * sizeof(T), width * sizeof(T), rows,
+                             cudaMemcpyHostToDevice));
+  }
+  void download_rows(T* host, std::size_t width, std::size_t rows, std::size_t pitch) const {
+    DTFLOP_CUDA(cudaMemcpy2D(host, width * sizeof(T), p_, pitch * sizeof(T), width * sizeof(T), rows,
+                             cudaMemcpyDeviceToHost));
+  }
 
  private:
   T* p_ = nullptr;

@@ -12,7 +12,10 @@
 //
 // The normalization is never a pass of its own: S_k stays on the device and the next step
 // scales by it. A run is captured into CUDA graphs (segments of up to kSegment steps), and
-// the sums S_k, one scalar per step, come back in one copy per segment. Counts:
+// the sums S_k, one scalar per step, come back in one copy per segment. The grids (q, l and u)
+// are stored with a row pitch ld = n_x rounded up to a multiple of 4 floats, the padding columns
+// zero: every row starts 16-byte aligned, so every tile is copied the same way whatever n_x is
+// (by the tensor memory accelerator, or in 16-byte cp.async pieces where it cannot). Counts:
 // cuda_resident_counts() (backend_counts.cpp), geometry: resident_geometry.hpp.
 // No fmt here: its compile-time format checks do not compile under nvcc in C++20.
 #include <cuda.h>  // CUtensorMap and its enums (the encoder is reached through the runtime)
@@ -38,6 +41,8 @@ using resident::kScratchDoubles;
 
 constexpr std::int64_t kSegment = 1000;  // steps per captured graph
 constexpr std::int64_t kChunk = 50;      // steps per timing sample inside a graph
+constexpr int kMaxBoxRows = 256;         // a tensor-map box is at most 256 elements each way
+constexpr int kMaxBoxWidth = 256;
 
 struct KernelArgs {
   const float* __restrict__ q_prev;
@@ -49,9 +54,10 @@ struct KernelArgs {
   const double* sum_in;        // S_{k-1}
   double* sum_out;             // S_k (zeroed before the step)
   int nx, ny, Ix, Iy, hx, hy;  // hx, hy: halo before the cell (I - 1 - c)
+  int ld;                      // row pitch of q, l and u in floats: n_x rounded up to a multiple of 4
   int x_shift;                 // x-pass tiles start x_shift cells left of a multiple of their width
-  int vec;                     // n_x % 4 == 0: tiles are copied in 16-byte pieces
-  int tma;                     // the tile is one tensor-map box (TMA copy), see tile_map_fits()
+  int tma;                     // the tile is copied by the tensor memory accelerator (TileMaps,
+                               // tile_map_fits()); else in 16-byte cp.async pieces
   int in_rows, in_cols, in_pitch, u_rows, u_pitch, kx_len, ky_len;
   double cell_area;
 };
@@ -70,41 +76,24 @@ __device__ __forceinline__ void copy_async(float* dst, const float* src, bool va
 }
 __device__ __forceinline__ void copy_async_wait() { asm volatile("cp.async.wait_all;\n" ::); }
 
-// Copies rows [r0, rows) step dr of tile column c from global column gx (rows start at global
-// row gy0 + r0), zero outside the grid. One thread walks one column with running pointers, so
-// each element costs a compare, a select and the copy.
-__device__ __forceinline__ void copy_column_async(float* tile, int pitch, int c, int r0, int rows, int dr,
-                                                  const float* base, int nx, int ny, int gx, int gy0) {
-  const bool col_in = unsigned(gx) < unsigned(nx);
-  int gy = gy0 + r0;
-  const float* src = base + (std::ptrdiff_t(gy) * nx + gx);
-  const std::ptrdiff_t src_step = std::ptrdiff_t(dr) * nx;
-  unsigned dst = static_cast<unsigned>(__cvta_generic_to_shared(tile + r0 * pitch + c));
-  const unsigned dst_step = unsigned(dr * pitch) * 4u;
-  for (int r = r0; r < rows; r += dr, gy += dr, src += src_step, dst += dst_step) {
-    const bool valid = col_in && unsigned(gy) < unsigned(ny);
-    asm volatile("cp.async.ca.shared.global [%0], [%1], 4, %2;\n" ::"r"(dst), "l"(valid ? src : base),
-                 "r"(valid ? 4 : 0));
-  }
-}
-
-// Copies a tile of `rows` x 4 `cols4` floats whose first column gx0 is a multiple of 4 (n_x a
-// multiple of 4 too, so each 16-byte piece lies wholly inside or outside the grid) in 16-byte
-// pieces, zero outside the grid. Thread `tid` of T walks the piece columns tid % P, + P, ...
-// (P = min(cols4, T)) from row tid / P in steps of T / P rows, with running pointers.
+// Copies a tile of `rows` x 4 `cols4` floats whose first column gx0 is a multiple of 4 in 16-byte
+// pieces, zero outside the grid. The grid's rows are ld floats apart (ld a multiple of 4, the
+// columns from n_x to ld zero), so a piece that starts inside a row lies wholly inside its padded
+// row. Thread `tid` of T walks the piece columns tid % P, + P, ... (P = min(cols4, T)) from row
+// tid / P in steps of T / P rows, with running pointers.
 __device__ __forceinline__ void copy_tile16_async(float* tile, int pitch, int rows, int cols4, const float* base,
-                                                  int nx, int ny, int gx0, int gy0, int tid, int T) {
+                                                  int nx, int ld, int ny, int gx0, int gy0, int tid, int T) {
   const int P = cols4 < T ? cols4 : T;
   const int dr = T / P;
   const int r0 = tid / P;
   if (r0 >= dr) return;  // the T - dr P threads left over
-  const std::ptrdiff_t src_step = std::ptrdiff_t(dr) * nx;
+  const std::ptrdiff_t src_step = std::ptrdiff_t(dr) * ld;
   const unsigned dst_step = unsigned(dr * pitch) * 4u;
   for (int c4 = tid - r0 * P; c4 < cols4; c4 += P) {
     const int gx = gx0 + 4 * c4;
     const bool col_in = unsigned(gx) < unsigned(nx);
     int gy = gy0 + r0;
-    const float* src = base + (std::ptrdiff_t(gy) * nx + gx);
+    const float* src = base + (std::ptrdiff_t(gy) * ld + gx);
     unsigned dst = static_cast<unsigned>(__cvta_generic_to_shared(tile + r0 * pitch + 4 * c4));
     for (int r = r0; r < rows; r += dr, gy += dr, src += src_step, dst += dst_step) {
       const bool valid = col_in && unsigned(gy) < unsigned(ny);
@@ -115,25 +104,35 @@ __device__ __forceinline__ void copy_tile16_async(float* tile, int pitch, int ro
 }
 
 // Tile copy by the tensor memory accelerator (sm_90): one thread starts the copy of the whole
-// tile (one box of the tensor map: in_pitch x rows floats, rows of the box land in shared memory
-// one after the other, so the box width is the tile's pitch; boxes reaching outside the grid,
-// negative coordinates included, are filled with zeros), and every thread waits on an mbarrier
-// that counts the bytes landed. One instruction instead of one per 16 bytes.
+// tile of `rows` rows in boxes (rows of a box land in shared memory one after the other, so the
+// box width is the tile's pitch; boxes reaching outside the grid, negative coordinates and the
+// padding columns included, are filled with zeros), and every thread waits on an mbarrier that
+// counts the bytes landed. One instruction per box instead of one per 16 bytes. A box has at
+// most kMaxBoxRows rows: a taller tile is copied in boxes of kMaxBoxRows rows (`full`, each
+// landing at a 128-byte aligned row, as the accelerator wants) and one of the rows left (`tail`).
+struct TileMaps {
+  CUtensorMap full;  // boxes of min(rows, kMaxBoxRows) rows
+  CUtensorMap tail;  // a box of the rows after the last full box (unused when there are none)
+};
 __device__ __forceinline__ unsigned smem_addr(const void* p) {
   return static_cast<unsigned>(__cvta_generic_to_shared(p));
 }
-__device__ __forceinline__ void tma_tile_start(float* dst, const CUtensorMap* map, int x, int y, unsigned long long* bar,
-                                               unsigned bytes) {
+__device__ __forceinline__ void tma_tile_start(float* dst, const TileMaps& maps, int x, int y, int rows, int pitch,
+                                               unsigned long long* bar) {
   const unsigned b = smem_addr(bar);
+  const unsigned bytes = unsigned(rows * pitch) * 4u;
   asm volatile("mbarrier.init.shared::cta.b64 [%0], 1;\n" ::"r"(b) : "memory");
   asm volatile("fence.mbarrier_init.release.cluster;\n" ::: "memory");
   asm volatile("fence.proxy.async.shared::cta;\n" ::: "memory");
   asm volatile("mbarrier.arrive.expect_tx.shared::cta.b64 _, [%0], %1;\n" ::"r"(b), "r"(bytes) : "memory");
-  asm volatile(
-      "cp.async.bulk.tensor.2d.shared::cluster.global.tile.mbarrier::complete_tx::bytes [%0], [%1, {%2, %3}], [%4];\n" ::"r"(
-          smem_addr(dst)),
-      "l"(reinterpret_cast<unsigned long long>(map)), "r"(x), "r"(y), "r"(b)
-      : "memory");
+  for (int r = 0; r < rows; r += kMaxBoxRows) {
+    const CUtensorMap* map = r + kMaxBoxRows <= rows || r == 0 ? &maps.full : &maps.tail;
+    asm volatile(
+        "cp.async.bulk.tensor.2d.shared::cluster.global.tile.mbarrier::complete_tx::bytes [%0], [%1, {%2, %3}], "
+        "[%4];\n" ::"r"(smem_addr(dst + r * pitch)),
+        "l"(reinterpret_cast<unsigned long long>(map)), "r"(x), "r"(y + r), "r"(b)
+        : "memory");
+  }
 }
 // Waits for phase 0 of the mbarrier (the tile); call after a __syncthreads() that follows
 // tma_tile_start, so that the barrier is initialized.
@@ -160,11 +159,11 @@ __device__ __forceinline__ void tma_tile_done(unsigned long long* bar) {
 template <int R>
 __device__ __forceinline__ void load_likelihood(const KernelArgs& a, int gx, int gy0, float (&lv)[R]) {
   const bool col_in = unsigned(gx) < unsigned(a.nx);
-  const float* src = a.l + (std::ptrdiff_t(gy0) * a.nx + gx);
+  const float* src = a.l + (std::ptrdiff_t(gy0) * a.ld + gx);
 #pragma unroll
   for (int j = 0; j < R; ++j) {
     lv[j] = (col_in && gy0 + j < a.ny) ? __ldg(src) : 0.f;
-    src += a.nx;
+    src += a.ld;
   }
 }
 
@@ -317,13 +316,13 @@ __device__ __forceinline__ void y_correct(const KernelArgs& a, const float* u, c
   const float s = static_cast<float>(red[32]);
   const int gx = x0 + tx, gy0 = y0 + ty * R;
   const bool col_in = unsigned(gx) < unsigned(a.nx);
-  float* dst = a.q_next + (std::ptrdiff_t(gy0) * a.nx + gx);
+  float* dst = a.q_next + (std::ptrdiff_t(gy0) * a.ld + gx);
   float part = 0.f;
 #pragma unroll
   for (int j = 0; j < R; ++j) {
     const float qv = lv[j] * (s * acc[j]);
     if (col_in && gy0 + j < a.ny) *dst = qv;
-    dst += a.nx;
+    dst += a.ld;
     part += qv;
   }
   double v = part;
@@ -348,7 +347,7 @@ __device__ __forceinline__ void y_correct(const KernelArgs& a, const float* u, c
 // At most 80 registers: 3 blocks of 256 threads per multiprocessor (the layouts of 512 threads,
 // R <= 8, take 64 or fewer: 2 blocks).
 template <int R>
-__global__ void __maxnreg__(80) rbe_resident_fused(KernelArgs a, const __grid_constant__ CUtensorMap map) {
+__global__ void __maxnreg__(resident::kFusedRegs) rbe_resident_fused(KernelArgs a, const __grid_constant__ TileMaps maps) {
   extern __shared__ __align__(128) double smem[];
   float* in = reinterpret_cast<float*>(smem);
   float* u = in + a.in_rows * a.in_pitch;
@@ -361,12 +360,9 @@ __global__ void __maxnreg__(80) rbe_resident_fused(KernelArgs a, const __grid_co
   const int x0 = blockIdx.x * bx - a.x_shift, y0 = blockIdx.y * by * R;
   const int gx0 = x0 - a.hx, gy0 = y0 - a.hy;  // gx0 is a multiple of 4
   if (a.tma) {
-    if (tid == 0) tma_tile_start(in, &map, gx0, gy0, bar, unsigned(a.in_rows * a.in_pitch) * 4u);
-  } else if (a.vec) {
-    copy_tile16_async(in, a.in_pitch, a.in_rows, a.in_cols / 4, a.q_prev, a.nx, a.ny, gx0, gy0, tid, T);
+    if (tid == 0) tma_tile_start(in, maps, gx0, gy0, a.in_rows, a.in_pitch, bar);
   } else {
-    for (int c = tx; c < a.in_cols; c += bx)
-      copy_column_async(in, a.in_pitch, c, ty, a.in_rows, by, a.q_prev, a.nx, a.ny, gx0 + c, gy0);
+    copy_tile16_async(in, a.in_pitch, a.in_rows, a.in_cols / 4, a.q_prev, a.nx, a.ld, a.ny, gx0, gy0, tid, T);
   }
   for (int i = tid; i < a.kx_len; i += T) copy_async(kx + i, a.kx + i, true);
   for (int i = tid; i < a.ky_len; i += T) copy_async(ky + i, a.ky + i, true);
@@ -386,7 +382,7 @@ __global__ void __maxnreg__(80) rbe_resident_fused(KernelArgs a, const __grid_co
 
 // Split x-pass: tile of 128 x (T / 16) outputs, one 8-wide segment per thread; writes u. Its
 // tiles start x_shift cells left of multiples of 128.
-__global__ void rbe_resident_xpass(KernelArgs a, const __grid_constant__ CUtensorMap map) {
+__global__ void __maxnreg__(resident::kXpassRegs) rbe_resident_xpass(KernelArgs a, const __grid_constant__ TileMaps maps) {
   extern __shared__ __align__(128) double smem[];
   float* in = reinterpret_cast<float*>(smem);
   float* kx = in + a.in_rows * a.in_pitch;
@@ -397,22 +393,9 @@ __global__ void rbe_resident_xpass(KernelArgs a, const __grid_constant__ CUtenso
   for (int i = tid; i < a.kx_len; i += T) copy_async(kx + i, a.kx + i, true);
   const int gx0 = x0 - a.hx;  // a multiple of 4
   if (a.tma) {
-    if (tid == 0) tma_tile_start(in, &map, gx0, y0, bar, unsigned(rows * a.in_pitch) * 4u);
-  } else if (a.vec) {
-    copy_tile16_async(in, a.in_pitch, rows, a.in_cols / 4, a.q_prev, a.nx, a.ny, gx0, y0, tid, T);
+    if (tid == 0) tma_tile_start(in, maps, gx0, y0, rows, a.in_pitch, bar);
   } else {
-    // Warps stride over rows, lanes over columns (coalesced).
-    const int lane = tid & 31, warp = tid >> 5, warps = T >> 5;
-    for (int r = warp; r < rows; r += warps) {
-      const int gy = y0 + r;
-      const bool row_in = gy < a.ny;
-      const float* src = a.q_prev + (row_in ? std::size_t(gy) * std::size_t(a.nx) : 0);
-      for (int c = lane; c < a.in_cols; c += 32) {
-        const int gx = gx0 + c;
-        const bool valid = row_in && gx >= 0 && gx < a.nx;
-        copy_async(in + r * a.in_pitch + c, valid ? src + gx : a.q_prev, valid);
-      }
-    }
+    copy_tile16_async(in, a.in_pitch, rows, a.in_cols / 4, a.q_prev, a.nx, a.ld, a.ny, gx0, y0, tid, T);
   }
   copy_async_wait();
   __syncthreads();
@@ -426,7 +409,7 @@ __global__ void rbe_resident_xpass(KernelArgs a, const __grid_constant__ CUtenso
   }
   const int gy = y0 + r;
   if (gy >= a.ny) return;
-  float* dst = a.u + (std::ptrdiff_t(gy) * a.nx + x0 + seg * kRx);
+  float* dst = a.u + (std::ptrdiff_t(gy) * a.ld + x0 + seg * kRx);
 #pragma unroll
   for (int j = 0; j < kRx; ++j) {
     const int gx = x0 + seg * kRx + j;
@@ -436,7 +419,7 @@ __global__ void rbe_resident_xpass(KernelArgs a, const __grid_constant__ CUtenso
 
 // Split y-pass and correction: loads the u tile (with the y halo) from device memory.
 template <int R>
-__global__ void rbe_resident_ypass(KernelArgs a, const __grid_constant__ CUtensorMap map) {
+__global__ void __maxnreg__(resident::kYpassRegs) rbe_resident_ypass(KernelArgs a, const __grid_constant__ TileMaps maps) {
   extern __shared__ __align__(128) double smem[];
   float* u = reinterpret_cast<float*>(smem);
   float* ky = u + a.u_rows * a.u_pitch;
@@ -446,11 +429,9 @@ __global__ void rbe_resident_ypass(KernelArgs a, const __grid_constant__ CUtenso
   const int tid = ty * bx + tx, T = bx * by;
   const int x0 = blockIdx.x * bx, y0 = blockIdx.y * by * R;
   if (a.tma) {
-    if (tid == 0) tma_tile_start(u, &map, x0, y0 - a.hy, bar, unsigned(a.u_rows * a.u_pitch) * 4u);
-  } else if (a.vec) {
-    copy_tile16_async(u, a.u_pitch, a.u_rows, bx / 4, a.u, a.nx, a.ny, x0, y0 - a.hy, tid, T);
+    if (tid == 0) tma_tile_start(u, maps, x0, y0 - a.hy, a.u_rows, a.u_pitch, bar);
   } else {
-    copy_column_async(u, a.u_pitch, tx, ty, a.u_rows, by, a.u, a.nx, a.ny, x0 + tx, y0 - a.hy);
+    copy_tile16_async(u, a.u_pitch, a.u_rows, bx / 4, a.u, a.nx, a.ld, a.ny, x0, y0 - a.hy, tid, T);
   }
   for (int i = tid; i < a.ky_len; i += T) copy_async(ky + i, a.ky + i, true);
   float lv[R];
@@ -507,30 +488,39 @@ EncodeTiled tensor_map_encoder() {
   return fn;
 }
 
-// Whether a tile of `rows` x `pitch` floats is copied as one tensor-map box: n_x a multiple of
-// 4 (16-byte row strides), a box of at most 256 x 256 elements, the tensor memory accelerator
-// there (sm_90+), and DTFLOP_RBE_NO_TMA unset (a diagnostic switch: the cp.async copies instead).
-bool tile_map_fits(const KernelArgs& a, int pitch, int rows) {
+// Whether tiles whose rows are `pitch` floats are copied by the tensor memory accelerator: a box
+// row of at most 256 elements, the accelerator there (sm_90+), and DTFLOP_RBE_NO_TMA unset (a
+// diagnostic switch: the 16-byte cp.async copies instead). The grids' row pitch (ld, a multiple
+// of 4 floats) gives the 16-byte row strides a tensor map needs.
+bool tile_map_fits(int pitch) {
   static const bool disabled = std::getenv("DTFLOP_RBE_NO_TMA") != nullptr;
   int dev = 0, major = 0;
   DTFLOP_CUDA(cudaGetDevice(&dev));
   DTFLOP_CUDA(cudaDeviceGetAttribute(&major, cudaDevAttrComputeCapabilityMajor, dev));
-  return !disabled && major >= 9 && a.vec && pitch % 4 == 0 && pitch <= 256 && rows >= 1 && rows <= 256 &&
+  return !disabled && major >= 9 && pitch % 4 == 0 && pitch <= kMaxBoxWidth &&
          tensor_map_encoder() != nullptr;
 }
 
-// A 2D tensor map of an n_x x n_y float grid with boxes of box_w x box_h; false if the driver
-// refuses it (the caller then copies with cp.async).
-bool encode_tile_map(CUtensorMap& m, const float* base, int nx, int ny, int box_w, int box_h) {
+// A 2D tensor map of an n_x x n_y float grid whose rows are ld floats apart, with boxes of
+// box_w x box_h (what lies outside n_x x n_y, the padding columns included, reads as zero);
+// false if the driver refuses it (the caller then copies with cp.async).
+bool encode_tile_map(CUtensorMap& m, const float* base, int nx, int ld, int ny, int box_w, int box_h) {
   const EncodeTiled fn = tensor_map_encoder();
   if (!fn) return false;
   const cuuint64_t dims[2] = {cuuint64_t(nx), cuuint64_t(ny)};
-  const cuuint64_t strides[1] = {cuuint64_t(nx) * sizeof(float)};
+  const cuuint64_t strides[1] = {cuuint64_t(ld) * sizeof(float)};
   const cuuint32_t box[2] = {cuuint32_t(box_w), cuuint32_t(box_h)};
   const cuuint32_t element_strides[2] = {1, 1};
   return fn(&m, CU_TENSOR_MAP_DATA_TYPE_FLOAT32, 2, const_cast<float*>(base), dims, strides, box, element_strides,
             CU_TENSOR_MAP_INTERLEAVE_NONE, CU_TENSOR_MAP_SWIZZLE_NONE, CU_TENSOR_MAP_L2_PROMOTION_L2_128B,
             CU_TENSOR_MAP_FLOAT_OOB_FILL_NONE) == CUDA_SUCCESS;
+}
+
+// The maps of tiles of `rows` rows x `pitch` floats (TileMaps).
+bool encode_tile_maps(TileMaps& m, const float* base, int nx, int ld, int ny, int pitch, int rows) {
+  const int full = rows < kMaxBoxRows ? rows : kMaxBoxRows;
+  const int tail = rows - (rows - 1) / kMaxBoxRows * kMaxBoxRows;
+  return encode_tile_map(m.full, base, nx, ld, ny, pitch, full) && encode_tile_map(m.tail, base, nx, ld, ny, pitch, tail);
 }
 
 class CudaResident final : public Backend {
@@ -576,11 +566,20 @@ class CudaResident final : public Backend {
     prepare_kernels();
 
     graphs_.clear();
-    const auto n = static_cast<std::size_t>(shape_.cells());
-    q_[0] = DeviceArray<float>(n);
-    q_[1] = DeviceArray<float>(n);
-    l_ = DeviceArray<float>(n);
-    u_ = plan_.passes == Layout::Passes::split ? DeviceArray<float>(n) : DeviceArray<float>();
+    // Pitched grids, every value zero to start with: the padding columns stay zero (no kernel
+    // writes them, no copy touches them).
+    ld_ = static_cast<std::size_t>(resident::row_pitch(shape_.nx));
+    const std::size_t nx = static_cast<std::size_t>(shape_.nx), ny = static_cast<std::size_t>(shape_.ny);
+    const std::size_t n = ld_ * ny;
+    auto zeroed = [n](bool wanted) {
+      DeviceArray<float> a(wanted ? n : 0);
+      if (wanted) DTFLOP_CUDA(cudaMemset(a.get(), 0, n * sizeof(float)));
+      return a;
+    };
+    q_[0] = zeroed(true);
+    q_[1] = zeroed(true);
+    l_ = zeroed(true);
+    u_ = zeroed(plan_.passes == Layout::Passes::split);
     sums_ = DeviceArray<double>(kSegment + 1);
     last_ = DeviceArray<double>(1);
     host_sums_ = HostArray<double>(kSegment, true);
@@ -601,10 +600,10 @@ class CudaResident final : public Backend {
     ky_.upload(ky);
 
     std::vector<float> p(prior.begin(), prior.end());
-    q_[0].upload(p);
-    if (options_.poison) {  // all bits set: a NaN in every float the steps must overwrite
-      DTFLOP_CUDA(cudaMemset(q_[1].get(), 0xff, n * sizeof(float)));
-      if (u_.get()) DTFLOP_CUDA(cudaMemset(u_.get(), 0xff, n * sizeof(float)));
+    q_[0].upload_rows(p.data(), nx, ny, ld_);
+    if (options_.poison) {  // all bits set: a NaN in every float of the grid the steps must overwrite
+      DTFLOP_CUDA(cudaMemset2D(q_[1].get(), ld_ * sizeof(float), 0xff, nx * sizeof(float), ny));
+      if (u_.get()) DTFLOP_CUDA(cudaMemset2D(u_.get(), ld_ * sizeof(float), 0xff, nx * sizeof(float), ny));
     }
     const double last = 1.0 / grid_.cell_area();  // scale 1: the prior is normalized
     last_.upload(&last, 1);
@@ -616,13 +615,13 @@ class CudaResident final : public Backend {
     args_.kx = kx_.get();
     args_.ky = ky_.get();
     args_.nx = int(shape_.nx);
+    args_.ld = int(ld_);
     args_.ny = int(shape_.ny);
     args_.Ix = int(shape_.Ix);
     args_.Iy = int(shape_.Iy);
     args_.hx = int(shape_.Ix - 1 - kernel_centre(shape_.Ix));
     args_.hy = int(shape_.Iy - 1 - kernel_centre(shape_.Iy));
     args_.cell_area = grid_.cell_area();
-    args_.vec = shape_.nx % 4 == 0 ? 1 : 0;
     const auto g = plan_.passes == Layout::Passes::fused ? fused : resident::ypass_geometry(shape_, options_.layout);
     args_.x_shift = g.x_shift;
     args_.in_rows = g.in_rows;
@@ -643,21 +642,20 @@ class CudaResident final : public Backend {
       xargs_.u_pitch = 0;
       xargs_.ky_len = 0;
     }
-    // Tile copies by the tensor memory accelerator where a tile is one box (else cp.async).
+    // Tile copies by the tensor memory accelerator where a tile's rows fit a box (else cp.async).
     std::memset(static_cast<void*>(maps_), 0, sizeof(maps_));
     std::memset(static_cast<void*>(xmaps_), 0, sizeof(xmaps_));
     std::memset(static_cast<void*>(&umap_), 0, sizeof(umap_));
-    auto encode_q = [&](CUtensorMap (&maps)[2], int pitch, int rows) {
-      return encode_tile_map(maps[0], q_[0].get(), args_.nx, args_.ny, pitch, rows) &&
-             encode_tile_map(maps[1], q_[1].get(), args_.nx, args_.ny, pitch, rows);
+    auto encode_q = [&](TileMaps (&maps)[2], int pitch, int rows) {
+      return encode_tile_maps(maps[0], q_[0].get(), args_.nx, args_.ld, args_.ny, pitch, rows) &&
+             encode_tile_maps(maps[1], q_[1].get(), args_.nx, args_.ld, args_.ny, pitch, rows);
     };
     if (plan_.passes == Layout::Passes::fused) {
-      args_.tma = tile_map_fits(args_, args_.in_pitch, args_.in_rows) && encode_q(maps_, args_.in_pitch, args_.in_rows);
+      args_.tma = tile_map_fits(args_.in_pitch) && encode_q(maps_, args_.in_pitch, args_.in_rows);
     } else {
-      xargs_.tma =
-          tile_map_fits(xargs_, xargs_.in_pitch, xargs_.in_rows) && encode_q(xmaps_, xargs_.in_pitch, xargs_.in_rows);
-      args_.tma = tile_map_fits(args_, args_.u_pitch, args_.u_rows) &&
-                  encode_tile_map(umap_, u_.get(), args_.nx, args_.ny, args_.u_pitch, args_.u_rows);
+      xargs_.tma = tile_map_fits(xargs_.in_pitch) && encode_q(xmaps_, xargs_.in_pitch, xargs_.in_rows);
+      args_.tma = tile_map_fits(args_.u_pitch) &&
+                  encode_tile_maps(umap_, u_.get(), args_.nx, args_.ld, args_.ny, args_.u_pitch, args_.u_rows);
     }
     DTFLOP_CUDA(cudaDeviceSynchronize());
     cur_ = 0;
@@ -761,7 +759,7 @@ class CudaResident final : public Backend {
     const auto n = static_cast<std::size_t>(shape_.cells());
     std::vector<float> q(n);
     double last = 0;
-    DTFLOP_CUDA(cudaMemcpy(q.data(), q_[cur_].get(), n * sizeof(float), cudaMemcpyDeviceToHost));
+    q_[cur_].download_rows(q.data(), static_cast<std::size_t>(shape_.nx), static_cast<std::size_t>(shape_.ny), ld_);
     DTFLOP_CUDA(cudaMemcpy(&last, last_.get(), sizeof(double), cudaMemcpyDeviceToHost));
     const double s = 1.0 / (grid_.cell_area() * last);
     std::vector<double> p(n);
@@ -798,7 +796,7 @@ class CudaResident final : public Backend {
 
   void upload_likelihood(const std::vector<double>& l) {
     std::vector<float> f(l.begin(), l.end());
-    l_.upload(f);
+    l_.upload_rows(f.data(), static_cast<std::size_t>(shape_.nx), static_cast<std::size_t>(shape_.ny), ld_);
   }
 
   template <int R>
@@ -873,13 +871,14 @@ class CudaResident final : public Backend {
   KernelArgs args_{}, xargs_{};
   // Tensor maps of the tiles: maps_[i] (fused) and xmaps_[i] (split x-pass) read q_[i]; umap_
   // (split y-pass) reads u_. Zeros when the kernel copies with cp.async.
-  CUtensorMap maps_[2]{}, xmaps_[2]{}, umap_{};
+  TileMaps maps_[2]{}, xmaps_[2]{}, umap_{};
   DeviceArray<float> q_[2], l_, u_, kx_, ky_;
   DeviceArray<double> sums_, last_;
   HostArray<double> host_sums_;
   std::optional<Stream> stream_;
   std::optional<Events> events_;
   std::map<std::pair<std::int64_t, int>, GraphExec> graphs_;
+  std::size_t ld_ = 0;  // row pitch of q_, l_ and u_ (floats)
   int cur_ = 0;
   std::int64_t steps_ = 0;
   bool ready_ = false;

@@ -1,11 +1,13 @@
 // Tile geometry of cuda-resident's kernels, shared by the host code that declares its counts
 // (backend_counts.cpp) and the kernels (cuda_resident.cu), so both always agree.
 //
-// Every x-pass tile starts its input at a column that is a multiple of 4: the tiles of a row
-// start `x_shift` cells left of a multiple of the tile width (x_shift = (-h_x) mod 4, h_x =
-// I_x - 1 - c the halo left of a cell), so that the input tile's first column x0 - h_x is a
-// multiple of 4. Then, when n_x is a multiple of 4, the tile is copied in 16-byte pieces, and
-// the x-pass reads its register window in aligned float4s from shared memory. Pitches are
+// The grids live in device memory with a row pitch of n_x rounded up to a multiple of 4 floats
+// (row_pitch), the padding columns zero. Every x-pass tile starts its input at a column that is
+// a multiple of 4: the tiles of a row start `x_shift` cells left of a multiple of the tile width
+// (x_shift = (-h_x) mod 4, h_x = I_x - 1 - c the halo left of a cell), so that the input tile's
+// first column x0 - h_x is a multiple of 4. Then every tile row is copied in 16-byte pieces (by
+// the tensor memory accelerator, or cp.async), whatever n_x is, and the x-pass reads its
+// register window in aligned float4s from shared memory. Pitches are
 // multiples of 4 floats with pitch / 4 odd: 8 lanes on 8 consecutive rows reading (or writing)
 // one float4 each hit 8 distinct 16-byte bank groups (one shared-memory wavefront).
 //
@@ -23,6 +25,7 @@
 // (128 + 8 G_x) columns, pitch + 4.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 
@@ -31,6 +34,21 @@
 namespace dtflop::rbe::resident {
 
 inline constexpr int kRx = 8;          // x-pass: outputs per thread (register window)
+
+// What one multiprocessor holds on sm_90 (H100, H200), for the blocks a kernel runs at once:
+// 64 K registers, 2048 threads, 32 blocks, 228 KiB of shared memory of which each block's
+// runtime takes 1 KiB besides its own.
+inline constexpr int kSmRegisters = 65536;
+inline constexpr int kSmThreads = 2048;
+inline constexpr int kSmBlocks = 32;
+inline constexpr std::size_t kSmShared = 233472;
+inline constexpr std::size_t kSharedReservedPerBlock = 1024;
+// Registers per thread of the kernels, at most (__maxnreg__ in cuda_resident.cu): the fused
+// kernel, the split x-pass and the split y-pass. The counts assume these (a y-pass with fewer
+// cells per thread takes fewer and may run more blocks at once than counted).
+inline constexpr int kFusedRegs = 80;
+inline constexpr int kXpassRegs = 48;
+inline constexpr int kYpassRegs = 72;
 inline constexpr int kXpassWidth = 128;  // split x-pass tile width
 inline constexpr int kScratchDoubles = 34;
 
@@ -40,6 +58,9 @@ inline int x_shift(const Shape& s) {
   const auto hx = static_cast<int>(s.Ix - 1 - (s.Ix - 1) / 2);
   return (4 - hx % 4) % 4;
 }
+
+// The row pitch (floats) of the grids in device memory: n_x rounded up to a multiple of 4.
+inline std::int64_t row_pitch(std::int64_t nx) { return (nx + 3) / 4 * 4; }
 
 // A pitch (floats) for rows of `cols` floats: a multiple of 4 with pitch / 4 odd.
 inline int vec_pitch(int cols) {
@@ -57,6 +78,18 @@ struct TileGeometry {
 };
 
 inline std::int64_t ceil_div(std::int64_t a, std::int64_t b) { return (a + b - 1) / b; }
+
+// Blocks of `threads` threads, `regs` registers each and `smem` bytes of dynamic shared memory
+// one multiprocessor runs at once (registers are given out per warp in units of 256).
+inline int blocks_per_sm(int threads, int regs, std::size_t smem) {
+  const std::int64_t warps = ceil_div(threads, 32);
+  const std::int64_t per_warp = ceil_div(std::int64_t{regs} * 32, 256) * 256;
+  std::int64_t n = kSmBlocks;
+  n = std::min<std::int64_t>(n, kSmRegisters / (warps * per_warp));
+  n = std::min<std::int64_t>(n, kSmThreads / threads);
+  n = std::min<std::int64_t>(n, static_cast<std::int64_t>(kSmShared / (smem + kSharedReservedPerBlock)));
+  return static_cast<int>(std::max<std::int64_t>(n, 1));
+}
 
 inline std::size_t smem_of(const TileGeometry& g) {
   const std::int64_t floats = std::int64_t{g.in_rows} * g.in_pitch + std::int64_t{g.u_rows} * g.u_pitch +

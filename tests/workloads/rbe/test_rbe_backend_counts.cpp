@@ -6,6 +6,7 @@
 #include "tests/workloads/rbe/support.hpp"
 #include "workloads/rbe/backend_counts.hpp"
 #include "workloads/rbe/reference.hpp"
+#include "workloads/rbe/resident_geometry.hpp"
 
 namespace dtflop::rbe {
 namespace {
@@ -139,6 +140,12 @@ TEST(RbeBackendCounts, CudaResidentFusedByHand) {
   // Shared memory: 34 doubles; kernels 8*5 + 8*5 floats; input tile 96 rows x pitch 76 (72
   // columns, 4 more so that pitch / 4 is odd); u tile (64 + 40) rows x pitch 36 (32 + 4).
   EXPECT_EQ(p.smem_bytes, 34 * 8 + 4 * (40 + 40 + 96 * 76 + 104 * 36));
+  // Tile fills: 3 blocks at once per multiprocessor (80 registers x 256 threads = 20480 of 64 K;
+  // shared memory would allow 5), so the busiest one's 4 blocks fill in ceil(4 / 3) = 2 rounds,
+  // each block 96 x 72 tile values and 40 + 40 coefficients.
+  EXPECT_EQ(resident::blocks_per_sm(256, resident::kFusedRegs, p.smem_bytes), 3);
+  EXPECT_EQ(c.N_GS, 2 * 132 * (96 * 72 + 40 + 40));
+  EXPECT_EQ(cuda_resident_counts(s, l, 128).N_GS, 2 * 128 * (96 * 72 + 40 + 40));
   // A run of 2500 steps: 3 segments of up to 1000, each bringing its sums back in one copy.
   const auto r = cuda_resident_run_counts(s, l, 132, 2500, 1000);
   EXPECT_EQ(r.N_GC, 2 * 2500);
@@ -147,6 +154,20 @@ TEST(RbeBackendCounts, CudaResidentFusedByHand) {
   EXPECT_EQ(r.N_G, 2500 * c.N_G);
   EXPECT_EQ(r.waves, 2500 * 4);
   EXPECT_EQ(r.N_GG, 2500 * c.N_GG + 2 * 2500 + 3 * 8);
+  EXPECT_EQ(r.N_GS, 2500 * c.N_GS);
+}
+
+TEST(RbeBackendCounts, CudaResidentFusesOnlyWhenTwoBlocksShareAMultiprocessor) {
+  // Layout 32x8x16 (tiles 32 x 128). Kernel 69: input tile 196 rows x pitch 108, u tile 208 x 36,
+  // coefficients 72 + 80 floats: 115504 bytes, two blocks take 2 (115504 + 1024) <= 233472.
+  // Kernel 70: one more input row, 115936 bytes; two would need 233920: split.
+  const Layout l = parse_layout("32x8x16");
+  EXPECT_EQ(resident_plan({1000, 1000, 69, 69}, l).smem_bytes, 115504u);
+  EXPECT_EQ(resident_plan({1000, 1000, 69, 69}, l).passes, Layout::Passes::fused);
+  EXPECT_EQ(resident::fused_geometry({1000, 1000, 70, 70}, l).smem_bytes, 115936u);
+  EXPECT_EQ(resident_plan({1000, 1000, 70, 70}, l).passes, Layout::Passes::split);
+  EXPECT_EQ(resident_plan({1000, 1000, 70, 70}, parse_layout("32x8x16:fused")).passes, Layout::Passes::fused);
+  EXPECT_EQ(resident::blocks_per_sm(256, resident::kFusedRegs, 115936), 1);
 }
 
 TEST(RbeBackendCounts, CudaResidentShiftedTilesByHand) {
@@ -192,6 +213,15 @@ TEST(RbeBackendCounts, CudaResidentSplitByHand) {
   EXPECT_EQ(cuda_resident_counts(s, l, 8).N_G, XB * 2 * 201 * 128 * 16 + B * (2 * 201 * 32 * 64 + 3 * 32 * 64 + 2));
   EXPECT_EQ(cuda_resident_counts(s, l, 8).waves, XB / 8 + B / 8);
   EXPECT_EQ(c.N_GG, 5 * 1000000 + 402 + 2 + 2 * B);
+  // Tile fills. x-pass: 16 rows x (128 + 208) values and 208 coefficients per block, pitch 340,
+  // 22864 bytes; 48 registers: 5 blocks at once, so its 4 blocks per multiprocessor fill in one
+  // round. y-pass: u tile 64 + 8 x 26 = 272 rows x 32 values (pitch 36) and 208 coefficients,
+  // 40272 bytes; 72 registers: 3 at once, 2 rounds.
+  EXPECT_EQ(p.xsmem_bytes, 34 * 8 + 4 * (16 * 340 + 208));
+  EXPECT_EQ(p.smem_bytes, 34 * 8 + 4 * (272 * 36 + 208));
+  EXPECT_EQ(resident::blocks_per_sm(256, resident::kXpassRegs, p.xsmem_bytes), 5);
+  EXPECT_EQ(resident::blocks_per_sm(256, resident::kYpassRegs, p.smem_bytes), 3);
+  EXPECT_EQ(c.N_GS, 1 * 132 * (16 * 336 + 208) + 2 * 132 * (272 * 32 + 208));
   EXPECT_EQ(resident_plan(s, parse_layout("32x8x8:split")).passes, Layout::Passes::split);
   EXPECT_THROW(resident_plan(s, parse_layout("32x8x8:fused")), InputError);  // does not fit
 }
