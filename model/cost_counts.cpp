@@ -22,6 +22,7 @@ CostCounts& CostCounts::operator+=(const CostCounts& o) {
   N_GS += o.N_GS;
   cpu_syncs += o.cpu_syncs;
   cpu_threads = std::max(cpu_threads, o.cpu_threads);
+  cpu_footprint = std::max(cpu_footprint, o.cpu_footprint);  // the larger working set
   return *this;
 }
 

@@ -38,6 +38,9 @@ struct CostCounts {
                                   // (a parallel region's fork and join, a barrier)
   HostMemory host_memory = HostMemory::pageable;
   int cpu_threads = 1;          // threads doing the CPU work
+  std::int64_t cpu_footprint = 0;  // bytes of host memory the CPU work touches in one step (its
+                                   // working set; 0 = not counted): how much of N_CC the
+                                   // last-level cache serves (memory and extended variants)
 
   CostCounts& operator+=(const CostCounts& o);
   // Counts of `steps` repetitions.

@@ -45,11 +45,11 @@ int get_count(const json& obj, const std::string& key, const std::string& path) 
   return it->get<int>();
 }
 
-std::int64_t get_i64(const json& obj, const std::string& key, std::int64_t lo) {
+std::int64_t get_i64(const json& obj, const std::string& key, std::int64_t lo, const std::string& path = "counts.") {
   auto it = obj.find(key);
   if (it == obj.end()) return 0;
   if (!it->is_number_integer() || it->get<long long>() < lo)
-    bad("counts." + key, *it, fmt::format("an integer >= {}", lo));
+    bad(path + key, *it, fmt::format("an integer >= {}", lo));
   return it->get<std::int64_t>();
 }
 
@@ -67,6 +67,7 @@ json to_json(const MachineProfile& p) {
              {"cpu_model", p.identity.cpu_model},
              {"cpu_cores", p.identity.cpu_cores},
              {"cpu_threads", p.identity.cpu_threads},
+             {"cpu_llc_bytes", p.identity.cpu_llc_bytes},
              {"gpu_name", p.identity.gpu_name},
              {"gpu_sms", p.identity.gpu_sms},
              {"gpu_driver", p.identity.gpu_driver},
@@ -104,6 +105,7 @@ MachineProfile profile_from_json(const json& j) {
   p.identity.cpu_model = get_string(id, "cpu_model", "identity.", false);
   p.identity.cpu_cores = get_count(id, "cpu_cores", "identity.");
   p.identity.cpu_threads = get_count(id, "cpu_threads", "identity.");
+  p.identity.cpu_llc_bytes = get_i64(id, "cpu_llc_bytes", 0, "identity.");  // 0 when absent (older profiles)
   p.identity.gpu_name = get_string(id, "gpu_name", "identity.", false);
   p.identity.gpu_sms = get_count(id, "gpu_sms", "identity.");  // 0 when absent (older profiles)
   p.identity.gpu_driver = get_string(id, "gpu_driver", "identity.", false);
@@ -214,7 +216,8 @@ json to_json(const CostCounts& c) {
           {"cpu_syncs", c.cpu_syncs},
           {"N_GS", c.N_GS},
           {"host_memory", to_string(c.host_memory)},
-          {"cpu_threads", c.cpu_threads}};
+          {"cpu_threads", c.cpu_threads},
+          {"cpu_footprint", c.cpu_footprint}};
 }
 
 CostCounts counts_from_json(const json& j) {
@@ -242,6 +245,7 @@ CostCounts counts_from_json(const json& j) {
   c.host_waits = get_i64(j, "host_waits", 0);
   c.cpu_syncs = get_i64(j, "cpu_syncs", 0);
   c.N_GS = get_i64(j, "N_GS", 0);
+  c.cpu_footprint = get_i64(j, "cpu_footprint", 0);
   const std::string mem = get_string(j, "host_memory", "counts.", false);
   if (mem == "pinned") c.host_memory = HostMemory::pinned;
   else if (mem.empty() || mem == "pageable") c.host_memory = HostMemory::pageable;

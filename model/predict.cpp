@@ -73,7 +73,19 @@ double host_bandwidth(const MachineProfile& m, int threads) {
   return scaled_rate(m, Param::B_host_1, Param::B_host, threads);
 }
 
-std::vector<Param> required_params(const CostCounts& c, Variant variant) {
+double llc_share_missed(const MachineProfile& m, const CostCounts& c) {
+  if (c.cpu_footprint <= 0 || m.identity.cpu_llc_bytes <= 0) return 1.0;
+  return std::min(1.0, static_cast<double>(c.cpu_footprint) / static_cast<double>(m.identity.cpu_llc_bytes));
+}
+
+double host_seconds_per_byte(const MachineProfile& m, const CostCounts& c) {
+  const double w = llc_share_missed(m, c);
+  double s = w / host_bandwidth(m, c.cpu_threads);
+  if (w < 1.0) s += (1.0 - w) / scaled_rate(m, Param::B_llc_1, Param::B_llc, c.cpu_threads);
+  return s;
+}
+
+std::vector<Param> required_params(const CostCounts& c, Variant variant, std::int64_t profile_llc) {
   std::vector<Param> out;
   auto add = [&out](Param p) {
     if (std::find(out.begin(), out.end(), p) == out.end()) out.push_back(p);
@@ -92,8 +104,11 @@ std::vector<Param> required_params(const CostCounts& c, Variant variant) {
   if (lat && c.host_waits > 0) add(Param::L_wait);
   if (lat && c.cpu_syncs > 0) add(Param::L_sync);
   if (lat && c.N_GS > 0) add(Param::B_GS);
-  if ((variant == Variant::memory || variant == Variant::extended) && c.N_CC > 0)
+  if ((variant == Variant::memory || variant == Variant::extended) && c.N_CC > 0) {
     for (auto p : cpu_params(Param::B_host_1, Param::B_host, c.cpu_threads)) add(p);
+    if (c.cpu_footprint > 0 && c.cpu_footprint < profile_llc)
+      for (auto p : cpu_params(Param::B_llc_1, Param::B_llc, c.cpu_threads)) add(p);
+  }
   return out;
 }
 
@@ -101,7 +116,7 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
   if (c.P <= 0) throw InputError(fmt::format("bytes per value P must be positive, got {}", c.P));
   // Report every missing parameter at once.
   std::string missing;
-  for (auto p : required_params(c, variant))
+  for (auto p : required_params(c, variant, m.identity.cpu_llc_bytes))
     if (!m.has(p)) missing += fmt::format("{}{} ({})", missing.empty() ? "" : ", ", info(p).name, info(p).what);
   if (!missing.empty())
     throw MissingParameter(fmt::format(
@@ -133,7 +148,7 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
   if (c.N_GS > 0) r.dt_GS = P * static_cast<double>(c.N_GS) / m.get(Param::B_GS).value;
   const double latencies = r.lat_CG + r.lat_GC + r.lat_launch + r.lat_wave + r.lat_wait + r.dt_GS;
   const double host_traffic =
-      variant != Variant::latency && c.N_CC > 0 ? P * static_cast<double>(c.N_CC) / host_bandwidth(m, c.cpu_threads) : 0;
+      variant != Variant::latency && c.N_CC > 0 ? P * static_cast<double>(c.N_CC) * host_seconds_per_byte(m, c) : 0;
   if (variant == Variant::latency || variant == Variant::memory) {
     // memory: the CPU work's memory traffic adds to its arithmetic, as device traffic does.
     r.dt_C += host_traffic + r.lat_sync;

@@ -47,8 +47,9 @@ struct Prediction {
 };
 
 // Which parameters a prediction of `counts` with `variant` needs (only those whose counts
-// are non-zero). Useful to report everything missing at once.
-std::vector<Param> required_params(const CostCounts& counts, Variant variant);
+// are non-zero) on a machine whose last-level cache holds `profile_llc` bytes (0: unknown).
+// Useful to report everything missing at once.
+std::vector<Param> required_params(const CostCounts& counts, Variant variant, std::int64_t profile_llc = 0);
 
 // Throws MissingParameter (naming the parameter and what to do) when the profile lacks one.
 Prediction predict(const MachineProfile& profile, const CostCounts& counts, Variant variant);
@@ -62,5 +63,13 @@ inline bool meets_deadline(const Prediction& p, double dt_p) { return p.total <=
 double cpu_rate(const MachineProfile& profile, Precision precision, int threads);
 // Host memory bandwidth for `threads` threads, same rule as cpu_rate.
 double host_bandwidth(const MachineProfile& profile, int threads);
+// The share of the CPU work's host memory traffic the last-level cache does not serve:
+// min(1, cpu_footprint / LLC); 1 when either is unknown (zero). A working set of a fraction f of
+// the cache finds about f of its lines evicted between uses by the other data and by other
+// tenants of the cache, and the rest there (docs/model.md).
+double llc_share_missed(const MachineProfile& profile, const CostCounts& counts);
+// Seconds per byte of the CPU work's host traffic: w / B_host + (1 - w) / B_llc, w =
+// llc_share_missed (B_host_1 / B_llc_1 for one thread, scaled as cpu_rate).
+double host_seconds_per_byte(const MachineProfile& profile, const CostCounts& counts);
 
 }  // namespace dtflop

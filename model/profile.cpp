@@ -48,6 +48,8 @@ const std::vector<ParamInfo>& all_params() {
       {Param::L_wave, "L_wave", "s", "fixed cost of one round of thread blocks on a GPU multiprocessor"},
       {Param::L_wait, "L_wait", "s", "host round trip to the GPU: submit work and wait for it to finish"},
       {Param::B_GS, "B_GS", "B/s", "kernels' tile fills, device memory -> shared memory, all multiprocessors"},
+      {Param::B_llc_1, "B_llc_1", "B/s", "host bandwidth with the working set in the last-level cache, one thread"},
+      {Param::B_llc, "B_llc", "B/s", "host bandwidth with the working set in the last-level cache, all threads"},
   };
   return table;
 }

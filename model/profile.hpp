@@ -1,6 +1,7 @@
 // MachineProfile: who the machine is and the DTFLOP parameters measured or fitted on it.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
@@ -41,6 +42,8 @@ enum class Param {
   L_wave,          // fixed cost of one round of thread blocks on a GPU SM   [s]
   L_wait,          // host submits device work and waits for it (round trip) [s]
   B_GS,            // device memory -> shared-memory tile fills, all SMs    [B/s]
+  B_llc_1,         // host bandwidth, working set in the last-level cache, 1 thread   [B/s]
+  B_llc,           // host bandwidth, working set in the last-level cache, all threads [B/s]
 };
 
 struct ParamInfo {
@@ -67,6 +70,7 @@ struct MachineIdentity {
   std::string cpu_model;
   int cpu_cores = 0;       // physical cores
   int cpu_threads = 0;     // hardware threads
+  std::int64_t cpu_llc_bytes = 0;       // last-level cache; 0 = unknown
   std::optional<double> cpu_clock_ghz;  // nominal clock when known
   std::string gpu_name;                 // empty when no GPU
   int gpu_sms = 0;                      // the GPU's multiprocessors; 0 = unknown or no GPU

@@ -130,6 +130,7 @@ MachineIdentity host_identity() {
   id.cpu_model = c.model;
   id.cpu_cores = c.cores;
   id.cpu_threads = c.threads;
+  id.cpu_llc_bytes = c.llc_bytes.value_or(0);
   id.cpu_clock_ghz = c.clock_ghz;
   id.measured_at = utc_now_iso8601();
   return id;

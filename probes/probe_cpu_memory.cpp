@@ -1,7 +1,9 @@
 // Host memory bandwidth: STREAM copy and triad over arrays several times the last-level
 // cache, one thread and all threads (each thread streams its own slice, first touched by
 // itself). Bytes counted are those read plus written (write-allocate traffic not counted,
-// as in STREAM). B_host_1 / B_host are the triad figures.
+// as in STREAM). B_host_1 / B_host are the triad figures. Then the same over arrays that fit
+// the last-level cache together (an eighth of it each, when its size is known): B_llc_1 /
+// B_llc, the bandwidth CPU work sees while its working set stays in that cache.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -45,7 +47,17 @@ double b_value(std::size_t i) { return static_cast<double>(i % 1024); }
 double c_value(std::size_t i) { return 0.5 * static_cast<double>(i % 256); }
 constexpr double kScalar = 3.0;
 
-std::vector<Measurement> stream(int threads, const Plan& p, cpu::Isa isa, const ProbeOptions& o) {
+// Which figures a run of the kernels measures: over memory (`tag` "") or within the
+// last-level cache ("llc_").
+struct Target {
+  const char* tag;
+  const char* where;
+  Param one, all;
+};
+constexpr Target kMemory{"", "host memory", Param::B_host_1, Param::B_host};
+constexpr Target kCache{"llc_", "last-level cache", Param::B_llc_1, Param::B_llc};
+
+std::vector<Measurement> stream(int threads, const Plan& p, cpu::Isa isa, const ProbeOptions& o, const Target& g) {
   const std::size_t n = static_cast<std::size_t>(p.array_bytes) / sizeof(double);
   // Not value-initialised: every page is first touched by the thread that streams it.
   std::unique_ptr<double[]> a(new double[n]), b(new double[n]), c(new double[n]);
@@ -90,7 +102,7 @@ std::vector<Measurement> stream(int threads, const Plan& p, cpu::Isa isa, const 
       throw ValidationError(fmt::format("host copy ({}): element {} is {}, expected {}", who, i,
                                         a[i], b[i]));
   const std::string k = threads == 1 ? "1" : "all";
-  out.push_back(rate_measurement(fmt::format("copy_{}", k), fmt::format("STREAM copy, {}", who),
+  out.push_back(rate_measurement(fmt::format("{}copy_{}", g.tag, k), fmt::format("STREAM copy, {}, {}", g.where, who),
                                  "B/s", 16.0 * static_cast<double>(n), t, std::nullopt,
                                  fmt::format("a[i] = b[i], 16 B/element; {}", what)));
 
@@ -110,10 +122,10 @@ std::vector<Measurement> stream(int threads, const Plan& p, cpu::Isa isa, const 
                                         a[i], expect));
   }
   out.push_back(rate_measurement(
-      fmt::format("triad_{}", k), fmt::format("STREAM triad, {}", who), "B/s",
-      24.0 * static_cast<double>(n), t, threads == 1 ? Param::B_host_1 : Param::B_host,
+      fmt::format("{}triad_{}", g.tag, k), fmt::format("STREAM triad, {}, {}", g.where, who), "B/s",
+      24.0 * static_cast<double>(n), t, threads == 1 ? g.one : g.all,
       fmt::format("triad a[i] = b[i] + s*c[i], 24 B/element read+written; {}", what)));
-  o.say(fmt::format("  host memory, {}: copy {:.1f} GB/s, triad {:.1f} GB/s", who,
+  o.say(fmt::format("  {}, {}: copy {:.1f} GB/s, triad {:.1f} GB/s", g.where, who,
                     out[0].value / 1e9, out[1].value / 1e9));
   return out;
 }
@@ -135,17 +147,27 @@ ProbeReport run(const ProbeOptions& o) {
   if (const auto mem = physical_memory())
     p.array_bytes = std::max<std::int64_t>(std::min(p.array_bytes, *mem / 12), 1 << 20);
   const cpu::Isa isa = cpu::best_isa();
-  r.measurements = stream(1, p, isa, o);
-  if (ci.threads > 1) {
-    auto all = stream(ci.threads, p, isa, o);
-    r.measurements.insert(r.measurements.end(), all.begin(), all.end());
-  } else {
-    // One CPU: the all-threads figure is the one-thread figure.
-    Measurement all = r.measurements.back();
-    all.key = "triad_all";
-    all.param = Param::B_host;
-    all.note += " (only one CPU is available to this process)";
-    r.measurements.push_back(all);
+  auto measure = [&](const Plan& plan, const Target& g) {
+    auto one = stream(1, plan, isa, o, g);
+    r.measurements.insert(r.measurements.end(), one.begin(), one.end());
+    if (ci.threads > 1) {
+      auto all = stream(ci.threads, plan, isa, o, g);
+      r.measurements.insert(r.measurements.end(), all.begin(), all.end());
+    } else {
+      // One CPU: the all-threads figure is the one-thread figure.
+      Measurement all = r.measurements.back();
+      all.key = fmt::format("{}triad_all", g.tag);
+      all.param = g.all;
+      all.note += " (only one CPU is available to this process)";
+      r.measurements.push_back(all);
+    }
+  };
+  measure(p, kMemory);
+  if (ci.llc_bytes && *ci.llc_bytes >= (1 << 20)) {
+    // Three arrays of an eighth of the cache each, so that they stay in it; many repetitions
+    // of these short runs.
+    const Plan in_cache{*ci.llc_bytes / 8, o.effort == Effort::full ? 200 : o.effort == Effort::quick ? 50 : 5, 2};
+    measure(in_cache, kCache);
   }
   return r;
 }

@@ -143,6 +143,7 @@ TEST(CountsJson, RoundTrip) {
   c.cpu_syncs = 11;
   c.host_waits = 12;
   c.N_GS = 13;
+  c.cpu_footprint = 14;
   c.host_memory = HostMemory::pinned;
   c.cpu_threads = 16;
   EXPECT_EQ(counts_from_json(json::parse(to_json(c).dump())), c);

@@ -68,6 +68,37 @@ TEST(Predict, ExtendedVariantBoundsCpuWorkByHostMemory) {
   EXPECT_NEAR(predict(m, c, Variant::seed).dt_C, 10e-6, 1e-15);
 }
 
+TEST(Predict, TheLastLevelCacheServesTheShareOfTrafficItsWorkingSetLeavesIn) {
+  auto m = test::round_profile();
+  m.set(Param::B_llc_1, {80e9, Provenance::probed, {}, {}, ""});
+  m.set(Param::B_llc, {320e9, Provenance::probed, {}, {}, ""});
+  CostCounts c;
+  c.P = 4;
+  c.N_C = 1'000'000;   // 10 us at 100 GFLOP/s (one thread)
+  c.N_CC = 1'000'000;  // 4 MB: 200 us at 20 GB/s from memory, 50 us at 80 GB/s from the cache
+  // No working set counted, or no cache size known: all from memory, no B_llc needed.
+  EXPECT_NEAR(predict(m, c, Variant::memory).dt_C, 210e-6, 1e-15);
+  c.cpu_footprint = 8 << 20;
+  EXPECT_EQ(llc_share_missed(m, c), 1.0);
+  EXPECT_NEAR(predict(m, c, Variant::memory).dt_C, 210e-6, 1e-15);
+  // A 32 MiB cache and an 8 MiB working set: a quarter from memory, three quarters from the cache.
+  m.identity.cpu_llc_bytes = 32 << 20;
+  EXPECT_DOUBLE_EQ(llc_share_missed(m, c), 0.25);
+  EXPECT_NEAR(predict(m, c, Variant::memory).dt_C, 10e-6 + 0.25 * 200e-6 + 0.75 * 50e-6, 1e-15);
+  EXPECT_NEAR(predict(m, c, Variant::extended).dt_C, 0.25 * 200e-6 + 0.75 * 50e-6, 1e-15);
+  // Working sets of the cache's size or more: all from memory.
+  c.cpu_footprint = 64 << 20;
+  EXPECT_NEAR(predict(m, c, Variant::memory).dt_C, 210e-6, 1e-15);
+  // Eight threads on this 8-thread machine use the all-thread figures.
+  c.cpu_footprint = 8 << 20;
+  c.cpu_threads = 8;
+  EXPECT_NEAR(predict(m, c, Variant::extended).dt_C, 0.25 * 4e6 / 60e9 + 0.75 * 4e6 / 320e9, 1e-15);
+  // A cache size known but no B_llc: the missing figures are named.
+  m.erase(Param::B_llc);
+  EXPECT_THROW(predict(m, c, Variant::memory), MissingParameter);
+  EXPECT_NO_THROW(predict(m, c, Variant::latency));  // which leaves host traffic out
+}
+
 TEST(Predict, MemoryVariantAddsHostTrafficToCpuArithmetic) {
   const auto m = test::round_profile();
   CostCounts c;

@@ -33,9 +33,12 @@ CostCounts cpu_seq_counts(const Shape& s, Prediction prediction) {
     // x-pass r+w, y-pass (transpose, x-pass, transpose back) 3 x r+w, multiply (pred, l -> q),
     // sum (q), divide (q -> p); kernels once.
     c.N_CC = 2 * ng + 6 * ng + 3 * ng + ng + 2 * ng + s.Ix + s.Iy;
+    // Working set: the belief p, l, u, the prediction, q and two transpose buffers.
+    c.cpu_footprint = 7 * ng * c.P;
   } else {
     c.N_C = 2 * row_taps * col_taps + correction;
     c.N_CC = 2 * ng + 3 * ng + ng + 2 * ng + s.Ix * s.Iy;
+    c.cpu_footprint = 5 * ng * c.P;  // p, l, u, the prediction, q
   }
   return c;
 }
@@ -58,9 +61,12 @@ CostCounts cpu_par_counts(const Shape& s, Prediction prediction, int threads) {
     auto round_up = [](std::int64_t n, std::int64_t m) { return (n + m - 1) / m * m; };
     c.N_C = 2 * s.ny * (s.Ix * round_up(s.nx, kCpuParXBlock) + s.Iy * round_up(s.nx, kCpuParYStrip)) + correction;
     c.N_CC = 7 * ng + s.Ix + s.Iy;
+    // Working set: q, l, the prediction and u with I_y - 1 zero rows.
+    c.cpu_footprint = (3 * ng + (s.ny + s.Iy - 1) * s.nx) * c.P;
   } else {
     c.N_C = 2 * ng * s.Ix * s.Iy + correction;
     c.N_CC = 7 * ng + s.Ix * s.Iy;
+    c.cpu_footprint = (3 * ng + (s.ny + s.Iy - 1) * (s.nx + s.Ix - 1)) * c.P;  // q, l, prediction, padded q
   }
   return c;
 }
