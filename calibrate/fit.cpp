@@ -45,7 +45,7 @@ bool exercised(const CostCounts& k, Component c) {
     case Component::total: return true;
     case Component::CG: return k.N_CG > 0 || k.transfers_CG > 0;
     case Component::GC: return k.N_GC > 0 || k.transfers_GC > 0;
-    case Component::G: return k.N_GG > 0 || k.N_G > 0 || k.launches > 0 || k.waves > 0 || k.N_GS > 0;
+    case Component::G: return k.N_GG > 0 || k.N_G > 0 || k.launches > 0 || k.waves > 0 || k.N_GS > 0 || k.atomics > 0;
     case Component::C: return k.N_C > 0 || k.N_CC > 0 || k.cpu_syncs > 0;
   }
   return false;

@@ -39,6 +39,7 @@ void print_counts(const CostCounts& c) {
   t.row({"N_GS", count_str(c.N_GS), "values kernels copy into shared-memory tiles (per busiest-SM round x SMs)"});
   t.row({"launches", count_str(c.launches), "kernel launches"});
   t.row({"waves", count_str(c.waves), "rounds of thread blocks on the busiest GPU multiprocessor"});
+  t.row({"atomics", count_str(c.atomics), "atomic updates of one device address (serialized)"});
   t.row({"host_waits", count_str(c.host_waits), "host submits device work and waits for it"});
   t.row({"cpu_syncs", count_str(c.cpu_syncs), "CPU thread forks/joins and barriers"});
   t.row({"host memory", std::string(to_string(c.host_memory)), ""});
@@ -59,6 +60,7 @@ void print_prediction(const Prediction& p) {
     add("latency device->host", p.lat_GC);
     add("kernel launches", p.lat_launch);
     add("waves of thread blocks", p.lat_wave);
+    add("serialized atomic updates", p.lat_atomic);
     add("shared-memory tile fills", p.dt_GS);
     add("host waits for the device", p.lat_wait);
     t.row({"  of which CPU thread syncs", format_duration(p.lat_sync), "(in dt_C)"});

@@ -140,6 +140,7 @@ void run(const RunRbeOptions& o) {
   c.row({"N_GS", fmt::format("{}", counts.N_GS)});
   c.row({"launches", fmt::format("{}", counts.launches)});
   c.row({"waves", fmt::format("{}", counts.waves)});
+  c.row({"atomics", fmt::format("{}", counts.atomics)});
   c.row({"host_waits", fmt::format("{}", counts.host_waits)});
   c.row({"cpu_syncs", fmt::format("{}", counts.cpu_syncs)});
   fmt::print("{}", c.str());
@@ -157,6 +158,7 @@ void run(const RunRbeOptions& o) {
   p.row({"dt_C   CPU", us(pred->dt_C)});
   p.row({"kernel launches", us(pred->lat_launch)});
   p.row({"waves of thread blocks", us(pred->lat_wave)});
+  p.row({"serialized atomic updates", us(pred->lat_atomic)});
   p.row({"shared-memory tile fills", us(pred->dt_GS)});
   p.row({"host waits for the device", us(pred->lat_wait)});
   p.row({"CPU thread syncs (in dt_C)", us(pred->lat_sync)});

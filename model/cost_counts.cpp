@@ -18,6 +18,7 @@ CostCounts& CostCounts::operator+=(const CostCounts& o) {
   transfers_GC += o.transfers_GC;
   launches += o.launches;
   waves += o.waves;
+  atomics += o.atomics;
   host_waits += o.host_waits;
   N_GS += o.N_GS;
   cpu_syncs += o.cpu_syncs;
@@ -38,6 +39,7 @@ CostCounts CostCounts::scaled(std::int64_t steps) const {
   c.transfers_GC *= steps;
   c.launches *= steps;
   c.waves *= steps;
+  c.atomics *= steps;
   c.host_waits *= steps;
   c.N_GS *= steps;
   c.cpu_syncs *= steps;

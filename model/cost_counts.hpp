@@ -32,6 +32,9 @@ struct CostCounts {
   std::int64_t waves = 0;         // rounds of thread blocks the busiest multiprocessor runs,
                                   // summed over the kernels, as the backend counts them (e.g.
                                   // ceil(B / S) for B blocks on S multiprocessors, one at a time)
+  std::int64_t atomics = 0;       // atomic updates of one device address that every block of a
+                                  // kernel updates (a reduction's total): they serialize where the
+                                  // address lives, one after another (latency+)
   std::int64_t host_waits = 0;    // times the host submits work to the device and waits for it
                                   // to finish (a graph launch and a synchronize)
   std::int64_t cpu_syncs = 0;     // times the CPU threads start together or wait for each other

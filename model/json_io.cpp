@@ -212,6 +212,7 @@ json to_json(const CostCounts& c) {
           {"transfers_GC", c.transfers_GC},
           {"launches", c.launches},
           {"waves", c.waves},
+          {"atomics", c.atomics},
           {"host_waits", c.host_waits},
           {"cpu_syncs", c.cpu_syncs},
           {"N_GS", c.N_GS},
@@ -242,6 +243,7 @@ CostCounts counts_from_json(const json& j) {
   c.transfers_GC = get_i64(j, "transfers_GC", 0);
   c.launches = get_i64(j, "launches", 0);
   c.waves = get_i64(j, "waves", 0);
+  c.atomics = get_i64(j, "atomics", 0);
   c.host_waits = get_i64(j, "host_waits", 0);
   c.cpu_syncs = get_i64(j, "cpu_syncs", 0);
   c.N_GS = get_i64(j, "N_GS", 0);

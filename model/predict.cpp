@@ -101,6 +101,7 @@ std::vector<Param> required_params(const CostCounts& c, Variant variant, std::in
   if (lat && c.transfers_GC > 0) add(l_gc(c));
   if (lat && c.launches > 0) add(Param::L_launch);
   if (lat && c.waves > 0) add(Param::L_wave);
+  if (lat && c.atomics > 0) add(Param::L_atomic);
   if (lat && c.host_waits > 0) add(Param::L_wait);
   if (lat && c.cpu_syncs > 0) add(Param::L_sync);
   if (lat && c.N_GS > 0) add(Param::B_GS);
@@ -143,10 +144,13 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
   if (c.launches > 0) r.lat_launch = static_cast<double>(c.launches) * m.get(Param::L_launch).value;
   if (c.cpu_syncs > 0) r.lat_sync = static_cast<double>(c.cpu_syncs) * m.get(Param::L_sync).value;
   if (c.waves > 0) r.lat_wave = static_cast<double>(c.waves) * m.get(Param::L_wave).value;
+  // Atomic updates of one address queue at the memory that holds it: the last block of a kernel
+  // finishes after all of them.
+  if (c.atomics > 0) r.lat_atomic = static_cast<double>(c.atomics) * m.get(Param::L_atomic).value;
   if (c.host_waits > 0) r.lat_wait = static_cast<double>(c.host_waits) * m.get(Param::L_wait).value;
   // A block fills its tile before it computes on it: the fills add to the kernels' time.
   if (c.N_GS > 0) r.dt_GS = P * static_cast<double>(c.N_GS) / m.get(Param::B_GS).value;
-  const double latencies = r.lat_CG + r.lat_GC + r.lat_launch + r.lat_wave + r.lat_wait + r.dt_GS;
+  const double latencies = r.lat_CG + r.lat_GC + r.lat_launch + r.lat_wave + r.lat_atomic + r.lat_wait + r.dt_GS;
   const double host_traffic =
       variant != Variant::latency && c.N_CC > 0 ? P * static_cast<double>(c.N_CC) * host_seconds_per_byte(m, c) : 0;
   if (variant == Variant::latency || variant == Variant::memory) {

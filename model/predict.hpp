@@ -39,6 +39,7 @@ struct Prediction {
   double lat_launch = 0; // launches x launch overhead
   double lat_sync = 0;   // cpu_syncs x CPU thread sync (part of dt_C)
   double lat_wave = 0;   // waves x per-wave cost of thread blocks
+  double lat_atomic = 0;  // atomics x one serialized atomic update (device component)
   double lat_wait = 0;   // host_waits x host round trip to the device (in the total only)
   double dt_GS = 0;      // shared-memory tile fills, P N_GS / B_GS (latency+; device component)
   double total = 0;

@@ -50,6 +50,7 @@ const std::vector<ParamInfo>& all_params() {
       {Param::B_GS, "B_GS", "B/s", "kernels' tile fills, device memory -> shared memory, all multiprocessors"},
       {Param::B_llc_1, "B_llc_1", "B/s", "host bandwidth with the working set in the last-level cache, one thread"},
       {Param::B_llc, "B_llc", "B/s", "host bandwidth with the working set in the last-level cache, all threads"},
+      {Param::L_atomic, "L_atomic", "s", "one of a series of atomic updates of one device address (they serialize)"},
   };
   return table;
 }

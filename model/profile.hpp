@@ -44,6 +44,7 @@ enum class Param {
   B_GS,            // device memory -> shared-memory tile fills, all SMs    [B/s]
   B_llc_1,         // host bandwidth, working set in the last-level cache, 1 thread   [B/s]
   B_llc,           // host bandwidth, working set in the last-level cache, all threads [B/s]
+  L_atomic,        // one of a series of atomic updates of one device address [s]
 };
 
 struct ParamInfo {

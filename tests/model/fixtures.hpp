@@ -35,6 +35,7 @@ inline MachineProfile round_profile() {
   set(Param::L_sync, 5e-6);
   set(Param::L_wait, 20e-6);
   set(Param::B_GS, 8e12);
+  set(Param::L_atomic, 5e-9);
   return m;
 }
 

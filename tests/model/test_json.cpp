@@ -143,6 +143,7 @@ TEST(CountsJson, RoundTrip) {
   c.cpu_syncs = 11;
   c.host_waits = 12;
   c.N_GS = 13;
+  c.atomics = 17;
   c.cpu_footprint = 14;
   c.host_memory = HostMemory::pinned;
   c.cpu_threads = 16;
@@ -153,8 +154,10 @@ TEST(CountsJson, RoundTrip) {
   old.erase("cpu_syncs");
   old.erase("host_waits");
   old.erase("N_GS");
+  old.erase("atomics");
   const CostCounts back = counts_from_json(old);
   EXPECT_EQ(back.N_GS, 0);
+  EXPECT_EQ(back.atomics, 0);
   EXPECT_EQ(back.waves, 0);
   EXPECT_EQ(back.cpu_syncs, 0);
   EXPECT_EQ(back.host_waits, 0);

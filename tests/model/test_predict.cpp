@@ -127,6 +127,7 @@ TEST(Predict, ThreadSyncsWavesAndHostWaitsAreFixedCostsOfTheLatencyVariants) {
   c.waves = 4;        // 4 x 2 us
   c.host_waits = 1;   // 20 us, in the total only
   c.N_GS = 6'000'000; // 24 MB of tile fills at 8 TB/s: 3 us, added to the kernels' time
+  c.atomics = 400;    // 400 x 5 ns one after another: 2 us, added to the kernels' time
   EXPECT_NEAR(predict(m, c, Variant::seed).total, 11e-6, 1e-15);  // the seed has none of them
   for (auto v : {Variant::latency, Variant::memory, Variant::extended}) {
     const auto p = predict(m, c, v);
@@ -135,14 +136,17 @@ TEST(Predict, ThreadSyncsWavesAndHostWaitsAreFixedCostsOfTheLatencyVariants) {
     EXPECT_NEAR(p.lat_wave, 8e-6, 1e-15) << to_string(v);
     EXPECT_NEAR(p.lat_wait, 20e-6, 1e-15) << to_string(v);
     EXPECT_NEAR(p.dt_GS, 3e-6, 1e-15) << to_string(v);
-    // Outside extended's max(dt_GG, dt_G): a block fills its tile before computing on it.
-    EXPECT_NEAR(p.total, 25e-6 + 1e-6 + 6e-6 + 8e-6 + 20e-6 + 3e-6, 1e-15) << to_string(v);
+    EXPECT_NEAR(p.lat_atomic, 2e-6, 1e-15) << to_string(v);
+    // Outside extended's max(dt_GG, dt_G): a block fills its tile before computing on it, and
+    // the atomics queue after the blocks.
+    EXPECT_NEAR(p.total, 25e-6 + 1e-6 + 6e-6 + 8e-6 + 20e-6 + 3e-6 + 2e-6, 1e-15) << to_string(v);
   }
   auto m2 = m;
   m2.erase(Param::L_sync);
   m2.erase(Param::L_wave);
   m2.erase(Param::L_wait);
   m2.erase(Param::B_GS);
+  m2.erase(Param::L_atomic);
   try {
     predict(m2, c, Variant::latency);
     FAIL() << "expected MissingParameter";
@@ -152,6 +156,7 @@ TEST(Predict, ThreadSyncsWavesAndHostWaitsAreFixedCostsOfTheLatencyVariants) {
     EXPECT_NE(w.find("L_wave"), std::string::npos) << w;
     EXPECT_NE(w.find("L_wait"), std::string::npos) << w;
     EXPECT_NE(w.find("B_GS"), std::string::npos) << w;
+    EXPECT_NE(w.find("L_atomic"), std::string::npos) << w;
   }
 }
 

@@ -17,7 +17,7 @@ TEST(Params, EveryParameterHasUniqueNameAndKnownUnit) {
     EXPECT_EQ(info(i.id).name, i.name);
   }
   // The table covers every enumerator, first to last.
-  EXPECT_EQ(all_params().size(), static_cast<size_t>(Param::B_llc) + 1);  // B_llc is the last
+  EXPECT_EQ(all_params().size(), static_cast<size_t>(Param::L_atomic) + 1);  // L_atomic is the last
   EXPECT_FALSE(param_from_name("B_XY").has_value());
 }
 

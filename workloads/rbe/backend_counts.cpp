@@ -178,6 +178,7 @@ CostCounts cuda_resident_counts(const Shape& s, const Layout& l, int sms) {
     const auto g = resident::fused_geometry(s, l);
     c.launches = 1;
     c.waves = waves(B);
+    c.atomics = B;  // each block adds its share of S_k to the one sum
     c.N_G = waves(B) * S * (2 * s.Ix * W * (H + s.Iy - 1) + correct_block);
     c.N_GG = 3 * ng + s.Ix + s.Iy + 2 + 2 * B;
     c.N_GS = fills(B, resident::kFusedRegs, g, std::int64_t{g.in_rows} * g.in_cols);
@@ -185,6 +186,7 @@ CostCounts cuda_resident_counts(const Shape& s, const Layout& l, int sms) {
     const auto gx = resident::xpass_geometry(s, l), gy = resident::ypass_geometry(s, l);
     c.launches = 2;
     c.waves = waves(p.xblocks()) + waves(B);
+    c.atomics = B;  // the y-pass blocks add their shares of S_k to the one sum
     c.N_G = waves(p.xblocks()) * S * 2 * s.Ix * p.xtile_w * p.xtile_h + waves(B) * S * correct_block;
     c.N_GG = 5 * ng + s.Ix + s.Iy + 2 + 2 * B;
     c.N_GS = fills(p.xblocks(), resident::kXpassRegs, gx, std::int64_t{gx.in_rows} * gx.in_cols) +

@@ -87,7 +87,9 @@ ResidentPlan resident_plan(const Shape& s, const Layout& layout, std::size_t max
 //   fused: N_GS = ceil(q(B) / occ) S [(H + I_y - 1) (W + kx) + kx + ky]
 //   split: N_GS = ceil(q(B_x) / occ_x) S [H_x (128 + kx) + kx] + ceil(q(B) / occ_y) S [u_rows W + ky]
 // with kx = 8 ceil(I_x / 8), ky = the y coefficients padded (resident_geometry.hpp), u_rows =
-// H + R ceil(I_y / R). Throws InputError when sms < 1.
+// H + R ceil(I_y / R). Atomics: every block of the correcting kernel (fused, or the split y-pass)
+// adds its share of S_k to the one sum in device memory: atomics = B. Throws InputError when
+// sms < 1.
 CostCounts cuda_resident_counts(const Shape& s, const Layout& layout, int sms);
 // A run of `steps` steps in chunks of `chunk` steps (one CUDA graph each): adds per chunk one
 // memset of the chunk's sums, two 8-byte device copies (the last sum carried in and out), one

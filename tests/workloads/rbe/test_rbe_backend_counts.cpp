@@ -136,6 +136,8 @@ TEST(RbeBackendCounts, CudaResidentFusedByHand) {
   const auto c = cuda_resident_counts(s, l, 132);
   EXPECT_EQ(c.launches, 1);
   EXPECT_EQ(c.waves, 4);
+  EXPECT_EQ(c.atomics, B);  // one atomic add to S_k per block, whatever the multiprocessors
+  EXPECT_EQ(cuda_resident_counts(s, l, 8).atomics, B);
   EXPECT_EQ(c.N_G, 4 * 132 * per_block);
   EXPECT_EQ(c.N_GG, 3 * 1000000 + 66 + 2 + 2 * B);
   // 128 multiprocessors: 4 whole waves, N_G is the blocks' own FLOPs.
@@ -158,6 +160,7 @@ TEST(RbeBackendCounts, CudaResidentFusedByHand) {
   EXPECT_EQ(r.host_waits, 3);  // each segment's graph launched and waited for
   EXPECT_EQ(r.N_G, 2500 * c.N_G);
   EXPECT_EQ(r.waves, 2500 * 4);
+  EXPECT_EQ(r.atomics, 2500 * B);
   EXPECT_EQ(r.N_GG, 2500 * c.N_GG + 2 * 2500 + 3 * 8);
   EXPECT_EQ(r.N_GS, 2500 * c.N_GS);
 }
@@ -213,6 +216,7 @@ TEST(RbeBackendCounts, CudaResidentSplitByHand) {
   EXPECT_EQ(c.launches, 2);
   // 132 multiprocessors: x-pass ceil(504 / 132) = 4 waves, y-pass ceil(512 / 132) = 4.
   EXPECT_EQ(c.waves, 4 + 4);
+  EXPECT_EQ(c.atomics, B);  // the y-pass blocks only: the x-pass sums nothing
   EXPECT_EQ(c.N_G, 4 * 132 * 2 * 201 * 128 * 16 + 4 * 132 * (2 * 201 * 32 * 64 + 3 * 32 * 64 + 2));
   // 8 multiprocessors divide both grids: N_G is the blocks' own FLOPs.
   EXPECT_EQ(cuda_resident_counts(s, l, 8).N_G, XB * 2 * 201 * 128 * 16 + B * (2 * 201 * 32 * 64 + 3 * 32 * 64 + 2));
