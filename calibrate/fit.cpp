@@ -34,6 +34,8 @@ const double kLogBound = std::log(1e6);      // how far from its start a fitted 
 double default_start(Param p) {
   const auto unit = info(p).unit;
   if (unit == "s") return 10e-6;
+  if (p == Param::S_GC_staged) return 256.0 * 1024;  // the staging chunks of today's drivers
+  if (p == Param::S_GC_flat) return 128.0 * 1024;
   if (p == Param::V_G_fp32 || p == Param::V_G_fp64) return 10e12;
   if (p == Param::B_GG || p == Param::B_GG_copy || p == Param::B_GS) return 1e12;
   return 10e9;  // host bandwidths and CPU rates
@@ -103,7 +105,7 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
   // The parameters the samples' counts exercise, in Param order.
   std::vector<Param> ids;
   for (const auto& s : samples)
-    for (Param p : required_params(s.counts, o.variant, start.identity.cpu_llc_bytes))
+    for (Param p : required_params(s.counts, o.variant, start.identity.cpu_llc_bytes, true))
       if (std::find(ids.begin(), ids.end(), p) == ids.end()) ids.push_back(p);
   std::sort(ids.begin(), ids.end());
   // Start values: the latency variant's fit for extended (see FitOptions::warm_start), else
@@ -133,7 +135,7 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
   std::vector<Residual> residuals;
   for (const auto& s : samples) {
     std::vector<int> params;
-    for (Param p : required_params(s.counts, o.variant, start.identity.cpu_llc_bytes)) params.push_back(index_of(p));
+    for (Param p : required_params(s.counts, o.variant, start.identity.cpu_llc_bytes, true)) params.push_back(index_of(p));
     for (Component c : all_components()) {
       if (c != Component::total &&
           std::find(o.components.begin(), o.components.end(), c) == o.components.end())

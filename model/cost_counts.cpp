@@ -7,6 +7,13 @@ namespace dtflop {
 std::string_view to_string(HostMemory m) { return m == HostMemory::pinned ? "pinned" : "pageable"; }
 std::string_view to_string(Precision p) { return p == Precision::fp64 ? "fp64" : "fp32"; }
 
+void add_copies(std::vector<CopySize>& sizes, std::int64_t bytes, std::int64_t count) {
+  if (count == 0) return;
+  auto it = std::find_if(sizes.begin(), sizes.end(), [bytes](const CopySize& s) { return s.bytes == bytes; });
+  if (it != sizes.end()) it->count += count;
+  else sizes.push_back({bytes, count});
+}
+
 CostCounts& CostCounts::operator+=(const CostCounts& o) {
   N_CG += o.N_CG;
   N_GC += o.N_GC;
@@ -24,6 +31,7 @@ CostCounts& CostCounts::operator+=(const CostCounts& o) {
   cpu_syncs += o.cpu_syncs;
   cpu_threads = std::max(cpu_threads, o.cpu_threads);
   cpu_footprint = std::max(cpu_footprint, o.cpu_footprint);  // the larger working set
+  for (const CopySize& s : o.copies_GC) add_copies(copies_GC, s.bytes, s.count);
   return *this;
 }
 
@@ -43,6 +51,7 @@ CostCounts CostCounts::scaled(std::int64_t steps) const {
   c.host_waits *= steps;
   c.N_GS *= steps;
   c.cpu_syncs *= steps;
+  for (CopySize& s : c.copies_GC) s.count *= steps;
   return c;
 }
 

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace dtflop {
 
@@ -13,6 +14,13 @@ enum class Precision { fp32, fp64 };
 
 std::string_view to_string(HostMemory m);
 std::string_view to_string(Precision p);
+
+// `count` copies of `bytes` bytes each.
+struct CopySize {
+  std::int64_t bytes = 0;
+  std::int64_t count = 0;
+  bool operator==(const CopySize&) const = default;
+};
 
 struct CostCounts {
   int P = 4;                    // bytes per value
@@ -41,6 +49,9 @@ struct CostCounts {
                                   // (a parallel region's fork and join, a barrier)
   HostMemory host_memory = HostMemory::pageable;
   int cpu_threads = 1;          // threads doing the CPU work
+  std::vector<CopySize> copies_GC;  // the device->host copies by size (empty: not counted); their
+                                   // bytes add up to P N_GC and their number to transfers_GC. A
+                                   // pageable copy's staging cost depends on its size (latency+)
   std::int64_t cpu_footprint = 0;  // bytes of host memory the CPU work touches in one step (its
                                    // working set; 0 = not counted): how much of N_CC the
                                    // last-level cache serves (memory and extended variants)
@@ -50,5 +61,8 @@ struct CostCounts {
   CostCounts scaled(std::int64_t steps) const;
   bool operator==(const CostCounts&) const = default;
 };
+
+// Adds `count` copies of `bytes` bytes to `sizes` (merged with those of the same size).
+void add_copies(std::vector<CopySize>& sizes, std::int64_t bytes, std::int64_t count);
 
 }  // namespace dtflop

@@ -200,6 +200,8 @@ void save_profile(const MachineProfile& p, const std::filesystem::path& path) {
 }
 
 json to_json(const CostCounts& c) {
+  json copies = json::array();
+  for (const CopySize& s : c.copies_GC) copies.push_back({{"bytes", s.bytes}, {"count", s.count}});
   return {{"P", c.P},
           {"precision", to_string(c.precision)},
           {"N_CG", c.N_CG},
@@ -218,7 +220,8 @@ json to_json(const CostCounts& c) {
           {"N_GS", c.N_GS},
           {"host_memory", to_string(c.host_memory)},
           {"cpu_threads", c.cpu_threads},
-          {"cpu_footprint", c.cpu_footprint}};
+          {"cpu_footprint", c.cpu_footprint},
+          {"copies_GC", copies}};
 }
 
 CostCounts counts_from_json(const json& j) {
@@ -248,6 +251,16 @@ CostCounts counts_from_json(const json& j) {
   c.cpu_syncs = get_i64(j, "cpu_syncs", 0);
   c.N_GS = get_i64(j, "N_GS", 0);
   c.cpu_footprint = get_i64(j, "cpu_footprint", 0);
+  if (auto it = j.find("copies_GC"); it != j.end()) {
+    if (!it->is_array()) bad("counts.copies_GC", *it, "an array of {\"bytes\": B, \"count\": n}");
+    for (const json& s : *it) {
+      if (!s.is_object()) bad("counts.copies_GC[]", s, "an object {\"bytes\": B, \"count\": n}");
+      const std::int64_t bytes = get_i64(s, "bytes", 1, "counts.copies_GC[]."),
+                         count = get_i64(s, "count", 1, "counts.copies_GC[].");
+      if (bytes == 0 || count == 0) bad("counts.copies_GC[]", s, "both \"bytes\" and \"count\"");
+      add_copies(c.copies_GC, bytes, count);
+    }
+  }
   const std::string mem = get_string(j, "host_memory", "counts.", false);
   if (mem == "pinned") c.host_memory = HostMemory::pinned;
   else if (mem.empty() || mem == "pageable") c.host_memory = HostMemory::pageable;

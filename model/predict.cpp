@@ -85,7 +85,25 @@ double host_seconds_per_byte(const MachineProfile& m, const CostCounts& c) {
   return s;
 }
 
-std::vector<Param> required_params(const CostCounts& c, Variant variant, std::int64_t profile_llc) {
+bool has_staging(const MachineProfile& m) {
+  return m.has(Param::B_GC_staged) && m.has(Param::S_GC_staged) && m.has(Param::S_GC_flat);
+}
+
+double staged_copy_seconds(const MachineProfile& m, std::int64_t bytes) {
+  const double b = static_cast<double>(bytes);
+  const double staged = m.get(Param::S_GC_staged).value, flat = m.get(Param::S_GC_flat).value;
+  return std::min(b, staged) / m.get(Param::B_GC_staged).value +
+         std::max(b - staged - flat, 0.0) / m.get(Param::B_GC_pageable).value;
+}
+
+namespace {
+// The staging figures apply: latency variants, pageable device->host copies with their sizes.
+bool uses_staging(const CostCounts& c, Variant variant, bool staged) {
+  return staged && variant != Variant::seed && c.host_memory == HostMemory::pageable && !c.copies_GC.empty();
+}
+}  // namespace
+
+std::vector<Param> required_params(const CostCounts& c, Variant variant, std::int64_t profile_llc, bool staged) {
   std::vector<Param> out;
   auto add = [&out](Param p) {
     if (std::find(out.begin(), out.end(), p) == out.end()) out.push_back(p);
@@ -93,6 +111,8 @@ std::vector<Param> required_params(const CostCounts& c, Variant variant, std::in
   const bool lat = variant != Variant::seed;
   if (c.N_CG > 0) add(b_cg(c));
   if (c.N_GC > 0) add(b_gc(c));
+  if (uses_staging(c, variant, staged))
+    for (auto p : {Param::B_GC_staged, Param::S_GC_staged, Param::S_GC_flat}) add(p);
   if (c.N_GG > 0) add(Param::B_GG);
   if (c.N_C > 0)
     for (auto p : cpu_params(v_c1(c.precision), v_c(c.precision), c.cpu_threads)) add(p);
@@ -117,7 +137,17 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
   if (c.P <= 0) throw InputError(fmt::format("bytes per value P must be positive, got {}", c.P));
   // Report every missing parameter at once.
   std::string missing;
-  for (auto p : required_params(c, variant, m.identity.cpu_llc_bytes))
+  if (!c.copies_GC.empty()) {
+    std::int64_t bytes = 0, copies = 0;
+    for (const CopySize& s : c.copies_GC) bytes += s.bytes * s.count, copies += s.count;
+    if (bytes != c.P * c.N_GC || copies != c.transfers_GC)
+      throw InputError(fmt::format(
+          "the counts list device->host copies of {} bytes in {} copies, but P N_GC is {} bytes in "
+          "transfers_GC = {} copies; the workload's counts are inconsistent",
+          bytes, copies, c.P * c.N_GC, c.transfers_GC));
+  }
+  const bool staged = uses_staging(c, variant, has_staging(m));
+  for (auto p : required_params(c, variant, m.identity.cpu_llc_bytes, staged))
     if (!m.has(p)) missing += fmt::format("{}{} ({})", missing.empty() ? "" : ", ", info(p).name, info(p).what);
   if (!missing.empty())
     throw MissingParameter(fmt::format(
@@ -138,6 +168,11 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
   if (variant == Variant::seed) {
     r.total = r.dt_CG + r.dt_GC + r.dt_GG + r.dt_C + r.dt_G;  // eqs. 3.2, 3.4
     return r;
+  }
+  // A pageable device->host copy is staged through pinned memory: priced per copy by its size.
+  if (staged) {
+    r.dt_GC = 0;
+    for (const CopySize& s : c.copies_GC) r.dt_GC += static_cast<double>(s.count) * staged_copy_seconds(m, s.bytes);
   }
   if (c.transfers_CG > 0) r.lat_CG = static_cast<double>(c.transfers_CG) * m.get(l_cg(c)).value;
   if (c.transfers_GC > 0) r.lat_GC = static_cast<double>(c.transfers_GC) * m.get(l_gc(c)).value;

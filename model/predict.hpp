@@ -50,7 +50,17 @@ struct Prediction {
 // Which parameters a prediction of `counts` with `variant` needs (only those whose counts
 // are non-zero) on a machine whose last-level cache holds `profile_llc` bytes (0: unknown).
 // Useful to report everything missing at once.
-std::vector<Param> required_params(const CostCounts& counts, Variant variant, std::int64_t profile_llc = 0);
+// `staged`: price pageable device->host copies whose sizes are counted with the staging figures
+// (B_GC_staged, S_GC_staged, S_GC_flat): true where the profile has them (has_staging) or a fit
+// is to find them.
+std::vector<Param> required_params(const CostCounts& counts, Variant variant, std::int64_t profile_llc = 0,
+                                   bool staged = false);
+// Does the profile have the three staging figures of pageable device->host copies?
+bool has_staging(const MachineProfile& profile);
+// Seconds a pageable device->host copy of `bytes` takes past its latency:
+//   min(b, S_GC_staged) / B_GC_staged + max(b - S_GC_staged - S_GC_flat, 0) / B_GC_pageable
+// (docs/model.md 2.2). The profile must have the staging figures.
+double staged_copy_seconds(const MachineProfile& profile, std::int64_t bytes);
 
 // Throws MissingParameter (naming the parameter and what to do) when the profile lacks one.
 Prediction predict(const MachineProfile& profile, const CostCounts& counts, Variant variant);

@@ -51,6 +51,9 @@ const std::vector<ParamInfo>& all_params() {
       {Param::B_llc_1, "B_llc_1", "B/s", "host bandwidth with the working set in the last-level cache, one thread"},
       {Param::B_llc, "B_llc", "B/s", "host bandwidth with the working set in the last-level cache, all threads"},
       {Param::L_atomic, "L_atomic", "s", "one of a series of atomic updates of one device address (they serialize)"},
+      {Param::B_GC_staged, "B_GC_staged", "B/s", "device->host pageable: rate of a copy's first S_GC_staged bytes"},
+      {Param::S_GC_staged, "S_GC_staged", "B", "device->host pageable: bytes of a copy that pass at B_GC_staged"},
+      {Param::S_GC_flat, "S_GC_flat", "B", "device->host pageable: bytes after S_GC_staged that cost nothing more"},
   };
   return table;
 }

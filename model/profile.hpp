@@ -45,6 +45,10 @@ enum class Param {
   B_llc_1,         // host bandwidth, working set in the last-level cache, 1 thread   [B/s]
   B_llc,           // host bandwidth, working set in the last-level cache, all threads [B/s]
   L_atomic,        // one of a series of atomic updates of one device address [s]
+  // Pageable device->host copies go through the driver's pinned staging memory (docs/model.md):
+  B_GC_staged,     // rate of the first S_GC_staged bytes of a copy (not overlapped)   [B/s]
+  S_GC_staged,     // bytes of a copy that pass at B_GC_staged                         [B]
+  S_GC_flat,       // bytes after those that cost nothing more; the rest at B_GC_pageable [B]
 };
 
 struct ParamInfo {

@@ -132,6 +132,7 @@ std::string format_quantity(double v, std::string_view unit) {
   if (unit == "B/s") return format_bandwidth(v);
   if (unit == "FLOP/s") return format_rate(v);
   if (unit == "s") return format_duration(v);
+  if (unit == "B") return format_bytes(v);
   return fmt::format("{:.4g} {}", v, unit);
 }
 

@@ -42,7 +42,10 @@ inline calib::Sample synthetic_sample(const std::string& key, const CostCounts& 
   return s;
 }
 
-// The seed's GPU pipeline over Test 1 and Test 2 shapes (pageable), as synthetic samples.
+// The seed's GPU pipeline over Test 1 and Test 2 shapes (pageable), as synthetic samples, and
+// grids of 330 to 390 cells a side, whose device->host copies (436 to 608 kB) fall between the
+// staged bytes and the flat ones of the round profile: without them S_GC_staged and S_GC_flat
+// would only show through one combination.
 inline std::vector<calib::Sample> seed_pipeline_samples(const MachineProfile& truth, Variant variant,
                                                         double rel_noise, std::uint64_t seed = 7) {
   std::mt19937_64 rng(seed);
@@ -57,6 +60,10 @@ inline std::vector<calib::Sample> seed_pipeline_samples(const MachineProfile& tr
       out.push_back(synthetic_sample(fmt::format("t2/{}/{}", k, n), rbe::seed_gpu_counts(s), truth, variant,
                                      rel_noise, rng));
     }
+  for (std::int64_t n = 330; n <= 390; n += 20) {
+    rbe::Shape s{n, n, 24, 24};
+    out.push_back(synthetic_sample(fmt::format("flat/{}", n), rbe::seed_gpu_counts(s), truth, variant, rel_noise, rng));
+  }
   return out;
 }
 

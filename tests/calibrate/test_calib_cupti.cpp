@@ -76,6 +76,12 @@ void check_backend(const std::string& name, HostMemory memory) {
   EXPECT_FALSE(s.detail.contains("counts_mismatch")) << name << ": " << s.detail["counts_mismatch"];
   const auto& act = s.detail["activity_last_repetition"];
   EXPECT_EQ(act["to_device"][memory == HostMemory::pinned ? "pinned" : "pageable"], s.counts.transfers_CG) << name;
+  // The device->host copies land in the host memory the counts say (cuda-resident's sums are
+  // pinned whatever the grids are), with the sizes they list.
+  EXPECT_EQ(act["to_host"][std::string(to_string(s.counts.host_memory))], s.counts.transfers_GC) << name;
+  std::int64_t listed = 0;
+  for (const CopySize& c : s.counts.copies_GC) listed += c.bytes * c.count;
+  EXPECT_EQ(act["to_host"]["bytes"].get<std::int64_t>(), listed) << name;
   ASSERT_NE(s.find(Component::G), nullptr);
   EXPECT_GT(s.find(Component::G)->median, 0);
   EXPECT_LE(s.find(Component::G)->median, s.find(Component::total)->median);

@@ -26,7 +26,8 @@ MachineProfile perturbed(const MachineProfile& truth, double factor) {
 
 const std::vector<Param> kSeedPipelineLatency = {Param::B_CG_pageable, Param::B_GC_pageable, Param::L_CG_pageable,
                                                  Param::L_GC_pageable, Param::B_GG, Param::V_C1_fp32,
-                                                 Param::V_G_fp32, Param::L_launch};
+                                                 Param::V_G_fp32, Param::L_launch, Param::B_GC_staged,
+                                                 Param::S_GC_staged, Param::S_GC_flat};
 
 TEST(CalibFit, RecoversTheTruthFromExactSamples) {
   const MachineProfile truth = test::round_profile();
@@ -157,12 +158,12 @@ TEST(CalibFit, RefusesWhatItCannotDo) {
   o.variant = Variant::latency;
   EXPECT_THROW(fit({}, truth, o), InputError);
   auto samples = test::seed_pipeline_samples(truth, Variant::latency, 0.0);
-  samples.resize(5);  // 5 samples, 8 parameters
+  samples.resize(5);  // 5 samples, 11 parameters
   try {
     fit(samples, truth, o);
-    FAIL() << "fitted 8 parameters to 5 samples";
+    FAIL() << "fitted 11 parameters to 5 samples";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("5 samples cannot determine 8 parameters"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("5 samples cannot determine 11 parameters"), std::string::npos) << e.what();
   }
   samples = test::seed_pipeline_samples(truth, Variant::latency, 0.0);
   o.max_iterations = 1;

@@ -144,6 +144,7 @@ TEST(CountsJson, RoundTrip) {
   c.host_waits = 12;
   c.N_GS = 13;
   c.atomics = 17;
+  c.copies_GC = {{4096, 3}, {8, 2}};
   c.cpu_footprint = 14;
   c.host_memory = HostMemory::pinned;
   c.cpu_threads = 16;
@@ -155,9 +156,11 @@ TEST(CountsJson, RoundTrip) {
   old.erase("host_waits");
   old.erase("N_GS");
   old.erase("atomics");
+  old.erase("copies_GC");
   const CostCounts back = counts_from_json(old);
   EXPECT_EQ(back.N_GS, 0);
   EXPECT_EQ(back.atomics, 0);
+  EXPECT_TRUE(back.copies_GC.empty());
   EXPECT_EQ(back.waves, 0);
   EXPECT_EQ(back.cpu_syncs, 0);
   EXPECT_EQ(back.host_waits, 0);
@@ -168,6 +171,11 @@ TEST(CountsJson, RoundTrip) {
   j = to_json(c);
   j["host_memory"] = "managed";
   EXPECT_THROW(counts_from_json(j), InputError);
+  for (const char* bad : {R"({"bytes": 0, "count": 1})", R"({"bytes": 8})", R"({"bytes": 8, "count": -2})", "[8, 1]"}) {
+    j = to_json(c);
+    j["copies_GC"] = json::array({json::parse(bad)});
+    EXPECT_THROW(counts_from_json(j), InputError) << bad;
+  }
 }
 
 }  // namespace

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "model/errors.hpp"
 #include "model/predict.hpp"
 #include "tests/model/fixtures.hpp"
@@ -171,6 +173,44 @@ TEST(Predict, PageableMemoryUsesPageableFigures) {
   EXPECT_DOUBLE_EQ(p.lat_GC, 2 * 25e-6);
 }
 
+TEST(Predict, PageableDeviceToHostCopiesAreStagedByTheirSize) {
+  auto m = test::round_profile();
+  auto c = sample_counts();  // 2 MB device->host in 2 copies
+  c.host_memory = HostMemory::pageable;
+  c.copies_GC = {{1'500'000, 1}, {500'000, 1}};
+  // No staging figures in the profile: every byte at B_GC_pageable, as before.
+  auto plain_profile = m;
+  plain_profile.erase(Param::S_GC_flat);
+  EXPECT_DOUBLE_EQ(predict(plain_profile, c, Variant::latency).dt_GC, 2e6 / 8e9);
+  // The round profile's: 5 GB/s for the first 400 kB, 200 kB free after them.
+  // 1.5 MB: its first 400 kB at 5 GB/s (80 us), the next 200 kB free, the last 900 kB at 8 GB/s
+  // (112.5 us). 500 kB: 80 us, and nothing past the flat stretch.
+  EXPECT_DOUBLE_EQ(staged_copy_seconds(m, 1'500'000), 80e-6 + 112.5e-6);
+  EXPECT_DOUBLE_EQ(staged_copy_seconds(m, 500'000), 80e-6);
+  EXPECT_DOUBLE_EQ(staged_copy_seconds(m, 100'000), 20e-6);
+  for (auto v : {Variant::latency, Variant::memory, Variant::extended}) {
+    const auto p = predict(m, c, v);
+    EXPECT_NEAR(p.dt_GC, 272.5e-6, 1e-15) << to_string(v);
+    EXPECT_DOUBLE_EQ(p.lat_GC, 2 * 25e-6) << to_string(v);  // the latency per copy stays
+  }
+  EXPECT_DOUBLE_EQ(predict(m, c, Variant::seed).dt_GC, 2e6 / 8e9);  // the seed's eq. 3.6
+  auto pinned = c;
+  pinned.host_memory = HostMemory::pinned;  // no staging: the DMA reaches host memory directly
+  EXPECT_DOUBLE_EQ(predict(m, pinned, Variant::latency).dt_GC, 2e6 / 40e9);
+  auto unsized = c;
+  unsized.copies_GC.clear();
+  EXPECT_DOUBLE_EQ(predict(m, unsized, Variant::latency).dt_GC, 2e6 / 8e9);
+  // The sizes must add up to the counts.
+  auto wrong = c;
+  wrong.copies_GC = {{1'500'000, 2}};
+  EXPECT_THROW(predict(m, wrong, Variant::latency), InputError);
+  // A fit is to find the staging figures wherever sized pageable copies are.
+  const auto need = required_params(c, Variant::latency, 0, true);
+  EXPECT_NE(std::find(need.begin(), need.end(), Param::S_GC_flat), need.end());
+  const auto plain = required_params(c, Variant::latency, 0, false);
+  EXPECT_EQ(std::find(plain.begin(), plain.end(), Param::S_GC_flat), plain.end());
+}
+
 TEST(Predict, CpuRateScalesWithThreadsAndCaps) {
   const auto m = test::round_profile();  // 8 hardware threads, 100 GFLOP/s each, 600 all
   EXPECT_DOUBLE_EQ(cpu_rate(m, Precision::fp32, 1), 100e9);
@@ -241,7 +281,9 @@ TEST(CostCounts, ScaleAndAdd) {
   c.waves = 2;
   c.cpu_syncs = 5;
   c.host_waits = 7;
+  c.copies_GC = {{1000, 2}, {24, 1}};
   d = c.scaled(3);
+  EXPECT_EQ(d.copies_GC, (std::vector<CopySize>{{1000, 6}, {24, 3}}));
   EXPECT_EQ(d.host_waits, 21);
   EXPECT_EQ(d.waves, 6);
   EXPECT_EQ(d.cpu_syncs, 15);

@@ -206,6 +206,10 @@ CostCounts cuda_resident_run_counts(const Shape& s, const Layout& l, int sms, st
   c.N_GG += 2 * steps + chunks * 2 * (2 + 2);
   c.N_GC += 2 * steps;
   c.transfers_GC += chunks;
+  // Each chunk's sums (float64, 2 values of P = 4 bytes each) land in pinned host memory.
+  c.host_memory = HostMemory::pinned;
+  add_copies(c.copies_GC, chunk * 8, steps / chunk);
+  add_copies(c.copies_GC, (steps % chunk) * 8, steps % chunk > 0 ? 1 : 0);
   c.host_waits += chunks;  // the host launches each chunk's graph and waits for it
   return c;
 }

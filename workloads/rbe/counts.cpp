@@ -35,6 +35,7 @@ CostCounts seed_gpu_counts(const Shape& s, HostMemory memory) {
   c.N_G = 2 * ng * (s.Ix + s.Iy + 1);
   c.transfers_CG = 5;
   c.transfers_GC = 2;
+  c.copies_GC = {{ng * c.P, 2}};  // the prediction and the unnormalized belief, one grid each
   c.launches = 3;
   c.host_memory = memory;
   c.cpu_threads = 1;

@@ -157,6 +157,9 @@ TEST(RbeBackendCounts, CudaResidentFusedByHand) {
   const auto r = cuda_resident_run_counts(s, l, 132, 2500, 1000);
   EXPECT_EQ(r.N_GC, 2 * 2500);
   EXPECT_EQ(r.transfers_GC, 3);
+  // Two segments' sums of 1000 doubles and one of 500, into pinned host memory.
+  EXPECT_EQ(r.copies_GC, (std::vector<CopySize>{{8000, 2}, {4000, 1}}));
+  EXPECT_EQ(r.host_memory, HostMemory::pinned);
   EXPECT_EQ(r.host_waits, 3);  // each segment's graph launched and waited for
   EXPECT_EQ(r.N_G, 2500 * c.N_G);
   EXPECT_EQ(r.waves, 2500 * 4);

@@ -20,6 +20,8 @@ TEST(RbeSeedCounts, Equations5_10To5_16) {
   EXPECT_EQ(c.P, 4);
   EXPECT_EQ(c.transfers_CG, 5);
   EXPECT_EQ(c.transfers_GC, 2);
+  // The two device->host copies are one grid each (3.2 MB).
+  EXPECT_EQ(c.copies_GC, (std::vector<CopySize>{{4 * 800000, 2}}));
   EXPECT_EQ(c.host_memory, HostMemory::pageable);
   EXPECT_EQ(rbe::seed_gpu_counts({10, 10, 3, 3}, HostMemory::pinned).host_memory, HostMemory::pinned);
 }
