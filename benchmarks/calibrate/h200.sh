@@ -1,12 +1,17 @@
 #!/usr/bin/env bash
 # The calibration run on the lent H200: GPU tests, a quick probe for start values, then the
 # sweeps, in replicate rounds (docs/calibration.md, "Rounds").
-#   bash benchmarks/calibrate/h200.sh all    everything below in one device call (309 s on
-#                                            2026-11-21; the time limits below bound a stuck
+#   bash benchmarks/calibrate/h200.sh all    everything below in one device call (5 rounds:
+#                                            about 400 s; the time limits below bound a stuck
 #                                            sweep, they do not add up to under 10 minutes), the
 #                                            training and held-out sets measured round by round
 #                                            in turn (round 1 of both, round 2 of both, ...), so
-#                                            that a drift of the host's speed falls on both alike
+#                                            that a drift of the host's speed falls on both alike.
+#                                            Five rounds, because one round of a configuration
+#                                            differs from another by 5-10% (p90) on this machine
+#                                            (copies most), and the median of three still moved
+#                                            single held-out errors by 2-3 points; Test 1 (200
+#                                            kernels on one grid, dense already) takes two
 #   bash benchmarks/calibrate/h200.sh resident   both sets for cuda-resident alone, with a probe
 #                                            and the GPU tests (about 2 minutes)
 # Each sweep is resumable and bounded in time, so a slow one cannot take the whole lease;
@@ -59,7 +64,7 @@ if [[ "$part" == all ]]; then
   probe_quick
   gpu_tests
   # Rounds are resumable: `--rounds r` on a store holding rounds 1..r-1 measures round r only.
-  for r in 1 2 3; do
+  for r in 1 2 3 4 5; do
     for setup in "--backend cuda-seed" "--backend cuda-seed --memory pinned" "--backend cuda-resident"; do
       # shellcheck disable=SC2086
       sweep 60 fit.jsonl $setup --plan seed-test2 --rounds $r
