@@ -31,6 +31,12 @@ void print_counts(const CostCounts& c) {
   t.row({"P", count_str(c.P), fmt::format("bytes per value ({})", to_string(c.precision))});
   t.row({"N_CG", count_str(c.N_CG), fmt::format("values host->device in {} copies", c.transfers_CG)});
   t.row({"N_GC", count_str(c.N_GC), fmt::format("values device->host in {} copies", c.transfers_GC)});
+  if (!c.copies_GC.empty()) {
+    std::string sizes;
+    for (const CopySize& s : c.copies_GC)
+      sizes += fmt::format("{}{} x {}", sizes.empty() ? "" : ", ", s.count, format_bytes(static_cast<double>(s.bytes)));
+    t.row({"copies_GC", sizes, "device->host copies by size (pageable ones are staged, docs/model.md 2.1)"});
+  }
   t.row({"N_GG", count_str(c.N_GG), "values through device memory"});
   t.row({"N_C", count_str(c.N_C), fmt::format("FLOPs on the CPU ({} thread{})", c.cpu_threads,
                                               c.cpu_threads == 1 ? "" : "s")});
