@@ -17,6 +17,7 @@
 #include "calibrate/store.hpp"
 #include "model/json_io.hpp"
 #include "tests/calibrate/synthetic.hpp"
+#include "tests/support/temp_dir.hpp"
 #include "tests/cli/run_cli.hpp"
 #include "tests/support/gpu.hpp"
 
@@ -33,10 +34,7 @@ std::string slurp(const fs::path& p) {
 class CalibCli : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("dtflop_calib_cli_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = test::fresh_test_dir("dtflop_calib_cli");
   }
   void TearDown() override { fs::remove_all(dir_); }
   std::string path(const std::string& f) const { return (dir_ / f).string(); }

@@ -1,7 +1,5 @@
 // Rounds: `run_sweep` walking a plan R times (keys, round fields, resume, progress) and
 // `merge_rounds` turning the rounds of a configuration into one sample (median of medians).
-#include <unistd.h>
-
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +13,7 @@
 #include "calibrate/sweep.hpp"
 #include "model/errors.hpp"
 #include "tests/calibrate/synthetic.hpp"
+#include "tests/support/temp_dir.hpp"
 
 namespace dtflop::calib {
 namespace {
@@ -225,10 +224,7 @@ TEST(CalibRounds, RoundsThatCannotBeComparedAreLeftOutOrFlagged) {
 class CalibRoundsSweep : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("dtflop_rounds_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = test::fresh_test_dir("dtflop_rounds");
     store_ = dir_ / "samples.jsonl";
     for (int i = 0; i < 4; ++i)
       plan_.items.push_back({"cfg" + std::to_string(i), "config " + std::to_string(i), {{"i", i}}});

@@ -11,6 +11,7 @@
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
 #include "tests/calibrate/synthetic.hpp"
+#include "tests/support/temp_dir.hpp"
 
 namespace dtflop::test {
 inline std::string slurp_file(const std::filesystem::path& p) {
@@ -43,10 +44,7 @@ TEST(CalibStats, QuartilesInterpolate) {
 class Store : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("dtflop_store_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = test::fresh_test_dir("dtflop_store");
     path_ = dir_ / "samples.jsonl";
   }
   void TearDown() override { fs::remove_all(dir_); }
