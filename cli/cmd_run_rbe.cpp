@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "cli/command.hpp"
+#include "cli/model_tables.hpp"
 #include "cli/table.hpp"
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
@@ -129,41 +130,14 @@ void run(const RunRbeOptions& o) {
   t.row({"wall / step", us(r.wall_seconds / double(r.steps)), "(whole run, host clock)"});
   fmt::print("{}", t.str());
   fmt::print("\nCost counts per step:\n");
-  Table c({"count", "value"});
-  c.row({"P", fmt::format("{} ({})", counts.P, to_string(counts.precision))});
-  c.row({"N_CG", fmt::format("{} in {} copies", counts.N_CG, counts.transfers_CG)});
-  c.row({"N_GC", fmt::format("{} in {} copies", counts.N_GC, counts.transfers_GC)});
-  c.row({"N_GG", fmt::format("{}", counts.N_GG)});
-  c.row({"N_C", fmt::format("{} on {} thread{}", counts.N_C, counts.cpu_threads, counts.cpu_threads == 1 ? "" : "s")});
-  c.row({"N_CC", fmt::format("{}", counts.N_CC)});
-  c.row({"N_G", fmt::format("{}", counts.N_G)});
-  c.row({"N_GS", fmt::format("{}", counts.N_GS)});
-  c.row({"launches", fmt::format("{}", counts.launches)});
-  c.row({"waves", fmt::format("{}", counts.waves)});
-  c.row({"atomics", fmt::format("{}", counts.atomics)});
-  c.row({"host_waits", fmt::format("{}", counts.host_waits)});
-  c.row({"cpu_syncs", fmt::format("{}", counts.cpu_syncs)});
-  fmt::print("{}", c.str());
+  print_counts(counts);
   if (!pred) {
     fmt::print("\n(add --machine machine.json for the model's prediction)\n");
     return;
   }
   fmt::print("\nPredicted by the DTFLOP model ({} variant) on {}:\n", to_string(*variant),
              profile->identity.gpu_name.empty() ? profile->identity.cpu_model : profile->identity.gpu_name);
-  Table p({"component", "predicted"});
-  p.row({"dt_CG  host->device", us(pred->dt_CG + pred->lat_CG)});
-  p.row({"dt_GC  device->host", us(pred->dt_GC + pred->lat_GC)});
-  p.row({"dt_GG  device memory", us(pred->dt_GG)});
-  p.row({"dt_G   GPU arithmetic", us(pred->dt_G)});
-  p.row({"dt_C   CPU", us(pred->dt_C)});
-  p.row({"kernel launches", us(pred->lat_launch)});
-  p.row({"waves of thread blocks", us(pred->lat_wave)});
-  p.row({"serialized atomic updates", us(pred->lat_atomic)});
-  p.row({"shared-memory tile fills", us(pred->dt_GS)});
-  p.row({"host waits for the device", us(pred->lat_wait)});
-  p.row({"CPU thread syncs (in dt_C)", us(pred->lat_sync)});
-  p.row({"total", us(pred->total)});
-  fmt::print("{}", p.str());
+  print_prediction(*pred);
   fmt::print("predicted / measured: {:.2f}\n", pred->total / m.total);
 }
 
