@@ -45,8 +45,7 @@ double predicted(const Prediction& p, Component c) {
     case Component::G:
       // Kernels and what each launch costs; the extended variant overlaps a kernel's memory
       // traffic with its arithmetic.
-      return (p.variant == Variant::extended ? std::max(p.dt_GG, p.dt_G) : p.dt_GG + p.dt_G) + p.lat_launch +
-             p.lat_wave + p.lat_atomic + p.dt_GS;
+      return (p.variant == Variant::extended ? std::max(p.dt_GG, p.dt_G) : p.dt_GG + p.dt_G) + p.device_overheads();
     // CPU work: arithmetic, its memory traffic (memory, extended) and thread syncs.
     case Component::C: return p.dt_C;
   }

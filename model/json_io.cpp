@@ -275,6 +275,7 @@ json to_json(const Prediction& p) {
           {"lat_CG", p.lat_CG},              {"lat_GC", p.lat_GC}, {"lat_launch", p.lat_launch},
           {"lat_sync", p.lat_sync},
           {"lat_wave", p.lat_wave},
+          {"lat_atomic", p.lat_atomic},
           {"lat_wait", p.lat_wait},
           {"dt_GS", p.dt_GS},
           {"dt_trans", p.dt_trans()},        {"total", p.total}};

@@ -185,7 +185,7 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
   if (c.host_waits > 0) r.lat_wait = static_cast<double>(c.host_waits) * m.get(Param::L_wait).value;
   // A block fills its tile before it computes on it: the fills add to the kernels' time.
   if (c.N_GS > 0) r.dt_GS = P * static_cast<double>(c.N_GS) / m.get(Param::B_GS).value;
-  const double latencies = r.lat_CG + r.lat_GC + r.lat_launch + r.lat_wave + r.lat_atomic + r.lat_wait + r.dt_GS;
+  const double latencies = r.lat_CG + r.lat_GC + r.lat_wait + r.device_overheads();
   const double host_traffic =
       variant != Variant::latency && c.N_CC > 0 ? P * static_cast<double>(c.N_CC) * host_seconds_per_byte(m, c) : 0;
   if (variant == Variant::latency || variant == Variant::memory) {

@@ -45,6 +45,9 @@ struct Prediction {
   double total = 0;
 
   double dt_trans() const { return dt_CG + dt_GC + dt_GG; }  // eq. 3.4
+  // What the kernels pay besides their traffic and arithmetic (latency+): launches, rounds of
+  // blocks, serialized atomics, tile fills.
+  double device_overheads() const { return lat_launch + lat_wave + lat_atomic + dt_GS; }
 };
 
 // Which parameters a prediction of `counts` with `variant` needs (only those whose counts

@@ -107,6 +107,7 @@ TEST_F(PredictCli, CudaResidentWavesOnTheProfilesMultiprocessors) {
   EXPECT_EQ(expected.waves, 6);
   EXPECT_EQ(counts_from_json(j.at("counts")), expected);
   EXPECT_DOUBLE_EQ(j.at("prediction").at("lat_wave").get<double>(), 6 * 2e-6);
+  EXPECT_DOUBLE_EQ(j.at("prediction").at("lat_atomic").get<double>(), 512 * 5e-9);  // one per block
   r = test::run_dtflop("predict --machine " + path("sms.json") + args);
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("100 multiprocessors (the machine profile)"), std::string::npos) << r.out;
