@@ -159,7 +159,7 @@ CostCounts cuda_resident_counts(const Shape& s, const Layout& l, int sms) {
   // Waves of a kernel of n blocks, and the blocks counted for it: every multiprocessor runs as
   // many rounds as the busiest one (backend_counts.hpp).
   const std::int64_t S = sms;
-  auto waves = [S](std::int64_t n) { return (n + S - 1) / S; };
+  auto waves = [S](std::int64_t n) { return resident::ceil_div(n, S); };
   CostCounts c;
   c.P = 4;
   c.precision = Precision::fp32;
@@ -172,7 +172,7 @@ CostCounts cuda_resident_counts(const Shape& s, const Layout& l, int sms) {
   // device memory, counted on every multiprocessor like N_G.
   auto fills = [&](std::int64_t blocks, int regs, const resident::TileGeometry& g, std::int64_t tile_values) {
     const int occ = resident::blocks_per_sm(p.threads, regs, g.smem_bytes);
-    return (waves(blocks) + occ - 1) / occ * S * (tile_values + g.kx_len + g.ky_len);
+    return resident::ceil_div(waves(blocks), occ) * S * (tile_values + g.kx_len + g.ky_len);
   };
   if (p.passes == Layout::Passes::fused) {
     const auto g = resident::fused_geometry(s, l);
@@ -200,16 +200,17 @@ CostCounts cuda_resident_run_counts(const Shape& s, const Layout& l, int sms, st
   if (steps < 1) throw InputError(fmt::format("a run needs at least one step, got {}", steps));
   if (chunk < 1) throw InputError(fmt::format("chunk of {} steps must be at least 1", chunk));
   CostCounts c = cuda_resident_counts(s, l, sms).scaled(steps);
-  const std::int64_t chunks = (steps + chunk - 1) / chunk;
+  const std::int64_t chunks = resident::ceil_div(steps, chunk);
   // Per chunk: zero its sums (2 values each, written), carry the last sum in and out (two
   // 8-byte device copies, read + write), copy the chunk's sums to the host in one copy.
   c.N_GG += 2 * steps + chunks * 2 * (2 + 2);
   c.N_GC += 2 * steps;
   c.transfers_GC += chunks;
-  // Each chunk's sums (float64, 2 values of P = 4 bytes each) land in pinned host memory.
+  // Each chunk's sums (a float64 each: 2 values of P bytes) land in pinned host memory.
   c.host_memory = HostMemory::pinned;
-  add_copies(c.copies_GC, chunk * 8, steps / chunk);
-  add_copies(c.copies_GC, (steps % chunk) * 8, steps % chunk > 0 ? 1 : 0);
+  const std::int64_t sum_bytes = 2 * c.P;
+  add_copies(c.copies_GC, chunk * sum_bytes, steps / chunk);
+  add_copies(c.copies_GC, (steps % chunk) * sum_bytes, steps % chunk > 0 ? 1 : 0);
   c.host_waits += chunks;  // the host launches each chunk's graph and waits for it
   return c;
 }
