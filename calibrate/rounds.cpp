@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "calibrate/machine.hpp"
+#include "model/errors.hpp"
 
 namespace dtflop::calib {
 
@@ -44,6 +45,11 @@ std::optional<RoundCombine> round_combine_from_string(std::string_view s) {
   if (s == "median") return RoundCombine::median;
   if (s == "fastest") return RoundCombine::fastest;
   return std::nullopt;
+}
+
+RoundCombine parse_round_combine(std::string_view s) {
+  if (auto c = round_combine_from_string(s)) return *c;
+  throw InputError(fmt::format("--rounds-combine '{}' is unknown; use median or fastest", s));
 }
 
 std::string MergedRounds::how() const {

@@ -36,6 +36,8 @@ std::string base_key(const std::string& key);
 enum class RoundCombine { median, fastest };
 std::string_view to_string(RoundCombine c);
 std::optional<RoundCombine> round_combine_from_string(std::string_view s);
+// The same for a command-line value: throws InputError naming `--rounds-combine` and the choices.
+RoundCombine parse_round_combine(std::string_view s);
 
 struct MergedRounds {
   std::vector<Sample> samples;        // one per configuration, in the order first met
@@ -58,7 +60,7 @@ struct MergedRounds {
 //  - with several, the sample of its first round (the lowest round number) with, for each
 //    measured component, Stats over the rounds' medians (values: the rounds' medians in round
 //    order, so the median is the median of the medians, or with RoundCombine::fastest the
-//    fastest round's, and min/max/p25/p75 are over them), the
+//    fastest round's, each component on its own, and min/max/p25/p75 are over them), the
 //    configuration's key (no round suffix), round 1, and detail "rounds" (how many were merged),
 //    "round_spread" ((max - min) / median of the rounds' totals) and "repetitions_per_round".
 // Two samples of the same configuration and round (a line stored twice, a store named twice):

@@ -123,10 +123,8 @@ void run(const CalibrateOptions& o) {
 
   const MachineProfile probed = load_profile(o.machine);
   // The rounds of one configuration (`dtflop sweep --rounds`) become one sample: the median of their medians.
-  const auto combine = round_combine_from_string(o.rounds_combine);
-  if (!combine)
-    throw InputError(fmt::format("--rounds-combine '{}' is unknown; use median or fastest", o.rounds_combine));
-  const MergedRounds merged = merge_rounds(load_samples(o.stores, o.backends, o.match), *combine);
+  const MergedRounds merged =
+      merge_rounds(load_samples(o.stores, o.backends, o.match), parse_round_combine(o.rounds_combine));
   for (const auto& w : merged.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
   const std::vector<Sample>& samples = merged.samples;
   check_machine(samples, probed, o.machine);

@@ -115,9 +115,7 @@ int run(const ValidateOptions& o) {
     auto it = profile.metadata.find("fit_rounds_combine");
     combine_name = it != profile.metadata.end() ? it->second : "median";
   }
-  const auto combine = round_combine_from_string(combine_name);
-  if (!combine) throw InputError(fmt::format("--rounds-combine '{}' is unknown; use median or fastest", combine_name));
-  const MergedRounds merged = merge_rounds(std::move(loaded), *combine);
+  const MergedRounds merged = merge_rounds(std::move(loaded), parse_round_combine(combine_name));
   for (const auto& w : merged.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
   const std::vector<Sample>& samples = merged.samples;
   for (const auto& s : samples) {
