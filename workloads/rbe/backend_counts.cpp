@@ -112,8 +112,7 @@ ResidentPlan resident_plan(const Shape& s, const Layout& l, std::size_t max_shar
     // Fused when a multiprocessor runs two of its blocks at once (each block's shared memory and
     // the 1 KiB its runtime takes) and the x-pass recomputes at most as many halo rows as the
     // tile has rows; else split.
-    const bool two = 2 * (fused.smem_bytes + resident::kSharedReservedPerBlock) <= resident::kSmShared &&
-                     fused.smem_bytes <= max_shared;
+    const bool two = resident::blocks_by_shared(fused.smem_bytes) >= 2 && fused.smem_bytes <= max_shared;
     p.passes = (two && s.Iy - 1 <= p.tile_h) ? Layout::Passes::fused : Layout::Passes::split;
   }
   constexpr std::int64_t kMaxGridY = 65535;

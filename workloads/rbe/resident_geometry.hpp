@@ -79,6 +79,12 @@ struct TileGeometry {
 
 inline std::int64_t ceil_div(std::int64_t a, std::int64_t b) { return (a + b - 1) / b; }
 
+// Blocks of `smem` bytes of dynamic shared memory (and the 1 KiB the runtime keeps for each) one
+// multiprocessor's shared memory holds.
+inline std::int64_t blocks_by_shared(std::size_t smem) {
+  return static_cast<std::int64_t>(kSmShared / (smem + kSharedReservedPerBlock));
+}
+
 // Blocks of `threads` threads, `regs` registers each and `smem` bytes of dynamic shared memory
 // one multiprocessor runs at once (registers are given out per warp in units of 256).
 inline int blocks_per_sm(int threads, int regs, std::size_t smem) {
@@ -87,7 +93,7 @@ inline int blocks_per_sm(int threads, int regs, std::size_t smem) {
   std::int64_t n = kSmBlocks;
   n = std::min<std::int64_t>(n, kSmRegisters / (warps * per_warp));
   n = std::min<std::int64_t>(n, kSmThreads / threads);
-  n = std::min<std::int64_t>(n, static_cast<std::int64_t>(kSmShared / (smem + kSharedReservedPerBlock)));
+  n = std::min<std::int64_t>(n, blocks_by_shared(smem));
   return static_cast<int>(std::max<std::int64_t>(n, 1));
 }
 
