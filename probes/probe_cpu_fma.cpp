@@ -57,12 +57,17 @@ std::vector<Measurement> rate(int threads, cpu::Isa isa, const Plan& p, const Cp
       cpu::fma_chains(isa, n, a, b, x.data());
     });
   };
-  // Calibrate: grow until a run takes a tenth of the target, then scale to the target.
+  // Calibrate: grow until a run takes a tenth of the target, then scale to the target. The
+  // size it stopped at is timed again and the faster time kept: on a shared machine one of
+  // these short runs can lose the CPU for a scheduler tick (milliseconds, against a 2 ms smoke
+  // target), and scaling by that stalled time would shrink the timed runs to a few steps,
+  // whose time is then the team's wake-up and not the FMAs.
   double t = once(iters);
   while (t < p.target_seconds / 10 && iters < (std::int64_t{1} << 40)) {
     iters *= 4;
     t = once(iters);
   }
+  t = std::min(t, once(iters));
   iters = std::max<std::int64_t>(1, static_cast<std::int64_t>(static_cast<double>(iters) * p.target_seconds / t));
 
   std::vector<double> times;
