@@ -36,6 +36,8 @@ CostCounts cpu_seq_counts(const Shape& s, Prediction prediction);
 //   full:      N_C = 2 n_g I_x I_y + 3 n_g + 2,          N_CC = 7 n_g + I_x I_y
 //   cpu_syncs = 3 with two threads or more (the prediction's parallel region, the barrier between
 //   its two loops, the correction's region), 0 on one thread
+//   cpu_footprint (separable) = P (3 n_g + (n_y + I_y - 1) Y): q, l, the prediction and u, which
+//   is stored strip by strip with I_y - 1 zero rows
 // (the previous step's normalization 1 / (A_c S) is folded into this step's multiply by l).
 inline constexpr int kCpuParXBlock = 64;
 inline constexpr int kCpuParYStrip = 32;

@@ -36,50 +36,51 @@ namespace {
 constexpr int kXBlock = kCpuParXBlock;
 constexpr int kYStrip = kCpuParYStrip;
 
-// out[x] = sum_a k[a] in[x + a] for B consecutive x: B accumulators stay in registers while
-// the taps stream past (B = 64 is eight AVX vectors, enough independent FMA chains to keep both
-// FMA pipes busy).
-template <int B>
+// out[x] = sum_a k[a] in[x + a] for 2 x kYStrip consecutive x: the accumulators stay in
+// registers while the taps stream past (64 = eight AVX vectors, enough independent FMA chains to
+// keep both FMA pipes busy). The first kYStrip outputs go to out0, the others to out1: the two
+// y-pass strips the block covers.
 DTFLOP_INLINE void correlate_block(const float* __restrict in, const float* __restrict k, std::int64_t I,
-                            float* __restrict out) {
-  float acc[B] = {};
+                                   float* __restrict out0, float* __restrict out1) {
+  static_assert(kXBlock == 2 * kYStrip, "an x-pass block fills two y-pass strips");
+  float acc[kXBlock] = {};
   for (std::int64_t a = 0; a < I; ++a) {
     const float c = k[a];
     const float* s = in + a;
-    for (int j = 0; j < B; ++j) acc[j] += c * s[j];
+    for (int j = 0; j < kXBlock; ++j) acc[j] += c * s[j];
   }
-  for (int j = 0; j < B; ++j) out[j] = acc[j];
+  for (int j = 0; j < kYStrip; ++j) out0[j] = acc[j];
+  for (int j = 0; j < kYStrip; ++j) out1[j] = acc[kYStrip + j];
 }
 
-// out[x] = sum_a k[a] in[x + a], x in [0, n): `in` holds n + I - 1 values and kXBlock - 1
-// readable ones after them. Every block is a full one: the last, partial block is computed
-// whole into a scratch block and its first values copied out, so each output costs the same
-// whatever n is (a narrow tail would run one FMA chain at a time). cpu_par_counts() counts the
-// FLOPs of whole blocks.
+// Row r of u, u[x] = sum_a k[a] in[x + a] for every column x of the strips: `in` holds the
+// zero-padded input row and kXBlock - 1 readable values after it; u is stored strip by strip
+// (strip s holds columns [32 s, 32 s + 32) of every row, rows 32 floats apart, strips `strip`
+// floats apart), so each y-pass strip reads one contiguous block. Every block of kXBlock outputs
+// is computed whole, so each output costs the same whatever n is (cpu_par_counts() counts the
+// FLOPs of whole blocks); a last block that covers one strip only writes its second half to
+// `spill`.
 DTFLOP_VECTOR_CLONES
-void correlate_row(const float* __restrict in, const float* __restrict k, std::int64_t I,
-                   float* __restrict out, std::int64_t n) {
-  std::int64_t x = 0;
-  for (; x + kXBlock <= n; x += kXBlock) correlate_block<kXBlock>(in + x, k, I, out + x);
-  if (x < n) {
-    float part[kXBlock];
-    correlate_block<kXBlock>(in + x, k, I, part);
-    std::copy_n(part, n - x, out + x);
+void correlate_row(const float* __restrict in, const float* __restrict k, std::int64_t I, float* __restrict u,
+                   std::int64_t strip, std::int64_t strips, float* __restrict spill) {
+  for (std::int64_t s = 0; s < strips; s += 2) {
+    float* hi = s + 1 < strips ? u + (s + 1) * strip : spill;
+    correlate_block(in + s * kYStrip, k, I, u + s * strip, hi);
   }
 }
 
-// The y-pass for B columns of two neighbouring output rows: out0[x] = sum_b k[b] in[b pitch + x]
-// and out1[x] = sum_b k[b] in[(b + 1) pitch + x]. The two outputs share I - 1 of their input
-// rows, so each row segment loaded feeds two FMAs (2B accumulators in registers). Taps are
-// summed in the same order as for one row at a time. Without out1, one row.
-template <int B>
-DTFLOP_INLINE void combine_block(const float* __restrict in, std::int64_t pitch, const float* __restrict k, std::int64_t I,
-                          float* __restrict out0, float* __restrict out1) {
+// The y-pass for kYStrip columns of two neighbouring output rows: out0[x] = sum_b k[b] in[b p + x]
+// and out1[x] = sum_b k[b] in[(b + 1) p + x], p = kYStrip (one strip of u). The two outputs share
+// I - 1 of their input rows, so each row segment loaded feeds two FMAs (2 x 32 accumulators in
+// registers). Taps are summed in the same order as for one row at a time. Without out1, one row.
+DTFLOP_INLINE void combine_block(const float* __restrict in, const float* __restrict k, std::int64_t I,
+                                 float* __restrict out0, float* __restrict out1) {
+  constexpr int B = kYStrip;
   float a0[B] = {};
   if (out1 == nullptr) {
     for (std::int64_t b = 0; b < I; ++b) {
       const float c = k[b];
-      const float* s = in + b * pitch;
+      const float* s = in + b * B;
       for (int j = 0; j < B; ++j) a0[j] += c * s[j];
     }
     for (int j = 0; j < B; ++j) out0[j] = a0[j];
@@ -89,13 +90,13 @@ DTFLOP_INLINE void combine_block(const float* __restrict in, std::int64_t pitch,
   for (int j = 0; j < B; ++j) a0[j] += k[0] * in[j];
   for (std::int64_t b = 1; b < I; ++b) {
     const float c0 = k[b], c1 = k[b - 1];
-    const float* s = in + b * pitch;
+    const float* s = in + b * B;
     for (int j = 0; j < B; ++j) {
       a0[j] += c0 * s[j];
       a1[j] += c1 * s[j];
     }
   }
-  const float* s = in + I * pitch;
+  const float* s = in + I * B;
   for (int j = 0; j < B; ++j) a1[j] += k[I - 1] * s[j];
   for (int j = 0; j < B; ++j) {
     out0[j] = a0[j];
@@ -103,19 +104,24 @@ DTFLOP_INLINE void combine_block(const float* __restrict in, std::int64_t pitch,
   }
 }
 
-// One strip of kYStrip columns starting at column x, output rows [y0, y1), two rows at a time;
-// only the first w columns are written (the last strip of a row is computed whole into scratch
-// rows, as in the x-pass).
-DTFLOP_INLINE void combine_strip(const float* __restrict in, std::int64_t pitch, const float* __restrict k,
-                                 std::int64_t I, float* __restrict out, std::int64_t y0, std::int64_t y1,
-                                 std::int64_t x, std::int64_t w) {
+// The y-pass for one strip of u (`in`: its rows, kYStrip floats each, output row y reading rows
+// y .. y + I - 1) and output rows [y0, y1) of `out` (`pitch` floats a row), columns [x, x + w),
+// two rows at a time. The strip's rows are contiguous, so the I rows a pair of outputs reads
+// (I x 128 bytes, 25 KiB at I = 200) spread evenly over the L1 cache's sets and stay there from
+// one pair to the next: u is read from memory once per strip, whatever the kernel height and
+// whatever the grid's width (a row-major u put rows a multiple of 4 KiB apart into the same
+// few sets: a 1024-wide grid ran its y-pass at half speed). The last strip of a row is computed
+// whole into scratch rows and its first w columns copied out.
+DTFLOP_VECTOR_CLONES
+void combine_piece(const float* __restrict in, const float* __restrict k, std::int64_t I, float* __restrict out,
+                   std::int64_t pitch, std::int64_t y0, std::int64_t y1, std::int64_t x, std::int64_t w) {
   float part0[kYStrip], part1[kYStrip];
   const bool whole = w == kYStrip;
   std::int64_t y = y0;
   for (; y + 2 <= y1; y += 2) {
     float* o0 = out + y * pitch + x;
     float* o1 = o0 + pitch;
-    combine_block<kYStrip>(in + y * pitch + x, pitch, k, I, whole ? o0 : part0, whole ? o1 : part1);
+    combine_block(in + y * kYStrip, k, I, whole ? o0 : part0, whole ? o1 : part1);
     if (!whole) {
       std::copy_n(part0, w, o0);
       std::copy_n(part1, w, o1);
@@ -123,22 +129,25 @@ DTFLOP_INLINE void combine_strip(const float* __restrict in, std::int64_t pitch,
   }
   if (y < y1) {
     float* o0 = out + y * pitch + x;
-    combine_block<kYStrip>(in + y * pitch + x, pitch, k, I, whole ? o0 : part0, nullptr);
+    combine_block(in + y * kYStrip, k, I, whole ? o0 : part0, nullptr);
     if (!whole) std::copy_n(part0, w, o0);
   }
 }
 
-// The y-pass over rows [y0, y1) of the output: `in` is the zero-padded u (row y of the output
-// reads rows y .. y + I - 1), both with `pitch` columns, n of them computed; `in` has
-// kYStrip - 1 readable values after its last row. Columns are taken in strips of kYStrip,
-// each strip top to bottom, so the I row segments a strip reads (I x 128 bytes, 25 KiB at
-// I = 200) stay in the L1 cache from one output row to the next: the pass reads u from memory
-// once, whatever the kernel height.
-DTFLOP_VECTOR_CLONES
-void combine_rows(const float* __restrict in, std::int64_t pitch, const float* __restrict k, std::int64_t I,
-                  float* __restrict out, std::int64_t y0, std::int64_t y1, std::int64_t n) {
-  for (std::int64_t x = 0; x < n; x += kYStrip)
-    combine_strip(in, pitch, k, I, out, y0, y1, x, std::min<std::int64_t>(kYStrip, n - x));
+// How the y-pass is cut into pieces that the threads take one at a time (dynamic schedule): a
+// piece is one strip of columns over a band of rows. Whole-height strips when there are enough
+// of them to balance the threads (each strip then reads its rows of u once); narrow grids cut
+// their strips into bands, each band re-reading the I - 1 rows above its first output row.
+struct YPieces {
+  std::int64_t strips = 1, bands = 1;
+  std::int64_t count() const { return strips * bands; }
+};
+YPieces y_pieces(std::int64_t nx, std::int64_t ny, int threads) {
+  YPieces p;
+  p.strips = (nx + kYStrip - 1) / kYStrip;
+  const std::int64_t wanted = 8 * std::int64_t{threads};  // pieces enough to even out the threads
+  if (threads > 1 && p.strips < wanted) p.bands = std::min(ny, (wanted + p.strips - 1) / p.strips);
+  return p;
 }
 
 // out[x] = sum_b sum_a k[b Ix + a] in[b pitch + x + a], x in [0, n): the full 2D prediction.
@@ -227,9 +236,13 @@ class CpuPar final : public Backend {
       ky_.resize(static_cast<std::size_t>(Iy_));
       for (std::int64_t a = 0; a < Ix_; ++a) kx_[std::size_t(a)] = float(problem.kernel.kx()[std::size_t(Ix_ - 1 - a)]);
       for (std::int64_t b = 0; b < Iy_; ++b) ky_[std::size_t(b)] = float(problem.kernel.ky()[std::size_t(Iy_ - 1 - b)]);
-      upad_.assign(static_cast<std::size_t>((ny_ + Iy_ - 1) * nx_ + kYStrip), 0.0f);  // + slack read by a last strip
-      std::fill_n(upad_.begin() + hy_ * nx_, ny_ * nx_, fill);  // the rows the x-pass writes
+      // u strip by strip, each strip with I_y - 1 zero rows around the n_y the x-pass writes.
+      strips_ = (nx_ + kYStrip - 1) / kYStrip;
+      upad_.assign(static_cast<std::size_t>(strips_ * strip_floats()), 0.0f);
+      for (std::int64_t st = 0; st < strips_; ++st)
+        std::fill_n(upad_.begin() + st * strip_floats() + hy_ * kYStrip, ny_ * kYStrip, fill);
       rows_.assign(static_cast<std::size_t>(threads_ * row_pitch()), 0.0f);
+      spill_.assign(static_cast<std::size_t>(threads_ * kYStrip), 0.0f);
     } else {
       kfull_.resize(static_cast<std::size_t>(Ix_ * Iy_));
       for (std::int64_t b = 0; b < Iy_; ++b)
@@ -265,23 +278,39 @@ class CpuPar final : public Backend {
 
  private:
   std::int64_t row_pitch() const { return nx_ + Ix_ - 1 + kXBlock; }
+  // Floats of one strip of u: kYStrip columns of n_y + I_y - 1 rows.
+  std::int64_t strip_floats() const { return (ny_ + Iy_ - 1) * kYStrip; }
 
   void set_likelihood(const std::vector<double>& l) { l_.assign(l.begin(), l.end()); }
 
   void predict() {
     const std::int64_t nx = nx_, ny = ny_;
     if (prediction_ == Prediction::separable) {
+      // Both loops hand out their work a piece at a time (dynamic schedule), so a thread whose
+      // core runs slower for a while (another tenant on a shared host, an interrupt) takes
+      // fewer pieces instead of holding up the region's end. Every output is computed the same
+      // way in any schedule: the result and the counts do not depend on it.
+      const YPieces pieces = y_pieces(nx, ny, threads_);
 #pragma omp parallel num_threads(threads_)
       {
-        float* row = rows_.data() + omp_get_thread_num() * row_pitch();  // zeros outside [hx, hx + nx)
-#pragma omp for schedule(static)
+        const int id = omp_get_thread_num();
+        float* row = rows_.data() + id * row_pitch();  // zeros outside [hx, hx + nx)
+        float* spill = spill_.data() + id * kYStrip;
+        const std::int64_t sf = strip_floats();
+#pragma omp for schedule(dynamic, 4)
         for (std::int64_t y = 0; y < ny; ++y) {
           std::copy_n(q_.data() + y * nx, nx, row + hx_);
-          correlate_row(row, kx_.data(), Ix_, upad_.data() + (y + hy_) * nx, nx);
+          correlate_row(row, kx_.data(), Ix_, upad_.data() + (y + hy_) * kYStrip, sf, strips_, spill);
         }
-        // (the implicit barrier of the loop above: every row of u is written)
-        const std::int64_t id = omp_get_thread_num(), nt = omp_get_num_threads();
-        combine_rows(upad_.data(), nx, ky_.data(), Iy_, pred_.data(), ny * id / nt, ny * (id + 1) / nt, nx);
+        // (the implicit barrier of the loop above: every row of u is written; the loop below
+        // ends with no barrier of its own, the region's end is the join)
+#pragma omp for schedule(dynamic, 1) nowait
+        for (std::int64_t i = 0; i < pieces.count(); ++i) {
+          const std::int64_t strip = i / pieces.bands, band = i % pieces.bands;
+          const std::int64_t x = strip * kYStrip;
+          combine_piece(upad_.data() + strip * sf, ky_.data(), Iy_, pred_.data(), nx, ny * band / pieces.bands,
+                        ny * (band + 1) / pieces.bands, x, std::min<std::int64_t>(kYStrip, nx - x));
+        }
       }
     } else {
       const std::int64_t pw = nx + Ix_ - 1;
@@ -339,7 +368,8 @@ class CpuPar final : public Backend {
   std::vector<std::uint8_t> mask_;
   Prediction prediction_ = Prediction::separable;
   std::int64_t nx_ = 0, ny_ = 0, Ix_ = 0, Iy_ = 0, hx_ = 0, hy_ = 0;
-  std::vector<float> q_, l_, pred_, kx_, ky_, kfull_, upad_, rows_, ppad_;
+  std::vector<float> q_, l_, pred_, kx_, ky_, kfull_, upad_, rows_, spill_, ppad_;
+  std::int64_t strips_ = 0;  // y-pass strips of u
   double scale_ = 1;
   std::int64_t steps_ = 0;
   bool ready_ = false;

@@ -85,8 +85,8 @@ TEST(RbeBackendCounts, CpuParByHand) {
   EXPECT_EQ(c.N_C, 2LL * 1000 * (33 * 1024 + 33 * 1024) + 3LL * 1000000 + 2);
   EXPECT_EQ(c.N_CC, 7LL * 1000000 + 66);
   EXPECT_EQ(c.cpu_syncs, 3);
-  // Working set: q, l, prediction (10^6 floats each) and u with 32 zero rows.
-  EXPECT_EQ(c.cpu_footprint, 4LL * (3 * 1000000 + 1032 * 1000));
+  // Working set: q, l, prediction (10^6 floats each) and u: 32 strips of 32 columns, 1032 rows.
+  EXPECT_EQ(c.cpu_footprint, 4LL * (3 * 1000000 + 1032 * 1024));
   // 100 columns: 128 in x-pass blocks, 128 in y-pass strips; 96 columns: 128 and 96.
   EXPECT_EQ(cpu_par_counts({100, 10, 3, 5}, Prediction::separable, 2).N_C, 2LL * 10 * (3 * 128 + 5 * 128) + 3 * 1000 + 2);
   EXPECT_EQ(cpu_par_counts({96, 10, 3, 5}, Prediction::separable, 2).N_C, 2LL * 10 * (3 * 128 + 5 * 96) + 3 * 960 + 2);
