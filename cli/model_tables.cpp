@@ -28,6 +28,7 @@ void print_counts(const CostCounts& c) {
   t.row({"N_GG", count_str(c.N_GG), "values through device memory"});
   t.row({"N_C", count_str(c.N_C), fmt::format("FLOPs on the CPU, on {} thread{}", c.cpu_threads,
                                               c.cpu_threads == 1 ? "" : "s")});
+  if (c.N_CW > 0) t.row({"N_CW", count_str(c.N_CW), "of N_C, FLOPs of sliding-window loops (one unaligned load per FMA)"});
   t.row({"N_CC", count_str(c.N_CC), "values through host memory (extended model)"});
   t.row({"N_G", count_str(c.N_G), "FLOPs on the GPU"});
   t.row({"N_GS", count_str(c.N_GS), "values kernels copy into shared-memory tiles (per busiest-SM round x SMs)"});

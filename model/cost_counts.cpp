@@ -21,6 +21,7 @@ CostCounts& CostCounts::operator+=(const CostCounts& o) {
   N_C += o.N_C;
   N_G += o.N_G;
   N_CC += o.N_CC;
+  N_CW += o.N_CW;
   transfers_CG += o.transfers_CG;
   transfers_GC += o.transfers_GC;
   launches += o.launches;
@@ -43,6 +44,7 @@ CostCounts CostCounts::scaled(std::int64_t steps) const {
   c.N_C *= steps;
   c.N_G *= steps;
   c.N_CC *= steps;
+  c.N_CW *= steps;
   c.transfers_CG *= steps;
   c.transfers_GC *= steps;
   c.launches *= steps;

@@ -31,6 +31,13 @@ struct CostCounts {
   std::int64_t N_C = 0;         // FLOPs on the CPU
   std::int64_t N_G = 0;         // FLOPs on the GPU
   std::int64_t N_CC = 0;        // values moved through host memory by CPU work (extended model)
+  std::int64_t N_CW = 0;        // of N_C, the FLOPs of vectorized sliding-window loops, bound by
+                                // their loads: a correlation along contiguous memory whose every
+                                // vector FMA loads its operand one value on from the previous
+                                // tap's (one unaligned load per FMA). Priced K_CW times a FLOP at
+                                // the CPU rate (memory and extended variants). Loops bound by the
+                                // FMA units or by chains of dependent additions are not counted
+                                // here; 0 = none
   std::int64_t N_GS = 0;        // values kernels copy from device memory into shared-memory tiles
                                 // (halos included), counted per round of blocks on the busiest
                                 // multiprocessor times the multiprocessors, like N_G (latency+)

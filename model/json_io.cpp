@@ -210,6 +210,7 @@ json to_json(const CostCounts& c) {
           {"N_C", c.N_C},
           {"N_G", c.N_G},
           {"N_CC", c.N_CC},
+          {"N_CW", c.N_CW},
           {"transfers_CG", c.transfers_CG},
           {"transfers_GC", c.transfers_GC},
           {"launches", c.launches},
@@ -242,6 +243,9 @@ CostCounts counts_from_json(const json& j) {
   c.N_C = get_i64(j, "N_C", 0);
   c.N_G = get_i64(j, "N_G", 0);
   c.N_CC = get_i64(j, "N_CC", 0);
+  c.N_CW = get_i64(j, "N_CW", 0);
+  if (c.N_CW > c.N_C)
+    bad("counts.N_CW", c.N_CW, fmt::format("at most N_C = {} (the sliding-window FLOPs are some of the CPU's FLOPs)", c.N_C));
   c.transfers_CG = get_i64(j, "transfers_CG", 0);
   c.transfers_GC = get_i64(j, "transfers_GC", 0);
   c.launches = get_i64(j, "launches", 0);

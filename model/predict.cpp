@@ -125,6 +125,7 @@ std::vector<Param> required_params(const CostCounts& c, Variant variant, std::in
   if (lat && c.host_waits > 0) add(Param::L_wait);
   if (lat && c.cpu_syncs > 0) add(Param::L_sync);
   if (lat && c.N_GS > 0) add(Param::B_GS);
+  if ((variant == Variant::memory || variant == Variant::extended) && c.N_CW > 0 && c.N_C > 0) add(Param::K_CW);
   if ((variant == Variant::memory || variant == Variant::extended) && c.N_CC > 0) {
     for (auto p : cpu_params(Param::B_host_1, Param::B_host, c.cpu_threads)) add(p);
     if (c.cpu_footprint > 0 && c.cpu_footprint < profile_llc)
@@ -146,6 +147,10 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
           "transfers_GC = {} copies; the workload's counts are inconsistent",
           bytes, copies, c.P * c.N_GC, c.transfers_GC));
   }
+  if (c.N_CW < 0 || c.N_CW > c.N_C)
+    throw InputError(fmt::format("the counts give N_CW = {} sliding-window FLOPs of N_C = {} CPU FLOPs; they are "
+                                 "some of the CPU's FLOPs, so 0 <= N_CW <= N_C: the workload's counts are inconsistent",
+                                 c.N_CW, c.N_C));
   const bool staged = uses_staging(c, variant, has_staging(m));
   for (auto p : required_params(c, variant, m.identity.cpu_llc_bytes, staged))
     if (!m.has(p)) missing += fmt::format("{}{} ({})", missing.empty() ? "" : ", ", info(p).name, info(p).what);
@@ -162,7 +167,12 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
   if (c.N_CG > 0) r.dt_CG = P * static_cast<double>(c.N_CG) / m.get(b_cg(c)).value;
   if (c.N_GC > 0) r.dt_GC = P * static_cast<double>(c.N_GC) / m.get(b_gc(c)).value;
   if (c.N_GG > 0) r.dt_GG = P * static_cast<double>(c.N_GG) / m.get(Param::B_GG).value;
-  if (c.N_C > 0) r.dt_C = static_cast<double>(c.N_C) / cpu_rate(m, c.precision, c.cpu_threads);
+  // memory and extended: the sliding-window FLOPs cost K_CW times the others (their loads, one
+  // per FMA and most of them unaligned, hold the arithmetic back: docs/model.md 2.4).
+  const bool windows = (variant == Variant::memory || variant == Variant::extended) && c.N_CW > 0;
+  if (c.N_C > 0)
+    r.dt_C = (static_cast<double>(c.N_C) + (windows ? (m.get(Param::K_CW).value - 1) * static_cast<double>(c.N_CW) : 0.0)) /
+             cpu_rate(m, c.precision, c.cpu_threads);
   if (c.N_G > 0) r.dt_G = static_cast<double>(c.N_G) / m.get(v_g(c.precision)).value;
 
   if (variant == Variant::seed) {

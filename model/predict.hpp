@@ -16,9 +16,11 @@ namespace dtflop {
 //             blocks, per host wait for the device and per CPU thread sync (alpha + bytes/B),
 //             and the kernels' shared-memory tile fills before they compute.
 //  memory   - latency + the host memory traffic of CPU work, summed with its arithmetic as the
-//             seed sums device traffic with device arithmetic (no overlap anywhere).
+//             seed sums device traffic with device arithmetic (no overlap anywhere), and the
+//             CPU's load-bound sliding-window FLOPs (N_CW) at K_CW times the cost of the others.
 //  extended - latency + overlap: inside the device, memory traffic and arithmetic overlap
-//             (max instead of sum), and on the host, arithmetic and memory traffic overlap.
+//             (max instead of sum), and on the host, arithmetic (N_CW priced as in memory) and
+//             memory traffic overlap.
 enum class Variant { seed, latency, memory, extended };
 
 std::string_view to_string(Variant v);

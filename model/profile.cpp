@@ -54,6 +54,7 @@ const std::vector<ParamInfo>& all_params() {
       {Param::B_GC_staged, "B_GC_staged", "B/s", "device->host pageable: rate of a copy's first S_GC_staged bytes"},
       {Param::S_GC_staged, "S_GC_staged", "B", "device->host pageable: bytes of a copy that pass at B_GC_staged"},
       {Param::S_GC_flat, "S_GC_flat", "B", "device->host pageable: bytes after S_GC_staged that cost nothing more"},
+      {Param::K_CW, "K_CW", "x", "cost of a sliding-window CPU FLOP (one unaligned load per FMA) relative to one at the CPU rate"},
   };
   return table;
 }

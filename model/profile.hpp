@@ -49,6 +49,7 @@ enum class Param {
   B_GC_staged,     // rate of the first S_GC_staged bytes of a copy (not overlapped)   [B/s]
   S_GC_staged,     // bytes of a copy that pass at B_GC_staged                         [B]
   S_GC_flat,       // bytes after those that cost nothing more; the rest at B_GC_pageable [B]
+  K_CW,            // cost of a sliding-window FLOP (N_CW) relative to one at the CPU rate [x]
 };
 
 struct ParamInfo {

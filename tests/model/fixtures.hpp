@@ -40,6 +40,7 @@ inline MachineProfile round_profile() {
   set(Param::B_GC_staged, 5e9);
   set(Param::S_GC_staged, 400e3);
   set(Param::S_GC_flat, 200e3);
+  set(Param::K_CW, 1.5);  // a sliding-window FLOP costs half as much again
   return m;
 }
 

@@ -136,6 +136,7 @@ TEST(CountsJson, RoundTrip) {
   c.N_C = 4;
   c.N_G = 5;
   c.N_CC = 6;
+  c.N_CW = 3;
   c.transfers_CG = 7;
   c.transfers_GC = 8;
   c.launches = 9;
@@ -157,7 +158,9 @@ TEST(CountsJson, RoundTrip) {
   old.erase("N_GS");
   old.erase("atomics");
   old.erase("copies_GC");
+  old.erase("N_CW");
   const CostCounts back = counts_from_json(old);
+  EXPECT_EQ(back.N_CW, 0);
   EXPECT_EQ(back.N_GS, 0);
   EXPECT_EQ(back.atomics, 0);
   EXPECT_TRUE(back.copies_GC.empty());
@@ -170,6 +173,9 @@ TEST(CountsJson, RoundTrip) {
   EXPECT_THROW(counts_from_json(j), InputError);
   j = to_json(c);
   j["host_memory"] = "managed";
+  EXPECT_THROW(counts_from_json(j), InputError);
+  j = to_json(c);
+  j["N_CW"] = 5;  // more sliding-window FLOPs than the N_C = 4 FLOPs
   EXPECT_THROW(counts_from_json(j), InputError);
   for (const char* bad : {R"({"bytes": 0, "count": 1})", R"({"bytes": 8})", R"({"bytes": 8, "count": -2})", "[8, 1]"}) {
     j = to_json(c);

@@ -117,6 +117,48 @@ TEST(Predict, MemoryVariantAddsHostTrafficToCpuArithmetic) {
   EXPECT_NEAR(predict(m, dev, Variant::memory).total, predict(m, dev, Variant::latency).total, 1e-18);
 }
 
+TEST(Predict, SlidingWindowFlopsCostKCwTimesTheOthersInTheMemoryVariants) {
+  const auto m = test::round_profile();  // K_CW = 1.5
+  CostCounts c;
+  c.N_C = 1'000'000;  // 10 us at 100 GFLOP/s (one thread)
+  c.N_CW = 400'000;   // of which 4 us are sliding-window FLOPs: 6 us at K_CW = 1.5
+  EXPECT_NEAR(predict(m, c, Variant::memory).dt_C, 12e-6, 1e-15);
+  EXPECT_NEAR(predict(m, c, Variant::extended).dt_C, 12e-6, 1e-15);  // no host traffic to overlap
+  // The seed and latency variants price every FLOP alike.
+  EXPECT_NEAR(predict(m, c, Variant::seed).dt_C, 10e-6, 1e-15);
+  EXPECT_NEAR(predict(m, c, Variant::latency).dt_C, 10e-6, 1e-15);
+  // The extended variant overlaps the priced arithmetic with host traffic: 4 MB at 20 GB/s.
+  c.N_CC = 1'000'000;
+  EXPECT_NEAR(predict(m, c, Variant::extended).dt_C, 200e-6, 1e-15);
+  c.N_CC = 10'000;  // 2 us of traffic under 12 us of arithmetic
+  EXPECT_NEAR(predict(m, c, Variant::extended).dt_C, 12e-6, 1e-15);
+  // K_CW is needed only where sliding-window FLOPs are counted, and only by those variants.
+  const auto need = [&](const CostCounts& k, Variant v) {
+    const auto r = required_params(k, v);
+    return std::find(r.begin(), r.end(), Param::K_CW) != r.end();
+  };
+  EXPECT_TRUE(need(c, Variant::memory));
+  EXPECT_TRUE(need(c, Variant::extended));
+  EXPECT_FALSE(need(c, Variant::latency));
+  CostCounts plain = c;
+  plain.N_CW = 0;
+  EXPECT_FALSE(need(plain, Variant::memory));
+  auto without = m;
+  without.erase(Param::K_CW);
+  EXPECT_NO_THROW(predict(without, plain, Variant::memory));
+  try {
+    predict(without, c, Variant::memory);
+    ADD_FAILURE() << "no MissingParameter";
+  } catch (const MissingParameter& e) {
+    EXPECT_NE(std::string(e.what()).find("K_CW"), std::string::npos) << e.what();
+  }
+  // More sliding-window FLOPs than FLOPs: inconsistent counts.
+  c.N_CW = c.N_C + 1;
+  EXPECT_THROW(predict(m, c, Variant::memory), InputError);
+  c.N_CW = -1;
+  EXPECT_THROW(predict(m, c, Variant::latency), InputError);
+}
+
 TEST(Predict, ThreadSyncsWavesAndHostWaitsAreFixedCostsOfTheLatencyVariants) {
   const auto m = test::round_profile();
   CostCounts c;
@@ -282,7 +324,10 @@ TEST(CostCounts, ScaleAndAdd) {
   c.cpu_syncs = 5;
   c.host_waits = 7;
   c.copies_GC = {{1000, 2}, {24, 1}};
+  c.N_C = 10;
+  c.N_CW = 4;
   d = c.scaled(3);
+  EXPECT_EQ(d.N_CW, 12);
   EXPECT_EQ(d.copies_GC, (std::vector<CopySize>{{1000, 6}, {24, 3}}));
   EXPECT_EQ(d.host_waits, 21);
   EXPECT_EQ(d.waves, 6);

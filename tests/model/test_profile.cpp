@@ -12,12 +12,12 @@ TEST(Params, EveryParameterHasUniqueNameAndKnownUnit) {
   std::set<std::string_view> names;
   for (const auto& i : all_params()) {
     EXPECT_TRUE(names.insert(i.name).second) << i.name;
-    EXPECT_TRUE(i.unit == "B/s" || i.unit == "s" || i.unit == "FLOP/s" || i.unit == "B") << i.name;
+    EXPECT_TRUE(i.unit == "B/s" || i.unit == "s" || i.unit == "FLOP/s" || i.unit == "B" || i.unit == "x") << i.name;
     EXPECT_EQ(param_from_name(i.name), i.id);
     EXPECT_EQ(info(i.id).name, i.name);
   }
   // The table covers every enumerator, first to last.
-  EXPECT_EQ(all_params().size(), static_cast<size_t>(Param::S_GC_flat) + 1);  // S_GC_flat is the last
+  EXPECT_EQ(all_params().size(), static_cast<size_t>(Param::K_CW) + 1);  // K_CW is the last
   EXPECT_FALSE(param_from_name("B_XY").has_value());
 }
 

@@ -60,11 +60,15 @@ CostCounts cpu_par_counts(const Shape& s, Prediction prediction, int threads) {
   if (prediction == Prediction::separable) {
     auto round_up = [](std::int64_t n, std::int64_t m) { return (n + m - 1) / m * m; };
     c.N_C = 2 * s.ny * (s.Ix * round_up(s.nx, kCpuParXBlock) + s.Iy * round_up(s.nx, kCpuParYStrip)) + correction;
+    // The x-pass slides along its row: one unaligned load per FMA. (The y-pass loads aligned row
+    // segments of its strip, each feeding two output rows.)
+    c.N_CW = 2 * s.ny * s.Ix * round_up(s.nx, kCpuParXBlock);
     c.N_CC = 7 * ng + s.Ix + s.Iy;
     // Working set: q, l, the prediction and u, strip by strip (Y columns), with I_y - 1 zero rows.
     c.cpu_footprint = (3 * ng + (s.ny + s.Iy - 1) * round_up(s.nx, kCpuParYStrip)) * c.P;
   } else {
     c.N_C = 2 * ng * s.Ix * s.Iy + correction;
+    c.N_CW = 2 * ng * s.Ix * s.Iy;  // every tap slides along the padded row
     c.N_CC = 7 * ng + s.Ix * s.Iy;
     c.cpu_footprint = (3 * ng + (s.ny + s.Iy - 1) * (s.nx + s.Ix - 1)) * c.P;  // q, l, prediction, padded q
   }

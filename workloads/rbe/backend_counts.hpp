@@ -25,6 +25,8 @@ std::int64_t edge_taps(std::int64_t kernel_size);
 //   X = kGroup ceil(n_x / kGroup), Y = kGroup ceil(n_y / kGroup)
 //   full:      N_C = 2 (I_x n_x - S(I_x)) (I_y n_y - S(I_y)) + 3 n_g + 1,  N_CC = 8 n_g + I_x I_y
 //   (multiply by l: n_g, sum: n_g, A_c x sum: 1, divide: n_g)
+// N_CW = 0: each output's taps are one chain of dependent additions, bound by their latency
+// rather than by the loads.
 CostCounts cpu_seq_counts(const Shape& s, Prediction prediction);
 
 // cpu-par, float32, `threads` threads, zero-padded buffers so every output takes every tap. The
@@ -34,6 +36,8 @@ CostCounts cpu_seq_counts(const Shape& s, Prediction prediction);
 // Y = kCpuParYStrip ceil(n_x / kCpuParYStrip):
 //   separable: N_C = 2 n_y (I_x X + I_y Y) + 3 n_g + 2,  N_CC = 7 n_g + I_x + I_y
 //   full:      N_C = 2 n_g I_x I_y + 3 n_g + 2,          N_CC = 7 n_g + I_x I_y
+//   sliding-window FLOPs (one unaligned load per FMA): N_CW = 2 n_y I_x X (the x-pass),
+//   2 n_g I_x I_y (full 2D); the y-pass's aligned loads each feed two FMAs and are not counted
 //   cpu_syncs = 3 with two threads or more (the prediction's parallel region, the barrier between
 //   its two loops, the correction's region), 0 on one thread
 //   cpu_footprint (separable) = P (3 n_g + (n_y + I_y - 1) Y): q, l, the prediction and u, which

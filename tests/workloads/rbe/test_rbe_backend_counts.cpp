@@ -68,6 +68,7 @@ TEST(RbeBackendCounts, CpuSeqByHand) {
   // 10 columns of 8 with 4 taps.
   EXPECT_EQ(c.N_C, 2 * (8 * 16 * 3 + 10 * 8 * 4) + 3 * 80 + 1);
   EXPECT_EQ(c.N_CC, 14 * 80 + 3 + 4);  // the y-pass through two transposes
+  EXPECT_EQ(c.N_CW, 0);  // chains of dependent additions: bound by their latency, not the loads
   EXPECT_EQ(c.cpu_syncs, 0);
   EXPECT_EQ(c.P, 8);
   EXPECT_EQ(c.cpu_threads, 1);
@@ -84,6 +85,7 @@ TEST(RbeBackendCounts, CpuParByHand) {
   // whole y-pass strips (1024 = 32 x 32).
   EXPECT_EQ(c.N_C, 2LL * 1000 * (33 * 1024 + 33 * 1024) + 3LL * 1000000 + 2);
   EXPECT_EQ(c.N_CC, 7LL * 1000000 + 66);
+  EXPECT_EQ(c.N_CW, 2LL * 1000 * 33 * 1024);  // the x-pass's FLOPs: it slides along its rows
   EXPECT_EQ(c.cpu_syncs, 3);
   // Working set: q, l, prediction (10^6 floats each) and u: 32 strips of 32 columns, 1032 rows.
   EXPECT_EQ(c.cpu_footprint, 4LL * (3 * 1000000 + 1032 * 1024));
@@ -95,6 +97,7 @@ TEST(RbeBackendCounts, CpuParByHand) {
   EXPECT_EQ(c.cpu_threads, 2);
   EXPECT_EQ(c.N_CG + c.N_GC + c.N_GG + c.N_G, 0);
   EXPECT_EQ(cpu_par_counts({100, 50, 5, 7}, Prediction::full, 1).N_C, 2LL * 5000 * 35 + 3 * 5000 + 2);
+  EXPECT_EQ(cpu_par_counts({100, 50, 5, 7}, Prediction::full, 1).N_CW, 2LL * 5000 * 35);
   // The backend declares the same counts, with the threads it runs on.
   BackendOptions o;
   o.threads = 3;
