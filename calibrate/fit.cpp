@@ -34,7 +34,7 @@ const double kLogBound = std::log(1e6);      // how far from its start a fitted 
 double default_start(Param p) {
   const auto unit = info(p).unit;
   if (unit == "s") return 10e-6;
-  if (p == Param::K_CW) return 1.0;  // a sliding-window FLOP costs what any other does
+  if (p == Param::K_CW || p == Param::K_GR) return 1.0;  // a FLOP costs what any other does
   if (p == Param::S_GC_staged) return 256.0 * 1024;  // the staging chunks of today's drivers
   if (p == Param::S_GC_flat) return 128.0 * 1024;
   if (p == Param::V_G_fp32 || p == Param::V_G_fp64) return 10e12;

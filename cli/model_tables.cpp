@@ -31,6 +31,7 @@ void print_counts(const CostCounts& c) {
   if (c.N_CW > 0) t.row({"N_CW", count_str(c.N_CW), "of N_C, FLOPs of sliding-window loops (one unaligned load per FMA)"});
   t.row({"N_CC", count_str(c.N_CC), "values through host memory (extended model)"});
   t.row({"N_G", count_str(c.N_G), "FLOPs on the GPU"});
+  if (c.N_GR > 0) t.row({"N_GR", count_str(c.N_GR), "of N_G, FLOPs whose taps each read another row of device memory"});
   t.row({"N_GS", count_str(c.N_GS), "values kernels copy into shared-memory tiles (per busiest-SM round x SMs)"});
   t.row({"launches", count_str(c.launches), "kernel launches"});
   t.row({"waves", count_str(c.waves), "rounds of thread blocks on the busiest GPU multiprocessor"});

@@ -20,6 +20,7 @@ CostCounts& CostCounts::operator+=(const CostCounts& o) {
   N_GG += o.N_GG;
   N_C += o.N_C;
   N_G += o.N_G;
+  N_GR += o.N_GR;
   N_CC += o.N_CC;
   N_CW += o.N_CW;
   transfers_CG += o.transfers_CG;
@@ -43,6 +44,7 @@ CostCounts CostCounts::scaled(std::int64_t steps) const {
   c.N_GG *= steps;
   c.N_C *= steps;
   c.N_G *= steps;
+  c.N_GR *= steps;
   c.N_CC *= steps;
   c.N_CW *= steps;
   c.transfers_CG *= steps;

@@ -30,6 +30,11 @@ struct CostCounts {
   std::int64_t N_GG = 0;        // values moved through device memory (reads + writes)
   std::int64_t N_C = 0;         // FLOPs on the CPU
   std::int64_t N_G = 0;         // FLOPs on the GPU
+  std::int64_t N_GR = 0;        // of N_G, the FLOPs of windows across rows: every tap reads its
+                                // operand from device memory in another row than the previous
+                                // tap's (a new cache line for each warp at every tap), where a
+                                // window along a row re-reads the lines of the taps before it.
+                                // Priced K_GR times a FLOP at V_G (latency+); 0 = none
   std::int64_t N_CC = 0;        // values moved through host memory by CPU work (extended model)
   std::int64_t N_CW = 0;        // of N_C, the FLOPs of vectorized sliding-window loops, bound by
                                 // their loads: a correlation along contiguous memory whose every

@@ -209,6 +209,7 @@ json to_json(const CostCounts& c) {
           {"N_GG", c.N_GG},
           {"N_C", c.N_C},
           {"N_G", c.N_G},
+          {"N_GR", c.N_GR},
           {"N_CC", c.N_CC},
           {"N_CW", c.N_CW},
           {"transfers_CG", c.transfers_CG},
@@ -244,6 +245,9 @@ CostCounts counts_from_json(const json& j) {
   c.N_G = get_i64(j, "N_G", 0);
   c.N_CC = get_i64(j, "N_CC", 0);
   c.N_CW = get_i64(j, "N_CW", 0);
+  c.N_GR = get_i64(j, "N_GR", 0);
+  if (c.N_GR > c.N_G)
+    bad("counts.N_GR", c.N_GR, fmt::format("at most N_G = {} (the across-row FLOPs are some of the GPU's FLOPs)", c.N_G));
   if (c.N_CW > c.N_C)
     bad("counts.N_CW", c.N_CW, fmt::format("at most N_C = {} (the sliding-window FLOPs are some of the CPU's FLOPs)", c.N_C));
   c.transfers_CG = get_i64(j, "transfers_CG", 0);

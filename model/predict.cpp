@@ -125,6 +125,7 @@ std::vector<Param> required_params(const CostCounts& c, Variant variant, std::in
   if (lat && c.host_waits > 0) add(Param::L_wait);
   if (lat && c.cpu_syncs > 0) add(Param::L_sync);
   if (lat && c.N_GS > 0) add(Param::B_GS);
+  if (lat && c.N_GR > 0 && c.N_G > 0) add(Param::K_GR);
   if ((variant == Variant::memory || variant == Variant::extended) && c.N_CW > 0 && c.N_C > 0) add(Param::K_CW);
   if ((variant == Variant::memory || variant == Variant::extended) && c.N_CC > 0) {
     for (auto p : cpu_params(Param::B_host_1, Param::B_host, c.cpu_threads)) add(p);
@@ -147,6 +148,10 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
           "transfers_GC = {} copies; the workload's counts are inconsistent",
           bytes, copies, c.P * c.N_GC, c.transfers_GC));
   }
+  if (c.N_GR < 0 || c.N_GR > c.N_G)
+    throw InputError(fmt::format("the counts give N_GR = {} across-row FLOPs of N_G = {} GPU FLOPs; they are some "
+                                 "of the GPU's FLOPs, so 0 <= N_GR <= N_G: the workload's counts are inconsistent",
+                                 c.N_GR, c.N_G));
   if (c.N_CW < 0 || c.N_CW > c.N_C)
     throw InputError(fmt::format("the counts give N_CW = {} sliding-window FLOPs of N_C = {} CPU FLOPs; they are "
                                  "some of the CPU's FLOPs, so 0 <= N_CW <= N_C: the workload's counts are inconsistent",
@@ -173,7 +178,12 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
   if (c.N_C > 0)
     r.dt_C = (static_cast<double>(c.N_C) + (windows ? (m.get(Param::K_CW).value - 1) * static_cast<double>(c.N_CW) : 0.0)) /
              cpu_rate(m, c.precision, c.cpu_threads);
-  if (c.N_G > 0) r.dt_G = static_cast<double>(c.N_G) / m.get(v_g(c.precision)).value;
+  // latency+: the across-row FLOPs cost K_GR times the others (each tap fetches a new line
+  // through the caches: docs/model.md 2.2).
+  const bool across = variant != Variant::seed && c.N_GR > 0;
+  if (c.N_G > 0)
+    r.dt_G = (static_cast<double>(c.N_G) + (across ? (m.get(Param::K_GR).value - 1) * static_cast<double>(c.N_GR) : 0.0)) /
+             m.get(v_g(c.precision)).value;
 
   if (variant == Variant::seed) {
     r.total = r.dt_CG + r.dt_GC + r.dt_GG + r.dt_C + r.dt_G;  // eqs. 3.2, 3.4

@@ -14,7 +14,8 @@ namespace dtflop {
 //  seed     - eqs. 3.2-3.9 exactly: every component P*N/B or N/V, summed.
 //  latency  - seed + a latency per transfer, per kernel launch, per round (wave) of thread
 //             blocks, per host wait for the device and per CPU thread sync (alpha + bytes/B),
-//             and the kernels' shared-memory tile fills before they compute.
+//             the kernels' shared-memory tile fills before they compute, and their FLOPs whose
+//             taps read across rows of device memory (N_GR) at K_GR times the others.
 //  memory   - latency + the host memory traffic of CPU work, summed with its arithmetic as the
 //             seed sums device traffic with device arithmetic (no overlap anywhere), and the
 //             CPU's load-bound sliding-window FLOPs (N_CW) at K_CW times the cost of the others.

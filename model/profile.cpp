@@ -55,6 +55,7 @@ const std::vector<ParamInfo>& all_params() {
       {Param::S_GC_staged, "S_GC_staged", "B", "device->host pageable: bytes of a copy that pass at B_GC_staged"},
       {Param::S_GC_flat, "S_GC_flat", "B", "device->host pageable: bytes after S_GC_staged that cost nothing more"},
       {Param::K_CW, "K_CW", "x", "cost of a sliding-window CPU FLOP (one unaligned load per FMA) relative to one at the CPU rate"},
+      {Param::K_GR, "K_GR", "x", "cost of a GPU FLOP whose tap reads another row of device memory relative to one at V_G"},
   };
   return table;
 }

@@ -50,6 +50,7 @@ enum class Param {
   S_GC_staged,     // bytes of a copy that pass at B_GC_staged                         [B]
   S_GC_flat,       // bytes after those that cost nothing more; the rest at B_GC_pageable [B]
   K_CW,            // cost of a sliding-window FLOP (N_CW) relative to one at the CPU rate [x]
+  K_GR,            // cost of an across-rows GPU FLOP (N_GR) relative to one at V_G         [x]
 };
 
 struct ParamInfo {

@@ -41,6 +41,7 @@ inline MachineProfile round_profile() {
   set(Param::S_GC_staged, 400e3);
   set(Param::S_GC_flat, 200e3);
   set(Param::K_CW, 1.5);  // a sliding-window FLOP costs half as much again
+  set(Param::K_GR, 2.0);  // an across-row GPU FLOP twice as much
   return m;
 }
 

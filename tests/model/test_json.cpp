@@ -137,6 +137,7 @@ TEST(CountsJson, RoundTrip) {
   c.N_G = 5;
   c.N_CC = 6;
   c.N_CW = 3;
+  c.N_GR = 2;
   c.transfers_CG = 7;
   c.transfers_GC = 8;
   c.launches = 9;
@@ -159,8 +160,10 @@ TEST(CountsJson, RoundTrip) {
   old.erase("atomics");
   old.erase("copies_GC");
   old.erase("N_CW");
+  old.erase("N_GR");
   const CostCounts back = counts_from_json(old);
   EXPECT_EQ(back.N_CW, 0);
+  EXPECT_EQ(back.N_GR, 0);
   EXPECT_EQ(back.N_GS, 0);
   EXPECT_EQ(back.atomics, 0);
   EXPECT_TRUE(back.copies_GC.empty());
@@ -176,6 +179,9 @@ TEST(CountsJson, RoundTrip) {
   EXPECT_THROW(counts_from_json(j), InputError);
   j = to_json(c);
   j["N_CW"] = 5;  // more sliding-window FLOPs than the N_C = 4 FLOPs
+  EXPECT_THROW(counts_from_json(j), InputError);
+  j = to_json(c);
+  j["N_GR"] = 6;  // more across-row FLOPs than the N_G = 5 FLOPs
   EXPECT_THROW(counts_from_json(j), InputError);
   for (const char* bad : {R"({"bytes": 0, "count": 1})", R"({"bytes": 8})", R"({"bytes": 8, "count": -2})", "[8, 1]"}) {
     j = to_json(c);

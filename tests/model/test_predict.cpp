@@ -159,6 +159,34 @@ TEST(Predict, SlidingWindowFlopsCostKCwTimesTheOthersInTheMemoryVariants) {
   EXPECT_THROW(predict(m, c, Variant::latency), InputError);
 }
 
+TEST(Predict, AcrossRowGpuFlopsCostKGrTimesTheOthersInTheLatencyVariants) {
+  const auto m = test::round_profile();  // K_GR = 2, V_G_fp32 = 50 TFLOP/s
+  CostCounts c;
+  c.N_G = 100'000'000;  // 2 us
+  c.N_GR = 25'000'000;  // of which 0.5 us across rows: 1 us at K_GR = 2
+  EXPECT_NEAR(predict(m, c, Variant::seed).dt_G, 2e-6, 1e-18);  // eq. 3.9 as the seed wrote it
+  for (Variant v : {Variant::latency, Variant::memory, Variant::extended})
+    EXPECT_NEAR(predict(m, c, v).dt_G, 2.5e-6, 1e-18) << to_string(v);
+  // Extended overlaps the priced arithmetic with device traffic: 2.5 us against 4 MB at 4 TB/s.
+  c.N_GG = 1'000'000;
+  EXPECT_NEAR(predict(m, c, Variant::extended).total, 2.5e-6, 1e-18);
+  const auto need = [](const CostCounts& k, Variant v) {
+    const auto r = required_params(k, v);
+    return std::find(r.begin(), r.end(), Param::K_GR) != r.end();
+  };
+  EXPECT_TRUE(need(c, Variant::latency));
+  EXPECT_FALSE(need(c, Variant::seed));
+  CostCounts plain = c;
+  plain.N_GR = 0;
+  EXPECT_FALSE(need(plain, Variant::latency));
+  auto without = m;
+  without.erase(Param::K_GR);
+  EXPECT_NO_THROW(predict(without, plain, Variant::latency));
+  EXPECT_THROW(predict(without, c, Variant::latency), MissingParameter);
+  c.N_GR = c.N_G + 1;
+  EXPECT_THROW(predict(m, c, Variant::seed), InputError);
+}
+
 TEST(Predict, ThreadSyncsWavesAndHostWaitsAreFixedCostsOfTheLatencyVariants) {
   const auto m = test::round_profile();
   CostCounts c;
@@ -326,8 +354,10 @@ TEST(CostCounts, ScaleAndAdd) {
   c.copies_GC = {{1000, 2}, {24, 1}};
   c.N_C = 10;
   c.N_CW = 4;
+  c.N_GR = 1;
   d = c.scaled(3);
   EXPECT_EQ(d.N_CW, 12);
+  EXPECT_EQ(d.N_GR, 3);
   EXPECT_EQ(d.copies_GC, (std::vector<CopySize>{{1000, 6}, {24, 3}}));
   EXPECT_EQ(d.host_waits, 21);
   EXPECT_EQ(d.waves, 6);

@@ -78,6 +78,8 @@ CostCounts cpu_par_counts(const Shape& s, Prediction prediction, int threads) {
 CostCounts cuda_seed_counts(const Shape& s, HostMemory memory) {
   CostCounts c = seed_gpu_counts(s, memory);
   c.N_C += 1;  // A_c x sum, which the seed counts inside its n_g summations
+  // The row kernel's taps: each reads u one row further on (rbe_seed_row_multiply).
+  c.N_GR = 2 * s.cells() * s.Iy;
   return c;
 }
 

@@ -48,7 +48,9 @@ inline constexpr int kCpuParYStrip = 32;
 CostCounts cpu_par_counts(const Shape& s, Prediction prediction, int threads);
 
 // cuda-seed: eqs. 5.10-5.16 (seed_gpu_counts) plus the one multiplication A_c x sum on the CPU
-// that the seed folds into its n_g summations: N_C = n_g + 1.
+// that the seed folds into its n_g summations: N_C = n_g + 1. Of N_G, the row kernel's taps
+// read u one row further on each (a new cache line per warp, where the column kernel's taps
+// re-read the lines of the taps before): N_GR = 2 n_g I_y.
 CostCounts cuda_seed_counts(const Shape& s, HostMemory memory);
 
 // How cuda-resident covers the grid for a shape and a layout.
@@ -94,8 +96,8 @@ ResidentPlan resident_plan(const Shape& s, const Layout& layout, std::size_t max
 //   split: N_GS = ceil(q(B_x) / occ_x) S [H_x (128 + kx) + kx] + ceil(q(B) / occ_y) S [u_rows W + ky]
 // with kx = 8 ceil(I_x / 8), ky = the y coefficients padded (resident_geometry.hpp), u_rows =
 // H + R ceil(I_y / R). Atomics: every block of the correcting kernel (fused, or the split y-pass)
-// adds its share of S_k to the one sum in device memory: atomics = B. Throws InputError when
-// sms < 1.
+// adds its share of S_k to the one sum in device memory: atomics = B. N_GR = 0: every tap reads
+// the block's shared-memory tile. Throws InputError when sms < 1.
 CostCounts cuda_resident_counts(const Shape& s, const Layout& layout, int sms);
 // A run of `steps` steps in chunks of `chunk` steps (one CUDA graph each): adds per chunk one
 // memset of the chunk's sums, two 8-byte device copies (the last sum carried in and out), one

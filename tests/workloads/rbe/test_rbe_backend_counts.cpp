@@ -116,6 +116,7 @@ TEST(RbeBackendCounts, CudaSeedIsEquations5_10To5_16) {
     EXPECT_EQ(c.N_GG, 4 * ng + 33 + 21 + 1);        // 5.14
     EXPECT_EQ(c.N_C, ng + 1);                       // 5.15, plus A_c x sum
     EXPECT_EQ(c.N_G, 2 * ng * (33 + 21 + 1));       // 5.16
+    EXPECT_EQ(c.N_GR, 2 * ng * 21);                 // the row kernel's taps, one row apart
     EXPECT_EQ(c.transfers_CG, 5);
     EXPECT_EQ(c.transfers_GC, 2);
     EXPECT_EQ(c.launches, 3);
@@ -155,6 +156,7 @@ TEST(RbeBackendCounts, CudaResidentFusedByHand) {
   // each block 96 x 72 tile values and 40 + 40 coefficients.
   EXPECT_EQ(resident::blocks_per_sm(256, resident::kFusedRegs, p.smem_bytes), 3);
   EXPECT_EQ(c.N_GS, 2 * 132 * (96 * 72 + 40 + 40));
+  EXPECT_EQ(c.N_GR, 0);  // every tap reads the shared-memory tile
   EXPECT_EQ(cuda_resident_counts(s, l, 128).N_GS, 2 * 128 * (96 * 72 + 40 + 40));
   // A run of 2500 steps: 3 segments of up to 1000, each bringing its sums back in one copy.
   const auto r = cuda_resident_run_counts(s, l, 132, 2500, 1000);
