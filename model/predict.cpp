@@ -97,6 +97,19 @@ double staged_copy_seconds(const MachineProfile& m, std::int64_t bytes) {
 }
 
 namespace {
+// Parameters no probe measures: only `dtflop calibrate` finds them (docs/model.md, section 3).
+bool fitted_only(Param p) {
+  switch (p) {
+    case Param::B_GS:
+    case Param::L_atomic:
+    case Param::B_GC_staged:
+    case Param::S_GC_staged:
+    case Param::S_GC_flat:
+    case Param::K_CW:
+    case Param::K_GR: return true;
+    default: return false;
+  }
+}
 // The staging figures apply: latency variants, pageable device->host copies with their sizes.
 bool uses_staging(const CostCounts& c, Variant variant, bool staged) {
   return staged && variant != Variant::seed && c.host_memory == HostMemory::pageable && !c.copies_GC.empty();
@@ -157,13 +170,21 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
                                  "some of the CPU's FLOPs, so 0 <= N_CW <= N_C: the workload's counts are inconsistent",
                                  c.N_CW, c.N_C));
   const bool staged = uses_staging(c, variant, has_staging(m));
+  std::string unprobed;  // missing ones that only a fit finds
   for (auto p : required_params(c, variant, m.identity.cpu_llc_bytes, staged))
-    if (!m.has(p)) missing += fmt::format("{}{} ({})", missing.empty() ? "" : ", ", info(p).name, info(p).what);
+    if (!m.has(p)) {
+      missing += fmt::format("{}{} ({})", missing.empty() ? "" : ", ", info(p).name, info(p).what);
+      if (fitted_only(p)) unprobed += fmt::format("{}{}", unprobed.empty() ? "" : ", ", info(p).name);
+    }
   if (!missing.empty())
     throw MissingParameter(fmt::format(
-        "the machine profile lacks {} needed to predict this computation; probe a machine "
-        "that has it (`dtflop probe`), or use one of the profiles in docs/examples/",
-        missing));
+        "the machine profile lacks {} needed to predict this computation with the {} variant; {}", missing,
+        to_string(variant),
+        unprobed.empty()
+            ? "probe a machine that has it (`dtflop probe`), or use one of the profiles in docs/examples/"
+            : fmt::format("no probe measures {}: fit it to measured runs of this machine (`dtflop sweep`, then "
+                          "`dtflop calibrate`, docs/calibration.md), or predict with a simpler --variant",
+                          unprobed)));
 
   const double P = c.P;
   Prediction r;

@@ -151,6 +151,9 @@ TEST(Predict, SlidingWindowFlopsCostKCwTimesTheOthersInTheMemoryVariants) {
     ADD_FAILURE() << "no MissingParameter";
   } catch (const MissingParameter& e) {
     EXPECT_NE(std::string(e.what()).find("K_CW"), std::string::npos) << e.what();
+    // No probe measures it: the message sends the user to the calibration, not to a probe.
+    EXPECT_NE(std::string(e.what()).find("dtflop calibrate"), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).find("dtflop probe"), std::string::npos) << e.what();
   }
   // More sliding-window FLOPs than FLOPs: inconsistent counts.
   c.N_CW = c.N_C + 1;
