@@ -24,6 +24,12 @@ CostCounts sample_counts() {
   return c;
 }
 
+// Does a prediction of `c` with `v` need parameter `p` (staging figures priced when `staged`)?
+bool needs(const CostCounts& c, Variant v, Param p, bool staged = false) {
+  const auto r = required_params(c, v, 0, staged);
+  return std::find(r.begin(), r.end(), p) != r.end();
+}
+
 TEST(Predict, SeedVariantIsEquations3_2To3_9) {
   const auto m = test::round_profile();
   const auto p = predict(m, sample_counts(), Variant::seed);
@@ -133,16 +139,12 @@ TEST(Predict, SlidingWindowFlopsCostKCwTimesTheOthersInTheMemoryVariants) {
   c.N_CC = 10'000;  // 2 us of traffic under 12 us of arithmetic
   EXPECT_NEAR(predict(m, c, Variant::extended).dt_C, 12e-6, 1e-15);
   // K_CW is needed only where sliding-window FLOPs are counted, and only by those variants.
-  const auto need = [&](const CostCounts& k, Variant v) {
-    const auto r = required_params(k, v);
-    return std::find(r.begin(), r.end(), Param::K_CW) != r.end();
-  };
-  EXPECT_TRUE(need(c, Variant::memory));
-  EXPECT_TRUE(need(c, Variant::extended));
-  EXPECT_FALSE(need(c, Variant::latency));
+  EXPECT_TRUE(needs(c, Variant::memory, Param::K_CW));
+  EXPECT_TRUE(needs(c, Variant::extended, Param::K_CW));
+  EXPECT_FALSE(needs(c, Variant::latency, Param::K_CW));
   CostCounts plain = c;
   plain.N_CW = 0;
-  EXPECT_FALSE(need(plain, Variant::memory));
+  EXPECT_FALSE(needs(plain, Variant::memory, Param::K_CW));
   auto without = m;
   without.erase(Param::K_CW);
   EXPECT_NO_THROW(predict(without, plain, Variant::memory));
@@ -173,15 +175,11 @@ TEST(Predict, AcrossRowGpuFlopsCostKGrTimesTheOthersInTheLatencyVariants) {
   // Extended overlaps the priced arithmetic with device traffic: 2.5 us against 4 MB at 4 TB/s.
   c.N_GG = 1'000'000;
   EXPECT_NEAR(predict(m, c, Variant::extended).total, 2.5e-6, 1e-18);
-  const auto need = [](const CostCounts& k, Variant v) {
-    const auto r = required_params(k, v);
-    return std::find(r.begin(), r.end(), Param::K_GR) != r.end();
-  };
-  EXPECT_TRUE(need(c, Variant::latency));
-  EXPECT_FALSE(need(c, Variant::seed));
+  EXPECT_TRUE(needs(c, Variant::latency, Param::K_GR));
+  EXPECT_FALSE(needs(c, Variant::seed, Param::K_GR));
   CostCounts plain = c;
   plain.N_GR = 0;
-  EXPECT_FALSE(need(plain, Variant::latency));
+  EXPECT_FALSE(needs(plain, Variant::latency, Param::K_GR));
   auto without = m;
   without.erase(Param::K_GR);
   EXPECT_NO_THROW(predict(without, plain, Variant::latency));
@@ -278,10 +276,8 @@ TEST(Predict, PageableDeviceToHostCopiesAreStagedByTheirSize) {
   wrong.copies_GC = {{1'500'000, 2}};
   EXPECT_THROW(predict(m, wrong, Variant::latency), InputError);
   // A fit is to find the staging figures wherever sized pageable copies are.
-  const auto need = required_params(c, Variant::latency, 0, true);
-  EXPECT_NE(std::find(need.begin(), need.end(), Param::S_GC_flat), need.end());
-  const auto plain = required_params(c, Variant::latency, 0, false);
-  EXPECT_EQ(std::find(plain.begin(), plain.end(), Param::S_GC_flat), plain.end());
+  EXPECT_TRUE(needs(c, Variant::latency, Param::S_GC_flat, true));
+  EXPECT_FALSE(needs(c, Variant::latency, Param::S_GC_flat, false));
 }
 
 TEST(Predict, CpuRateScalesWithThreadsAndCaps) {
