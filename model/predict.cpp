@@ -110,6 +110,12 @@ bool fitted_only(Param p) {
     default: return false;
   }
 }
+// The variants that model the host's memory: its traffic, and load-bound CPU loops (N_CW).
+bool models_host_memory(Variant v) { return v == Variant::memory || v == Variant::extended; }
+// FLOPs of which `part` cost `k` times the others, in FLOPs at the plain rate.
+double priced_flops(std::int64_t all, std::int64_t part, double k) {
+  return static_cast<double>(all) + (k - 1) * static_cast<double>(part);
+}
 // The staging figures apply: latency variants, pageable device->host copies with their sizes.
 bool uses_staging(const CostCounts& c, Variant variant, bool staged) {
   return staged && variant != Variant::seed && c.host_memory == HostMemory::pageable && !c.copies_GC.empty();
@@ -139,8 +145,8 @@ std::vector<Param> required_params(const CostCounts& c, Variant variant, std::in
   if (lat && c.cpu_syncs > 0) add(Param::L_sync);
   if (lat && c.N_GS > 0) add(Param::B_GS);
   if (lat && c.N_GR > 0 && c.N_G > 0) add(Param::K_GR);
-  if ((variant == Variant::memory || variant == Variant::extended) && c.N_CW > 0 && c.N_C > 0) add(Param::K_CW);
-  if ((variant == Variant::memory || variant == Variant::extended) && c.N_CC > 0) {
+  if (models_host_memory(variant) && c.N_CW > 0 && c.N_C > 0) add(Param::K_CW);
+  if (models_host_memory(variant) && c.N_CC > 0) {
     for (auto p : cpu_params(Param::B_host_1, Param::B_host, c.cpu_threads)) add(p);
     if (c.cpu_footprint > 0 && c.cpu_footprint < profile_llc)
       for (auto p : cpu_params(Param::B_llc_1, Param::B_llc, c.cpu_threads)) add(p);
@@ -161,14 +167,15 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
           "transfers_GC = {} copies; the workload's counts are inconsistent",
           bytes, copies, c.P * c.N_GC, c.transfers_GC));
   }
-  if (c.N_GR < 0 || c.N_GR > c.N_G)
-    throw InputError(fmt::format("the counts give N_GR = {} across-row FLOPs of N_G = {} GPU FLOPs; they are some "
-                                 "of the GPU's FLOPs, so 0 <= N_GR <= N_G: the workload's counts are inconsistent",
-                                 c.N_GR, c.N_G));
-  if (c.N_CW < 0 || c.N_CW > c.N_C)
-    throw InputError(fmt::format("the counts give N_CW = {} sliding-window FLOPs of N_C = {} CPU FLOPs; they are "
-                                 "some of the CPU's FLOPs, so 0 <= N_CW <= N_C: the workload's counts are inconsistent",
-                                 c.N_CW, c.N_C));
+  // A count of FLOPs of one kind is a part of all FLOPs.
+  auto check_part = [](const char* part, std::int64_t n, const char* all, std::int64_t total, const char* kind) {
+    if (n < 0 || n > total)
+      throw InputError(fmt::format("the counts give {} = {} {} FLOPs of {} = {}; they are some of those FLOPs, so "
+                                   "0 <= {} <= {}: the workload's counts are inconsistent",
+                                   part, n, kind, all, total, part, all));
+  };
+  check_part("N_GR", c.N_GR, "N_G", c.N_G, "across-row");
+  check_part("N_CW", c.N_CW, "N_C", c.N_C, "sliding-window");
   const bool staged = uses_staging(c, variant, has_staging(m));
   std::string unprobed;  // missing ones that only a fit finds
   for (auto p : required_params(c, variant, m.identity.cpu_llc_bytes, staged))
@@ -195,15 +202,13 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
   if (c.N_GG > 0) r.dt_GG = P * static_cast<double>(c.N_GG) / m.get(Param::B_GG).value;
   // memory and extended: the sliding-window FLOPs cost K_CW times the others (their loads, one
   // per FMA and most of them unaligned, hold the arithmetic back: docs/model.md 2.4).
-  const bool windows = (variant == Variant::memory || variant == Variant::extended) && c.N_CW > 0;
   if (c.N_C > 0)
-    r.dt_C = (static_cast<double>(c.N_C) + (windows ? (m.get(Param::K_CW).value - 1) * static_cast<double>(c.N_CW) : 0.0)) /
+    r.dt_C = priced_flops(c.N_C, c.N_CW, models_host_memory(variant) && c.N_CW > 0 ? m.get(Param::K_CW).value : 1.0) /
              cpu_rate(m, c.precision, c.cpu_threads);
   // latency+: the across-row FLOPs cost K_GR times the others (each tap fetches a new line
   // through the caches: docs/model.md 2.2).
-  const bool across = variant != Variant::seed && c.N_GR > 0;
   if (c.N_G > 0)
-    r.dt_G = (static_cast<double>(c.N_G) + (across ? (m.get(Param::K_GR).value - 1) * static_cast<double>(c.N_GR) : 0.0)) /
+    r.dt_G = priced_flops(c.N_G, c.N_GR, variant != Variant::seed && c.N_GR > 0 ? m.get(Param::K_GR).value : 1.0) /
              m.get(v_g(c.precision)).value;
 
   if (variant == Variant::seed) {
@@ -228,7 +233,7 @@ Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant
   if (c.N_GS > 0) r.dt_GS = P * static_cast<double>(c.N_GS) / m.get(Param::B_GS).value;
   const double latencies = r.lat_CG + r.lat_GC + r.lat_wait + r.device_overheads();
   const double host_traffic =
-      variant != Variant::latency && c.N_CC > 0 ? P * static_cast<double>(c.N_CC) * host_seconds_per_byte(m, c) : 0;
+      models_host_memory(variant) && c.N_CC > 0 ? P * static_cast<double>(c.N_CC) * host_seconds_per_byte(m, c) : 0;
   if (variant == Variant::latency || variant == Variant::memory) {
     // memory: the CPU work's memory traffic adds to its arithmetic, as device traffic does.
     r.dt_C += host_traffic + r.lat_sync;
