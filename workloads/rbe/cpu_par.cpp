@@ -144,7 +144,7 @@ struct YPieces {
 };
 YPieces y_pieces(std::int64_t nx, std::int64_t ny, int threads) {
   YPieces p;
-  p.strips = (nx + kYStrip - 1) / kYStrip;
+  p.strips = (nx + kYStrip - 1) / kYStrip;  // as cpu_par_counts() counts them
   const std::int64_t wanted = 8 * std::int64_t{threads};  // pieces enough to even out the threads
   if (threads > 1 && p.strips < wanted) p.bands = std::min(ny, (wanted + p.strips - 1) / p.strips);
   return p;
@@ -237,9 +237,9 @@ class CpuPar final : public Backend {
       for (std::int64_t a = 0; a < Ix_; ++a) kx_[std::size_t(a)] = float(problem.kernel.kx()[std::size_t(Ix_ - 1 - a)]);
       for (std::int64_t b = 0; b < Iy_; ++b) ky_[std::size_t(b)] = float(problem.kernel.ky()[std::size_t(Iy_ - 1 - b)]);
       // u strip by strip, each strip with I_y - 1 zero rows around the n_y the x-pass writes.
-      strips_ = (nx_ + kYStrip - 1) / kYStrip;
-      upad_.assign(static_cast<std::size_t>(strips_ * strip_floats()), 0.0f);
-      for (std::int64_t st = 0; st < strips_; ++st)
+      pieces_ = y_pieces(nx_, ny_, threads_);
+      upad_.assign(static_cast<std::size_t>(pieces_.strips * strip_floats()), 0.0f);
+      for (std::int64_t st = 0; st < pieces_.strips; ++st)
         std::fill_n(upad_.begin() + st * strip_floats() + hy_ * kYStrip, ny_ * kYStrip, fill);
       rows_.assign(static_cast<std::size_t>(threads_ * row_pitch()), 0.0f);
       spill_.assign(static_cast<std::size_t>(threads_ * kYStrip), 0.0f);
@@ -290,7 +290,6 @@ class CpuPar final : public Backend {
       // core runs slower for a while (another tenant on a shared host, an interrupt) takes
       // fewer pieces instead of holding up the region's end. Every output is computed the same
       // way in any schedule: the result and the counts do not depend on it.
-      const YPieces pieces = y_pieces(nx, ny, threads_);
 #pragma omp parallel num_threads(threads_)
       {
         const int id = omp_get_thread_num();
@@ -300,16 +299,16 @@ class CpuPar final : public Backend {
 #pragma omp for schedule(dynamic, 4)
         for (std::int64_t y = 0; y < ny; ++y) {
           std::copy_n(q_.data() + y * nx, nx, row + hx_);
-          correlate_row(row, kx_.data(), Ix_, upad_.data() + (y + hy_) * kYStrip, sf, strips_, spill);
+          correlate_row(row, kx_.data(), Ix_, upad_.data() + (y + hy_) * kYStrip, sf, pieces_.strips, spill);
         }
         // (the implicit barrier of the loop above: every row of u is written; the loop below
         // ends with no barrier of its own, the region's end is the join)
 #pragma omp for schedule(dynamic, 1) nowait
-        for (std::int64_t i = 0; i < pieces.count(); ++i) {
-          const std::int64_t strip = i / pieces.bands, band = i % pieces.bands;
+        for (std::int64_t i = 0; i < pieces_.count(); ++i) {
+          const std::int64_t strip = i / pieces_.bands, band = i % pieces_.bands;
           const std::int64_t x = strip * kYStrip;
-          combine_piece(upad_.data() + strip * sf, ky_.data(), Iy_, pred_.data(), nx, ny * band / pieces.bands,
-                        ny * (band + 1) / pieces.bands, x, std::min<std::int64_t>(kYStrip, nx - x));
+          combine_piece(upad_.data() + strip * sf, ky_.data(), Iy_, pred_.data(), nx, ny * band / pieces_.bands,
+                        ny * (band + 1) / pieces_.bands, x, std::min<std::int64_t>(kYStrip, nx - x));
         }
       }
     } else {
@@ -369,7 +368,7 @@ class CpuPar final : public Backend {
   Prediction prediction_ = Prediction::separable;
   std::int64_t nx_ = 0, ny_ = 0, Ix_ = 0, Iy_ = 0, hx_ = 0, hy_ = 0;
   std::vector<float> q_, l_, pred_, kx_, ky_, kfull_, upad_, rows_, spill_, ppad_;
-  std::int64_t strips_ = 0;  // y-pass strips of u
+  YPieces pieces_;  // the y-pass's strips of u and the pieces the threads take
   double scale_ = 1;
   std::int64_t steps_ = 0;
   bool ready_ = false;
