@@ -1,4 +1,4 @@
-// `dtflop run dct`: the DCT full-field measurement on image files or on a rendered specimen.
+// `dtflop fields`: the DCT full-field measurement on image files or on a rendered specimen.
 // Per frame it writes a CSV of the points (u_x, u_y, e_xx, e_yy, e_xy, validity) and a
 // colour-mapped PNG overlay of each field on the image, with a colour bar and units.
 #include <cmath>
@@ -189,11 +189,12 @@ void run(const RunDctOptions& o) {
              o.no_overlays ? "" : fmt::format(" and {}/frame_NNNN_{{u_x,u_y,e_xx,e_yy,e_xy}}.png", dir.string()));
 }
 
-Registrar reg(70, [](CLI::App& root) {
-  auto& run_group = group(root, "run", "Run a reference workload on real or synthetic input");
-  auto* app = run_group.add_subcommand(
-      "dct",
-      "Dot centroid tracking: displacement and strain fields from a reference image and deformed frames "
+}  // namespace
+
+void add_fields_command(CLI::App& root) {
+  auto* app = root.add_subcommand(
+      "fields",
+      "Dot centroid tracking (the DCT workload on images): displacement and strain fields from a reference image and deformed frames "
       "(or a rendered --specimen), by MLS (eqs. 7.2-7.6) or linear FE");
   auto o = std::make_shared<RunDctOptions>();
   app->add_option("--backend", o->backend, "cpu-seq (float64), cpu-par or cuda")->capture_default_str();
@@ -215,7 +216,6 @@ Registrar reg(70, [](CLI::App& root) {
   app->add_option("-o,--out", o->out, "Output folder")->required();
   app->add_flag("--no-overlays", o->no_overlays, "Write only the CSV files");
   app->callback([o] { run(*o); });
-});
+}
 
-}  // namespace
 }  // namespace dtflop::cli
