@@ -23,7 +23,7 @@
 set -uo pipefail
 cd "$(dirname "$0")/../.."
 bundle=${BUNDLE:-.carry}
-[ -x "$bundle/bin/dtflop" ] || { echo "no $bundle/bin/dtflop: run scripts/device-bundle.sh dtflop test_calibrate_gpu test_rbe_gpu test_probes_gpu first, and carry $bundle/" >&2; exit 2; }
+[ -x "$bundle/bin/dtflop" ] || { echo "no $bundle/bin/dtflop: run scripts/device-bundle.sh dtflop test_calibrate_gpu test_rbe_gpu test_probes_gpu first, and copy $bundle/ beside the repository" >&2; exit 2; }
 export LD_LIBRARY_PATH=$PWD/$bundle/lib:${LD_LIBRARY_PATH:-}
 B=$bundle/bin
 O=${OUT:-h200-out}
