@@ -22,11 +22,13 @@ namespace {
 struct PredictCommon {
   PredictArgs predict;
   bool json = false;
+  std::string output;  // also write the JSON result here
 };
 
 void run(const PredictCommon& o, const WorkloadArgs& a) {
   const workload::Workload& w = *a.workload;
   const Chosen c = choose(a);
+  check_output(o.output, {o.predict.machine});
   const std::optional<double> deadline = deadline_of(o.predict);
   if (deadline && o.predict.machine.empty())
     throw InputError("--deadline needs a machine profile to predict against; add --machine machine.json (try "
@@ -56,6 +58,7 @@ void run(const PredictCommon& o, const WorkloadArgs& a) {
     }
   }
   if (deadline && !meets_deadline(pred->prediction, *deadline)) set_exit_status(kExitMissed);
+  if (!o.output.empty()) write_file_atomically(o.output, out.dump(2) + "\n");
   if (o.json) {
     fmt::print("{}\n", out.dump(2));
     return;
@@ -95,6 +98,8 @@ void add_predict_command(CLI::App& root) {
   auto o = std::make_shared<PredictCommon>();
   add_predict_options(*app, o->predict);
   app->add_flag("--json", o->json, "Print JSON instead of tables");
+  app->add_option("--output,-o", o->output, "Also write the JSON result to this file (replaced only if it is a "
+                                             "regular file)");
   for (const workload::Workload* w : workload::all()) {
     auto* sub = app->add_subcommand(std::string(w->name()), std::string(w->description()));
     sub->fallthrough();

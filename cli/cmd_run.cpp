@@ -30,11 +30,13 @@ struct RunCommon {
   MeasureSettings measure;
   bool no_cupti = false;
   bool json = false;
+  std::string output;  // also write the JSON result here
 };
 
 void run(const RunCommon& o, const WorkloadArgs& a) {
   const workload::Workload& w = *a.workload;
   const Chosen c = choose(a);
+  check_output(o.output, {o.predict.machine});
   const std::optional<double> deadline = deadline_of(o.predict);
   if (deadline && o.predict.machine.empty())
     throw InputError("--deadline needs a machine profile to predict against; add --machine machine.json");
@@ -98,6 +100,7 @@ void run(const RunCommon& o, const WorkloadArgs& a) {
   }
   // The deadline is judged on what was measured.
   if (deadline && total.median / steps > *deadline) set_exit_status(kExitMissed);
+  if (!o.output.empty()) write_file_atomically(o.output, out.dump(2) + "\n");
   if (o.json) {
     fmt::print("{}\n", out.dump(2));
     return;
@@ -162,6 +165,8 @@ void add_run_command(CLI::App& root) {
       ->check(CLI::Range(0, 100000));
   app->add_flag("--no-cupti", o->no_cupti, "Time device work with host clocks only");
   app->add_flag("--json", o->json, "Print JSON instead of tables");
+  app->add_option("--output,-o", o->output, "Also write the JSON result to this file (replaced only if it is a "
+                                             "regular file)");
   for (const workload::Workload* w : workload::all()) {
     auto* sub = app->add_subcommand(std::string(w->name()), std::string(w->description()));
     sub->fallthrough();

@@ -1,5 +1,7 @@
 #include "cli/workload_cli.hpp"
 
+#include <filesystem>
+
 #include <fmt/format.h>
 
 #include "model/errors.hpp"
@@ -97,6 +99,21 @@ Predicted predict_with_fallback(const MachineProfile& profile, const CostCounts&
 std::optional<double> deadline_of(const PredictArgs& args) {
   if (args.deadline.empty()) return std::nullopt;
   return parse_duration(args.deadline, "--deadline");
+}
+
+void check_output(const std::string& output, const std::vector<std::string>& inputs) {
+  if (output.empty()) return;
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const auto st = fs::symlink_status(output, ec);
+  if (ec || !fs::exists(st)) return;
+  if (!fs::is_regular_file(st))
+    throw InputError(fmt::format("--output '{}' exists and is not a regular file (a link, a device or a folder); "
+                                 "name a new file",
+                                 output));
+  for (const auto& in : inputs)
+    if (!in.empty() && fs::exists(in, ec) && fs::equivalent(output, in, ec))
+      throw InputError(fmt::format("--output '{}' is the input '{}'; name another file so the input stays", output, in));
 }
 
 nlohmann::json machine_json(const std::string& file, const MachineProfile& p) {

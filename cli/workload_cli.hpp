@@ -9,6 +9,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -58,6 +59,10 @@ Variant wanted_variant(const PredictArgs& args, const MachineProfile& profile);
 Predicted predict_with_fallback(const MachineProfile& profile, const CostCounts& counts, Variant wanted);
 // The deadline of --deadline (seconds), if given. Throws InputError for a bad duration.
 std::optional<double> deadline_of(const PredictArgs& args);
+
+// Checks, before any work, that `output` can take a result: not a link, device file or folder, and
+// not the same file as an input. Throws InputError saying which.
+void check_output(const std::string& output, const std::vector<std::string>& inputs);
 
 // JSON of a machine profile's identity for reports.
 nlohmann::json machine_json(const std::string& file, const MachineProfile& profile);
