@@ -196,6 +196,7 @@ AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threa
   cv::Mat labels, stats, cents;
   const int n = cv::connectedComponentsWithStats(mask, labels, stats, cents, 8, CV_32S, cv::CCL_DEFAULT);
   r.stats.components = n - 1;
+  for (int id = 1; id < n; ++id) r.stats.foreground_pixels += stats.at<int>(id, cv::CC_STAT_AREA);
 
   struct Item {
     DotObservation d;

@@ -61,20 +61,43 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
   return c;
 }
 
+std::int64_t cuda_upload_bytes(const FrameShape& s) { return s.roi_pixels * s.bytes_per_pixel; }
+
 CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
+  static_assert(sizeof(FieldValue<float>) % 4 == 0, "the fields' records must be whole 4-byte values");
+  if (cuda_upload_bytes(s) % 4 != 0)
+    throw InputError(fmt::format("the cuda backend's counts are 4-byte values but its upload of {} px x {} byte(s) is "
+                                 "not a multiple of 4 bytes; use a region of interest whose pixel count is a "
+                                 "multiple of 4",
+                                 s.roi_pixels, s.bytes_per_pixel));
   CostCounts c;
   c.P = 4;
   c.precision = Precision::fp32;
   c.host_memory = frame_memory;
-  const std::int64_t roi_values = (s.roi_pixels * s.bytes_per_pixel + 3) / 4;
-  c.N_CG = roi_values + s.dots;  // only the region of interest is uploaded
+  const std::int64_t roi_values = cuda_upload_bytes(s) / 4;
+  const std::int64_t nc = s.components;
+  // Host -> device: the region of interest, then the match table (one int per reference dot).
+  c.N_CG = roi_values + s.dots;
   c.transfers_CG = 2;
-  c.N_GC = 1 + 8 * s.components + 7 * s.points;
-  c.transfers_GC = 3;
+  // Device -> host: the component count [and Otsu's threshold], 7 arrays of component records
+  // (centroid x, y as doubles; weight, status, area, root as 4-byte values; 3 pixel counts),
+  // and the fields.
+  const std::int64_t field_bytes = static_cast<std::int64_t>(sizeof(FieldValue<float>));
+  add_copies(c.copies_GC, 4, s.otsu ? 2 : 1);
+  add_copies(c.copies_GC, 8 * nc, 2);
+  add_copies(c.copies_GC, 4 * nc, 4);
+  add_copies(c.copies_GC, 12 * nc, 1);
+  add_copies(c.copies_GC, field_bytes * s.points, 1);
+  std::int64_t bytes_GC = 0;
+  for (const auto& k : c.copies_GC) {
+    bytes_GC += k.bytes * k.count;
+    c.transfers_GC += k.count;
+  }
+  c.N_GC = bytes_GC / 4;
   c.N_GG = roi_values + s.roi_pixels      // threshold + label init
            + 5 * s.roi_pixels             // union
            + 2 * s.foreground_pixels      // compress
-           + s.roi_pixels + s.components  // roots to ids
+           + s.roi_pixels + nc            // roots to ids
            + 2 * s.roi_pixels             // stats
            + 2 * s.window_pixels + 2 * s.weighted_pixels  // centroids
            + 6 * s.dots                   // displacements
@@ -86,6 +109,9 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
   }
   c.N_G = analysis_flops(s) + field_flops(s);
   c.N_C = 0;
+  // The host waits for the device three times a frame: for the component count, for the
+  // component records, and for the fields.
+  c.host_waits = 3;
   return c;
 }
 

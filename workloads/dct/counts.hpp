@@ -58,20 +58,26 @@ struct CudaLayout {
 };
 
 // cuda: float32 (P = 4 bytes per value; the frame counts as bytes / 4 values, the device's
-// double-precision centroid positions as 2 values each).
-//   N_CG = ceil(roi bytes / 4) (the region of interest is uploaded, not the whole frame)
-//          + n_f (device component of each reference dot's match)                2 copies
-//   N_GC = 1 (component count) + 8 components (centroid x, y as doubles, weight, area,
-//          status, first pixel) + 7 n_m (5 fields, status, support)            3 copies
+// double-precision centroid positions as 2 values each). Every copy and launch of a frame:
+//   N_CG = roi bytes / 4 (the region of interest is uploaded, not the whole frame)
+//          + n_f (the match table: each reference dot's device component)       2 copies
+//   N_GC = 1 (component count) [+ 1 Otsu threshold] + 11 components (centroid x, y as
+//          doubles, weight, status, area, root, 3 pixel counts: 7 copies) + n_m fields
+//          (sizeof(FieldValue<float>) / 4 each)                             9 [10] copies
+//          copies_GC lists them by size
 //   N_GG = roi bytes / 4 + roi (threshold + label init: read pixel, write label)
 //          + 5 roi (union: own and 4 neighbour labels) + 2 fg (compress)
 //          + roi + components (roots to ids) + 2 roi (stats: label, root)
 //          + 2 window + 2 weighted (centroid: label and pixel, then pixel again)
 //          + 6 n_f (displacements: 2 doubles in, 2 floats out) + MLS: 5 sum(l_m) + 8 n_m
-//          | FE: 12 n_m + 8 n_m;  Otsu adds roi (histogram read) + 256 + 256
+//          | FE: 12 n_m + 8 n_m;  Otsu adds roi bytes / 4 (histogram read) + 256 + 256
 //   N_G  = the FLOPs above;  N_C = 0 (matching is comparisons, not FLOPs)
 //   launches = 9 (+2 with Otsu): init, union, compress, ids, stats-init, stats, centroid,
 //              displacement, fields [+ histogram, otsu]
+//   host_waits = 3 (the count, the component records, the fields)
+// Throws InputError when the uploaded bytes are not whole 4-byte values.
 CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory);
+// Bytes of the frame's upload (the region of interest).
+std::int64_t cuda_upload_bytes(const FrameShape& s);
 
 }  // namespace dtflop::dct

@@ -46,8 +46,13 @@ TEST(DctCounts, CudaMatchesFormulas) {
   const CostCounts c = cuda_counts(s, HostMemory::pinned);
   EXPECT_EQ(c.N_CG, 20'000'000 / 4 + 1600);
   EXPECT_EQ(c.transfers_CG, 2);
-  EXPECT_EQ(c.N_GC, 1 + 8 * 1700 + 7 * 2048);
-  EXPECT_EQ(c.transfers_GC, 3);
+  // Count and Otsu threshold (4 bytes each), 7 arrays of component records (x, y as doubles,
+  // weight, status, area, root, 3 pixel counts: 44 bytes a component), the fields.
+  const std::int64_t field = sizeof(FieldValue<float>);
+  EXPECT_EQ(c.N_GC, (4 + 4 + 44 * 1700 + field * 2048) / 4);
+  EXPECT_EQ(c.transfers_GC, 10);
+  EXPECT_EQ(c.copies_GC, (std::vector<CopySize>{{4, 2}, {8 * 1700, 2}, {4 * 1700, 4}, {12 * 1700, 1}, {field * 2048, 1}}));
+  EXPECT_EQ(c.host_waits, 3);
   const std::int64_t roi = 20'000'000, rv = roi / 4;
   EXPECT_EQ(c.N_GG, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + 2 * 7'000'000 + 2 * 4'500'000 +
                         6 * 1600 + 5 * 2048 * 60 + 8 * 2048 + rv + 512);
@@ -61,11 +66,16 @@ TEST(DctCounts, CudaMatchesFormulas) {
   s.support_entries = 0;
   const CostCounts f = cuda_counts(s, HostMemory::pageable);
   EXPECT_EQ(f.launches, 9);
+  EXPECT_EQ(f.transfers_GC, 9);  // no threshold to read back
   EXPECT_EQ(f.N_G, 14LL * 2'000'000 + 11LL * 4'500'000 + 50LL * 1600 + 40LL * 2048);
   EXPECT_EQ(f.host_memory, HostMemory::pageable);
   // 16-bit frames: twice the bytes uploaded.
   s.bytes_per_pixel = 2;
   EXPECT_EQ(cuda_counts(s, HostMemory::pinned).N_CG, 20'000'000 / 2 + 1600);
+  // An upload that is not whole 4-byte values cannot be declared exactly.
+  s.bytes_per_pixel = 1;
+  s.roi_pixels = 641 * 481;
+  EXPECT_THROW(cuda_counts(s, HostMemory::pinned), InputError);
 }
 
 TEST(DctCounts, EstimateIsCloseToAMeasuredRun) {
@@ -87,8 +97,8 @@ TEST(DctCounts, EstimateIsCloseToAMeasuredRun) {
   EXPECT_EQ(m.window_pixels, m.ring_pixels + m.weighted_pixels + 0);  // isolated dots: nothing ignored
   EXPECT_EQ(out.counts, cpu_counts(m, 1));
   const FrameShape e = estimate_shape(640, 480, 1, m.dots, 8, 48, 30, Interp::mls);
-  EXPECT_NEAR(static_cast<double>(e.window_pixels), static_cast<double>(m.window_pixels), 0.15 * m.window_pixels);
-  EXPECT_NEAR(static_cast<double>(e.weighted_pixels), static_cast<double>(m.weighted_pixels), 0.15 * m.weighted_pixels);
+  EXPECT_NEAR(static_cast<double>(e.window_pixels), static_cast<double>(m.window_pixels), 0.15 * static_cast<double>(m.window_pixels));
+  EXPECT_NEAR(static_cast<double>(e.weighted_pixels), static_cast<double>(m.weighted_pixels), 0.15 * static_cast<double>(m.weighted_pixels));
   EXPECT_THROW(estimate_shape(0, 480, 1, 10, 8, 48, 30, Interp::mls), InputError);
 }
 
