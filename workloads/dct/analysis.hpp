@@ -57,6 +57,7 @@ struct AnalysisStats {
   std::int64_t window_pixels = 0;   // pixels of all kept dots' windows
   std::int64_t ring_pixels = 0;     // of which background-ring pixels
   std::int64_t weighted_pixels = 0; // of which weighted pixels
+  std::int64_t scanned_pixels = 0;  // of which background pixels whose (2 margin + 1)^2 labels were read
   double threshold = 0;             // threshold used, native grey levels
 };
 

@@ -130,6 +130,8 @@ class CpuBackend final : public Backend {
     s.window_pixels = r.stats.window_pixels;
     s.ring_pixels = r.stats.ring_pixels;
     s.weighted_pixels = r.stats.weighted_pixels;
+    s.scanned_pixels = r.stats.scanned_pixels;
+    s.margin = opt.analysis.margin;
     s.points = static_cast<std::int64_t>(st.points().size());
     s.support_entries = st.support_entries();
     s.interp = opt.interp;

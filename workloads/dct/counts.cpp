@@ -27,6 +27,9 @@ FrameShape estimate_shape(std::int64_t width, std::int64_t height, int bytes_per
   // Weighted: the dot grown by `margin` (a square dilation, counted as a disc of r + margin).
   s.weighted_pixels = static_cast<std::int64_t>(std::llround(static_cast<double>(n_dots) * pi * (r + margin + 0.5) * (r + margin + 0.5)));
   s.ring_pixels = s.window_pixels - s.weighted_pixels;
+  // Every window pixel but the dot's own is background whose neighbourhood is read.
+  s.scanned_pixels = s.window_pixels - static_cast<std::int64_t>(std::llround(static_cast<double>(n_dots) * area));
+  s.margin = margin;
   s.points = n_points;
   s.support_entries = interp == Interp::mls ? n_points * dots_per_support : 0;
   s.interp = interp;
@@ -56,7 +59,14 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
   c.P = 8;
   c.precision = Precision::fp64;
   c.N_C = analysis_flops(s) + field_flops(s);
-  c.N_CC = 4 * s.roi_pixels + 4 * s.window_pixels + field_values(s);
+  const std::int64_t b = s.bytes_per_pixel;
+  const std::int64_t scan = static_cast<std::int64_t>(2 * s.margin + 1) * (2 * s.margin + 1);
+  const std::int64_t threshold = b == 2 ? 2 * b + 3 : b + 1;
+  const std::int64_t bytes = (s.otsu ? b : 0) * s.roi_pixels + threshold * s.roi_pixels + 13 * s.roi_pixels +
+                             10 * s.window_pixels + 4 * scan * s.scanned_pixels +
+                             b * (s.ring_pixels + s.weighted_pixels) + 8 * field_values(s);
+  c.N_CC = (bytes + 7) / 8;
+  c.cpu_footprint = s.roi_pixels * (b + 1 + 4 + (b == 2 ? 2 : 0)) + 8 * field_values(s);
   c.cpu_threads = threads < 1 ? 1 : threads;
   return c;
 }

@@ -223,6 +223,7 @@ class CudaBackend final : public Backend {
     s.window_pixels = f.stats.window_pixels;
     s.ring_pixels = f.stats.ring_pixels;
     s.weighted_pixels = f.stats.weighted_pixels;
+    s.margin = options().analysis.margin;
     s.points = static_cast<std::int64_t>(nm);
     s.support_entries = state().support_entries();
     s.interp = options().interp;

@@ -512,6 +512,9 @@ FrameShape declared_shape(const Backend& pipeline, const cv::Mat& frame) {
   s.window_pixels = a.stats.window_pixels;
   s.ring_pixels = a.stats.ring_pixels;
   s.weighted_pixels = a.stats.weighted_pixels;
+  // The cuda backend does not classify by scanning: it reports no scanned pixels.
+  s.scanned_pixels = pipeline.name() == "cuda" ? 0 : a.stats.scanned_pixels;
+  s.margin = o.analysis.margin;
   s.points = static_cast<std::int64_t>(pipeline.points().size());
   s.support_entries = o.interp == Interp::mls ? pipeline.mls_table().entries() : 0;
   s.interp = o.interp;
@@ -538,6 +541,8 @@ std::string shape_difference(const FrameShape& d, const FrameShape& m) {
   differ(out, "window pixels", d.window_pixels, m.window_pixels);
   differ(out, "ring pixels", d.ring_pixels, m.ring_pixels);
   differ(out, "weighted pixels", d.weighted_pixels, m.weighted_pixels);
+  differ(out, "scanned pixels", d.scanned_pixels, m.scanned_pixels);
+  differ(out, "margin", d.margin, m.margin);
   differ(out, "points", d.points, m.points);
   differ(out, "support entries", d.support_entries, m.support_entries);
   if (d.interp != m.interp) out += fmt::format("{}interp {} (declared {})", out.empty() ? "" : ", ", to_string(m.interp), to_string(d.interp));
@@ -554,6 +559,7 @@ std::string counts_difference(const CostCounts& d, const CostCounts& m) {
   differ(out, "N_C", d.N_C, m.N_C);
   differ(out, "N_G", d.N_G, m.N_G);
   differ(out, "N_CC", d.N_CC, m.N_CC);
+  differ(out, "cpu_footprint", d.cpu_footprint, m.cpu_footprint);
   differ(out, "transfers_CG", d.transfers_CG, m.transfers_CG);
   differ(out, "transfers_GC", d.transfers_GC, m.transfers_GC);
   differ(out, "launches", d.launches, m.launches);

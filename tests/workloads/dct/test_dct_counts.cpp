@@ -21,6 +21,7 @@ FrameShape hand_shape() {
   s.window_pixels = 7'000'000;
   s.ring_pixels = 2'000'000;
   s.weighted_pixels = 4'500'000;
+  s.scanned_pixels = 2'500'000;
   s.points = 2048;
   s.support_entries = 2048 * 60;
   s.interp = Interp::mls;
@@ -33,12 +34,20 @@ TEST(DctCounts, CpuMatchesFormulas) {
   const CostCounts c = cpu_counts(s, 16);
   // 14 ring + 11 weighted + (44 + 4) per dot + 2 per dot + 242 per support entry + 603 per point.
   EXPECT_EQ(c.N_C, 14LL * 2'000'000 + 11LL * 4'500'000 + 48LL * 1600 + 2LL * 1600 + 242LL * 2048 * 60 + 603LL * 2048);
-  EXPECT_EQ(c.N_CC, 4LL * 20'000'000 + 4LL * 7'000'000 + 5LL * 2048 * 60 + 8LL * 2048);
+  // Bytes: Otsu 1 + threshold 2 + labelling 13 per analysed pixel, 10 per window pixel, 25
+  // labels of 4 bytes per scanned pixel, a byte per ring or weighted pixel, 8 per field value.
+  EXPECT_EQ(c.N_CC, (16LL * 20'000'000 + 10LL * 7'000'000 + 100LL * 2'500'000 + 6'500'000 +
+                     8 * (5LL * 2048 * 60 + 8LL * 2048)) / 8);
+  EXPECT_EQ(c.cpu_footprint, 6LL * 20'000'000 + 8 * (5LL * 2048 * 60 + 8LL * 2048));
   EXPECT_EQ(c.P, 8);
   EXPECT_EQ(c.precision, Precision::fp64);
   EXPECT_EQ(c.cpu_threads, 16);
   EXPECT_EQ(c.N_CG + c.N_GC + c.N_GG + c.N_G + c.launches, 0);
   EXPECT_EQ(cpu_counts(s, 0).cpu_threads, 1);
+  // 16-bit frames: twice the pixel reads, a 16-bit mask converted to 8 bits.
+  FrameShape w = s;
+  w.bytes_per_pixel = 2;
+  EXPECT_EQ(cpu_counts(w, 1).N_CC - c.N_CC, (20'000'000LL * (2 - 1) + 20'000'000LL * (7 - 2) + 6'500'000) / 8);
 }
 
 TEST(DctCounts, CudaMatchesFormulas) {
