@@ -182,8 +182,8 @@ Config Workload::validate(const json& given, const Backend& b) const {
     if (!p->applies_to(b.name())) {
       std::string which;
       for (const auto& n : p->backends) which += (which.empty() ? "" : ", ") + n;
-      throw InputError(fmt::format("{} --{} applies to the {} backend{} only, not {}; drop it or pick one of those",
-                                   name(), p->name, which, p->backends.size() == 1 ? "" : "s", b.name()));
+      throw InputError(fmt::format("{} --{} applies to {} only, not {}; drop it, or use {}", name(), p->name, which,
+                                   b.name(), p->backends.size() == 1 ? "that backend" : "one of those backends"));
     }
   }
   Config c = json::object();
@@ -204,11 +204,10 @@ std::string Workload::key(const Backend& b, const Config& c) const {
   for (const auto& p : params()) {
     auto it = c.find(p.name);
     if (it == c.end()) continue;
-    std::string v;
-    if (p.kind == Kind::size2) v = fmt::format("{}x{}", (*it)[0].get<std::int64_t>(), (*it)[1].get<std::int64_t>());
-    else if (p.kind == Kind::flag) v = it->get<bool>() ? "1" : "0";
-    else v = as_text(*it);
-    k += fmt::format("/{}={}", p.name, v);
+    if (p.kind == Kind::size2)
+      k += fmt::format("/{}={}x{}", p.name, (*it)[0].get<std::int64_t>(), (*it)[1].get<std::int64_t>());
+    else if (p.kind == Kind::flag) k += fmt::format("/{}={}", p.name, it->get<bool>() ? 1 : 0);
+    else k += fmt::format("/{}={}", p.name, as_text(*it));
   }
   return k;
 }

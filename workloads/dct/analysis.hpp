@@ -1,8 +1,8 @@
 // Image analysis of the DCT workload (seed 6.1.2, 7.1): threshold, connected-component
 // labelling, filtering by area and shape, and the background-removed intensity-weighted
 // centroid of eq. 7.1 of every kept dot. The CPU implementation here uses OpenCV for the
-// threshold and the labelling; the CUDA backend has its own (cuda_backend.cu) with the same
-// rules and the same per-dot arithmetic (kernels.hpp).
+// threshold and the labelling; the CUDA backend has its own (cuda_backend.cpp, cuda_kernels.cu)
+// with the same rules and the same per-dot arithmetic (kernels.hpp).
 #pragma once
 
 #include <cstdint>

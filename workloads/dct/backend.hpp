@@ -147,8 +147,8 @@ std::vector<std::string> backend_names();
 std::string cuda_unavailable_reason();
 
 #ifdef DTFLOP_HAVE_CUDA
-std::unique_ptr<Backend> make_cuda_backend(const PipelineOptions& o);  // cuda_backend.cu
-std::string cuda_device_check();                                     // cuda_backend.cu
+std::unique_ptr<Backend> make_cuda_backend(const PipelineOptions& o);  // cuda_backend.cpp
+std::string cuda_device_check();                                     // cuda_backend.cpp
 #endif
 
 }  // namespace dtflop::dct
