@@ -260,12 +260,12 @@ class DctWorkload final : public wl::Workload {
         {"interp", Kind::choice, "field interpolation: mls (moving least squares) or fe (linear triangles)", "mls", 0,
          0, choices_interp, {}, ""},
         {"bits", Kind::choice, "bits per pixel of the frames", "8", 0, 0, {"8", "16"}, {}, ""},
-        {"threads", Kind::integer, "CPU threads (default: every hardware thread)", hw_threads(), 1, 1024, {},
+        {"threads", Kind::integer, "CPU threads (default: every hardware thread)", static_cast<int>(hw_threads()), 1, 1024, {},
          {"cpu-par"}, ""},
         {"host-memory", Kind::choice,
          "host memory the frames are uploaded from: pinned (a camera's DMA buffer) or pageable", "pinned", 0, 0,
          {"pinned", "pageable"}, {"cuda"}, ""},
-        {"seed", Kind::integer, "seed of the specimen's dot pattern and sensor noise", 1, 0, 2147483647, {}, {}, ""},
+        {"specimen-seed", Kind::integer, "seed of the specimen's dot pattern and sensor noise", 1, 0, 2147483647, {}, {}, ""},
     };
     for (const auto& k : backend_kinds()) backends_.push_back(std::make_unique<ContractBackend>(k));
   }
@@ -433,7 +433,7 @@ class DctWorkload final : public wl::Workload {
               {"support", std::min<std::int64_t>(d.whole(10, 100), dots)},
               {"interp", mls ? "mls" : "fe"},
               {"bits", d.unit() < 0.75 ? "8" : "16"},
-              {"seed", d.whole(1, 1'000'000)}};
+              {"specimen-seed", d.whole(1, 1'000'000)}};
     if (b.name() == "cuda") c["host-memory"] = d.unit() < 0.5 ? "pinned" : "pageable";
     return c;
   }
@@ -466,7 +466,7 @@ PipelineOptions pipeline_options(const wl::Config& c, const std::string& backend
 
 Specimen specimen_of(const wl::Config& c) {
   const Geometry g = geometry_of(c);
-  const auto seed = static_cast<std::uint64_t>(wl::get_int(c, "seed"));
+  const auto seed = static_cast<std::uint64_t>(wl::get_int(c, "specimen-seed"));
   Specimen s;
   s.render.width = static_cast<int>(g.w);
   s.render.height = static_cast<int>(g.h);

@@ -87,9 +87,9 @@ TEST(DctWorkload, RejectsWithOneLineSayingWhatToDo) {
   m = rejection({{"frames", 3}});
   EXPECT_NE(m.find("has no parameter 'frames'"), std::string::npos) << m;
   m = rejection({{"threads", 2}}, "cpu-seq");
-  EXPECT_NE(m.find("applies to the cpu-par backend only, not cpu-seq"), std::string::npos) << m;
+  EXPECT_NE(m.find("--threads applies to cpu-par only, not cpu-seq"), std::string::npos) << m;
   m = rejection({{"host-memory", "pageable"}}, "cpu-par");
-  EXPECT_NE(m.find("applies to the cuda backend only"), std::string::npos) << m;
+  EXPECT_NE(m.find("--host-memory applies to cuda only"), std::string::npos) << m;
   // Support larger than the dots; fewer than the quadratic basis needs.
   m = rejection({{"dots", 20}, {"support", 30}});
   EXPECT_NE(m.find("--support <= --dots"), std::string::npos) << m;
@@ -115,10 +115,10 @@ TEST(DctWorkload, RejectsWithOneLineSayingWhatToDo) {
 TEST(DctWorkload, StoreKeyNamesEveryParameterInSpecOrder) {
   const wl::Backend& par = W().backend("cpu-par");
   const wl::Config c = W().validate({{"size", "800x600"}, {"dots", 150}, {"radius", 6.5}, {"points", "24x16"},
-                                     {"support", 30}, {"bits", "16"}, {"threads", 2}, {"seed", 9}},
+                                     {"support", 30}, {"bits", "16"}, {"threads", 2}, {"specimen-seed", 9}},
                                     par);
   EXPECT_EQ(W().key(par, c),
-            "dct/cpu-par/size=800x600/dots=150/radius=6.5/points=24x16/support=30/interp=mls/bits=16/threads=2/seed=9");
+            "dct/cpu-par/size=800x600/dots=150/radius=6.5/points=24x16/support=30/interp=mls/bits=16/threads=2/specimen-seed=9");
   const wl::Backend& gpu = W().backend("cuda");
   const wl::Config g = W().validate({{"host-memory", "pageable"}}, gpu);
   EXPECT_NE(W().key(gpu, g).find("/host-memory=pageable/"), std::string::npos) << W().key(gpu, g);
@@ -190,9 +190,9 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(
         Case{"cpu-seq", {{"size", "640x480"}, {"dots", 120}, {"radius", 6}, {"points", "16x12"}, {"support", 20}}},
         Case{"cpu-seq", {{"size", "500x400"}, {"dots", 60}, {"radius", 8}, {"points", "8x8"}, {"interp", "fe"},
-                         {"bits", "16"}, {"seed", 5}}},
+                         {"bits", "16"}, {"specimen-seed", 5}}},
         Case{"cpu-par", {{"size", "640x480"}, {"dots", 150}, {"radius", 5}, {"points", "24x16"}, {"support", 40},
-                         {"threads", 2}, {"seed", 3}}},
+                         {"threads", 2}, {"specimen-seed", 3}}},
         Case{"cpu-par", {{"size", "700x500"}, {"dots", 80}, {"radius", 7.5}, {"points", "10x10"}, {"interp", "fe"},
                          {"threads", 2}}},
         Case{"cuda", {{"size", "640x480"}, {"dots", 120}, {"radius", 6}, {"points", "16x12"}, {"support", 20}}},
