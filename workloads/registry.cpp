@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "model/errors.hpp"
+#include "workloads/dct/workload.hpp"
 #include "workloads/rbe/workload.hpp"
 #include "workloads/workload.hpp"
 
@@ -11,6 +12,7 @@ namespace dtflop::workload {
 const std::vector<const Workload*>& all() {
   static const std::vector<const Workload*> list = {
       &rbe::workload(),
+      &dct::workload(),
   };
   return list;
 }

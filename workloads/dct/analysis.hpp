@@ -52,10 +52,12 @@ struct DotObservation {
 struct AnalysisStats {
   std::int64_t roi_pixels = 0;
   std::int64_t components = 0;      // after labelling, before filtering
+  std::int64_t foreground_pixels = 0;  // labelled pixels of all components (the mask's dot pixels)
   std::int64_t rejected_area = 0, rejected_shape = 0, rejected_border = 0, rejected_contrast = 0;
   std::int64_t window_pixels = 0;   // pixels of all kept dots' windows
   std::int64_t ring_pixels = 0;     // of which background-ring pixels
   std::int64_t weighted_pixels = 0; // of which weighted pixels
+  std::int64_t scanned_pixels = 0;  // of which background pixels whose (2 margin + 1)^2 labels were read
   double threshold = 0;             // threshold used, native grey levels
 };
 
