@@ -58,7 +58,7 @@ declare -A gpu_backends=([rbe]="cuda-seed cuda-resident" [dct]="cuda")
 declare -A config=([rbe]="--grid 1000x1000 --kernel 33x33" [dct]="")
 ((quick)) && config[dct]="--size 1600x1200 --dots 400"
 
-for w in rbe; do
+for w in rbe dct; do
   backends=${cpu_backends[$w]}
   ((gpu)) && backends+=" ${gpu_backends[$w]}"
   for b in $backends; do

@@ -164,8 +164,8 @@ class Collector : public benchmark::ConsoleReporter {
 // memory, arithmetic), plus host work at 55 GB/s... the transfer floor uses pinned 54 GB/s.
 double floor_ms(const CostCounts& c) {
   const double P = c.P;
-  const double up = P * c.N_CG / 54e9, down = P * c.N_GC / 54e9;
-  const double mem = P * c.N_GG / 4.19e12, flops = c.N_G / 53e12;
+  const double up = P * static_cast<double>(c.N_CG) / 54e9, down = P * static_cast<double>(c.N_GC) / 54e9;
+  const double mem = P * static_cast<double>(c.N_GG) / 4.19e12, flops = static_cast<double>(c.N_G) / 53e12;
   return (up + down + std::max(mem, flops)) * 1e3;
 }
 
