@@ -120,8 +120,10 @@ DTFLOP_HD void weight_fn(Weight kind, T s, T& w, T& dw_over_s) {
       dw_over_s = s > T(0) ? T(-4) * q * q / s : T(0);
     }
   } else if (kind == Weight::quartic) {
+    // 1 - 6 s^2 + 8 s^3 - 3 s^4, factored: the expanded sum cancels near s = 1, where float32
+    // made W zero or negative for dots inside the support (and a support count differ).
     const T q = T(1) - s;
-    w = T(1) - T(6) * s * s + T(8) * s * s * s - T(3) * s * s * s * s;
+    w = q * q * q * (T(1) + T(3) * s);
     dw_over_s = T(-12) * q * q;
   } else {
     const T a2 = T(kGaussAlpha * kGaussAlpha);
