@@ -31,8 +31,8 @@ FrameShape hand_shape() {
 TEST(DctCounts, CpuMatchesFormulas) {
   const FrameShape s = hand_shape();
   const CostCounts c = cpu_counts(s, 16);
-  // 14 ring + 11 weighted + (44 + 4) per dot + 2 per dot + 242 per support entry + 603 per point.
-  EXPECT_EQ(c.N_C, 14LL * 2'000'000 + 11LL * 4'500'000 + 48LL * 1600 + 2LL * 1600 + 242LL * 2048 * 60 + 603LL * 2048);
+  // 14 ring + 11 weighted + (44 + 4) per dot + 2 per dot + 341 per support entry + 207 per point.
+  EXPECT_EQ(c.N_C, 14LL * 2'000'000 + 11LL * 4'500'000 + 48LL * 1600 + 2LL * 1600 + 341LL * 2048 * 60 + 207LL * 2048);
   EXPECT_EQ(c.N_CC, 4LL * 20'000'000 + 4LL * 7'000'000 + 5LL * 2048 * 60 + 8LL * 2048);
   EXPECT_EQ(c.P, 8);
   EXPECT_EQ(c.precision, Precision::fp64);
