@@ -217,7 +217,9 @@ void run(const CalibrateOptions& o) {
   fmt::print("\nWrote {} (model variant {}).\n", o.output, to_string(r.variant));
 }
 
-Registrar reg(40, [](CLI::App& root) {
+}  // namespace
+
+void add_calibrate_command(CLI::App& root) {
   auto* app = root.add_subcommand(
       "calibrate",
       "Fit the model's bandwidths, rates, latencies and launch overhead to measured samples (Ceres, "
@@ -247,7 +249,6 @@ Registrar reg(40, [](CLI::App& root) {
                   "medians) or fastest (the fastest round's median: interference only adds time)")
       ->capture_default_str();
   app->callback([o] { run(*o); });
-});
+}
 
-}  // namespace
 }  // namespace dtflop::cli

@@ -1,4 +1,4 @@
-// `dtflop run dct-density`: the seed's dot-density study (7.5.3.2, Figure 7.16) as a table:
+// `dtflop density`: the seed's dot-density study (7.5.3.2, Figure 7.16) as a table:
 // strain error against the number of dots per support domain, on a specimen under 0.1%
 // uniform tension whose closed form is known.
 #include <cmath>
@@ -82,10 +82,11 @@ void run(const DensityOptions& o) {
              "supports, as in the seed's study)\n");
 }
 
-Registrar reg(71, [](CLI::App& root) {
-  auto& run_group = group(root, "run", "Run a reference workload on real or synthetic input");
-  auto* app = run_group.add_subcommand(
-      "dct-density",
+}  // namespace
+
+void add_density_command(CLI::App& root) {
+  auto* app = root.add_subcommand(
+      "density",
       "The seed's dot-density study: strain error vs dots per MLS support domain (13..193) on a rendered "
       "specimen under 0.1% tension");
   auto o = std::make_shared<DensityOptions>();
@@ -95,7 +96,6 @@ Registrar reg(71, [](CLI::App& root) {
   app->add_option("--points", o->points, "Interpolation grid")->capture_default_str();
   app->add_option("--weight", o->weight, "MLS weight: cubic, quartic or gaussian")->capture_default_str();
   app->callback([o] { run(*o); });
-});
+}
 
-}  // namespace
 }  // namespace dtflop::cli

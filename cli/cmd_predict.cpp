@@ -1,5 +1,7 @@
-// `dtflop predict`: cost counts of a workload and, given a machine profile, the DTFLOP
-// model's per-component time breakdown and the real-time check (eq. 3.1).
+// `dtflop predict WORKLOAD --backend NAME [parameters]`: a configuration's cost counts and, given a
+// machine profile, the DTFLOP model's per-component time breakdown and the real-time check
+// (eq. 3.1). The same path for every workload of the registry.
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -9,104 +11,101 @@
 
 #include "cli/command.hpp"
 #include "cli/model_tables.hpp"
-#include "cli/table.hpp"
+#include "cli/workload_cli.hpp"
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
-#include "model/predict.hpp"
 #include "model/units.hpp"
 
 namespace dtflop::cli {
 namespace {
 
-struct PredictOptions {
-  std::string machine;
-  std::string deadline;
-  std::string variant = "extended";
+struct PredictCommon {
+  PredictArgs predict;
   bool json = false;
+  std::string output;  // also write the JSON result here
 };
 
-void run(const PredictOptions& o, const PredictTarget& target, const CountsFn& fn) {
-  const auto variant = variant_from_string(o.variant);
-  if (!variant)
-    throw InputError(fmt::format("--variant '{}' is unknown; use {}", o.variant, variant_names()));
-  std::optional<double> deadline;
-  if (!o.deadline.empty()) deadline = parse_duration(o.deadline, "--deadline");
-  if (deadline && o.machine.empty())
-    throw InputError("--deadline needs a machine profile to predict against; add --machine "
-                     "machine.json (try docs/examples/h200.json)");
+void run(const PredictCommon& o, const WorkloadArgs& a) {
+  const workload::Workload& w = *a.workload;
+  const Chosen c = choose(a);
+  check_output(o.output, {o.predict.machine});
+  const std::optional<double> deadline = deadline_of(o.predict);
+  if (deadline && o.predict.machine.empty())
+    throw InputError("--deadline needs a machine profile to predict against; add --machine machine.json (try "
+                     "docs/examples/h200.json)");
+  std::optional<MachineProfile> profile;
+  if (!o.predict.machine.empty()) profile = load_profile(o.predict.machine);
+  const CostCounts counts = c.backend->counts(c.config, profile ? &profile->identity : nullptr);
+  const std::string description = w.describe(*c.backend, c.config);
 
-  MachineProfile profile;
-  if (!o.machine.empty()) profile = load_profile(o.machine);
-  const CountsResult r = fn(o.machine.empty() ? nullptr : &profile);
-  nlohmann::json out = {{"workload", target.name},
-                        {"description", r.description},
-                        {"parameters", r.parameters},
-                        {"counts", to_json(r.counts)}};
-  std::optional<Prediction> pred;
-  if (!o.machine.empty()) {
-    pred = predict(profile, r.counts, *variant);
-    out["machine"] = {{"file", o.machine},
-                      {"cpu_model", profile.identity.cpu_model},
-                      {"gpu_name", profile.identity.gpu_name}};
-    out["prediction"] = to_json(*pred);
+  nlohmann::json out = {{"workload", std::string(w.name())},
+                        {"backend", c.backend->name()},
+                        {"description", description},
+                        {"parameters", c.config},
+                        {"counts", to_json(counts)}};
+  std::optional<Predicted> pred;
+  if (profile) {
+    pred = predict_with_fallback(*profile, counts, wanted_variant(o.predict, *profile));
+    if (!pred->fallback.empty()) fmt::print(stderr, "dtflop: note: {}\n", pred->fallback);
+    out["machine"] = machine_json(o.predict.machine, *profile);
+    out["variant"] = std::string(to_string(pred->variant));
+    if (!pred->fallback.empty()) out["variant_fallback"] = pred->fallback;
+    out["prediction"] = to_json(pred->prediction);
     if (deadline) {
       out["deadline"] = *deadline;
-      out["meets_deadline"] = meets_deadline(*pred, *deadline);
-      out["slack"] = *deadline - pred->total;
+      out["meets_deadline"] = meets_deadline(pred->prediction, *deadline);
+      out["slack"] = *deadline - pred->prediction.total;
     }
   }
+  if (deadline && !meets_deadline(pred->prediction, *deadline)) set_exit_status(kExitMissed);
+  if (!o.output.empty()) write_file_atomically(o.output, out.dump(2) + "\n");
   if (o.json) {
     fmt::print("{}\n", out.dump(2));
     return;
   }
-  fmt::print("{}\n\nCost counts per step:\n", r.description);
-  print_counts(r.counts);
+  fmt::print("{}\n\nCost counts per {}:\n", description, w.step_name());
+  print_counts(counts);
   if (!pred) {
-    fmt::print("\n(no --machine given: counts only. Add --machine machine.json for the time "
-               "breakdown, e.g. --machine docs/examples/h200.json)\n");
+    fmt::print("\n(no --machine given: counts only. Add --machine machine.json for the time breakdown, e.g. "
+               "--machine docs/examples/h200.json)\n");
     return;
   }
-  fmt::print("\nPredicted time per step on {}{} (model variant: {}):\n",
-             profile.identity.gpu_name.empty() ? profile.identity.cpu_model : profile.identity.gpu_name,
-             profile.identity.measured_at.empty() ? "" : ", profiled " + profile.identity.measured_at,
-             to_string(*variant));
-  print_prediction(*pred);
+  fmt::print("\nPredicted time per {} on {}{} (model variant: {}):\n", w.step_name(), machine_name(*profile),
+             profile->identity.measured_at.empty() ? "" : ", profiled " + profile->identity.measured_at,
+             to_string(pred->variant));
+  print_prediction(pred->prediction);
   if (deadline) {
-    const bool ok = meets_deadline(*pred, *deadline);
-    fmt::print("\nDeadline dt_p = {}: {} (dt = {}, {} {})\n", format_duration(*deadline),
-               ok ? "MET" : "MISSED", format_duration(pred->total),
-               format_duration(std::abs(*deadline - pred->total)), ok ? "to spare" : "over");
+    const bool ok = meets_deadline(pred->prediction, *deadline);
+    fmt::print("\nDeadline dt_p = {}: {} (dt = {}, {} {})\n", format_duration(*deadline), ok ? "MET" : "MISSED",
+               format_duration(pred->prediction.total), format_duration(std::abs(*deadline - pred->prediction.total)),
+               ok ? "to spare" : "over");
   }
 }
 
-Registrar reg(20, [](CLI::App& root) {
+}  // namespace
+
+void add_predict_command(CLI::App& root) {
   auto* app = root.add_subcommand(
       "predict",
-      "Print a workload's cost counts and, with --machine, the DTFLOP model's predicted time "
-      "per step, component by component, and whether it meets a deadline.");
-  auto opts = std::make_shared<PredictOptions>();
-  app->add_option("--machine,-m", opts->machine, "Machine profile (JSON) written by `dtflop probe`")
-      ->check(CLI::ExistingFile);
-  app->add_option("--deadline", opts->deadline, "Real-time deadline dt_p, e.g. 1ms or 250us");
-  app->add_option("--variant", opts->variant, "Model variant: " + variant_names(", ") + " (docs/model.md)")
-      ->capture_default_str();
-  app->add_flag("--json", opts->json, "Print JSON instead of tables");
-  // An unknown workload name is rejected by the parser as an unexpected argument, named in
-  // its one-line message; no name at all is caught here.
+      "Print a workload configuration's cost counts and, with --machine, the DTFLOP model's predicted time per step, "
+      "component by component, and whether it meets a deadline (exit status 3 when it does not).");
+  // An unknown workload is rejected by the parser as an unexpected argument, named in its message;
+  // no workload at all is caught here.
   app->callback([app] {
-    if (!app->get_subcommands().empty()) return;
-    std::string known;
-    for (const auto& t : predict_targets()) known += (known.empty() ? "" : ", ") + t.name;
-    throw InputError(fmt::format("name the workload to predict: {}", known));
+    if (app->get_subcommands().empty())
+      throw InputError(fmt::format("name the workload to predict: {} (e.g. `dtflop predict rbe --help`)", workload::names()));
   });
-  for (const auto& target : predict_targets()) {
-    auto* sub = app->add_subcommand(target.name, target.description);
+  auto o = std::make_shared<PredictCommon>();
+  add_predict_options(*app, o->predict);
+  app->add_flag("--json", o->json, "Print JSON instead of tables");
+  app->add_option("--output,-o", o->output, "Also write the JSON result to this file (replaced only if it is a "
+                                             "regular file)");
+  for (const workload::Workload* w : workload::all()) {
+    auto* sub = app->add_subcommand(std::string(w->name()), std::string(w->description()));
     sub->fallthrough();
-    auto fn = std::make_shared<CountsFn>(target.setup(*sub));
-    const PredictTarget* t = &target;
-    sub->callback([opts, fn, t] { run(*opts, *t, *fn); });
+    auto a = add_workload_options(*sub, *w);
+    sub->callback([o, a] { run(*o, *a); });
   }
-});
+}
 
-}  // namespace
 }  // namespace dtflop::cli

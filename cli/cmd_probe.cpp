@@ -137,7 +137,9 @@ void run(const ProbeCliOptions& o) {
   }
 }
 
-Registrar reg(10, [](CLI::App& root) {
+}  // namespace
+
+void add_probe_command(CLI::App& root) {
   auto* app = root.add_subcommand(
       "probe",
       "Measure this machine: host and device memory bandwidths, host<->device transfers "
@@ -153,7 +155,6 @@ Registrar reg(10, [](CLI::App& root) {
       ->delimiter(',');
   app->add_flag("--list", o->list, "List the probes and exit");
   app->callback([o] { run(*o); });
-});
+}
 
-}  // namespace
 }  // namespace dtflop::cli

@@ -65,11 +65,13 @@ void run(const SpecimenOptions& o) {
   fmt::print("wrote {0}/reference{1}, {0}/def_0001{1}, {0}/dots.csv (true centres), {0}/truth.csv (true fields "
              "on a {2}x{3} grid)\n",
              dir.string(), ext, g.x, g.y);
-  fmt::print("next: dtflop run dct --reference {0}/reference{1} --frames '{0}/def_%04d{1}' -o {0}/out\n",
+  fmt::print("next: dtflop fields --reference {0}/reference{1} --frames '{0}/def_%04d{1}' -o {0}/out\n",
              dir.string(), ext);
 }
 
-Registrar reg(60, [](CLI::App& root) {
+}  // namespace
+
+void add_specimen_command(CLI::App& root) {
   auto* app = root.add_subcommand(
       "specimen",
       "Render a synthetic dot-pattern specimen (reference and deformed images) with its ground truth: "
@@ -86,7 +88,6 @@ Registrar reg(60, [](CLI::App& root) {
   app->add_option("--format", o->format, "Image format: png or tiff")->capture_default_str();
   app->add_option("--truth-grid", o->truth_grid, "Grid of the true fields in truth.csv")->capture_default_str();
   app->callback([o] { run(*o); });
-});
+}
 
-}  // namespace
 }  // namespace dtflop::cli

@@ -16,6 +16,7 @@
 #include "calibrate/store.hpp"
 #include "calibrate/validate.hpp"
 #include "cli/command.hpp"
+#include "cli/workload_cli.hpp"
 #include "cli/table.hpp"
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
@@ -199,7 +200,9 @@ int run(const ValidateOptions& o) {
   return o.strict && !all_met ? 3 : 0;
 }
 
-Registrar reg(50, [](CLI::App& root) {
+}  // namespace
+
+void add_validate_command(CLI::App& root) {
   auto* app = root.add_subcommand(
       "validate",
       "Compare a fitted profile's predictions with held-out samples: per component and total, mean and "
@@ -224,12 +227,8 @@ Registrar reg(50, [](CLI::App& root) {
                   "How the rounds of a configuration give its time: median or fastest (default: what the fit "
                   "used, from the profile; else median)");
   app->callback([o] {
-    if (run(*o) != 0) {
-      std::fflush(stdout);
-      std::exit(3);  // --strict and a target missed; the tables above say which
-    }
+    if (run(*o) != 0) set_exit_status(kExitMissed);  // --strict and a target missed; the tables say which
   });
-});
+}
 
-}  // namespace
 }  // namespace dtflop::cli

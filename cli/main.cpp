@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "cli/command.hpp"
+#include "cli/workload_cli.hpp"
 #include "model/errors.hpp"
 
 int main(int argc, char** argv) {
@@ -13,6 +14,10 @@ int main(int argc, char** argv) {
       "dtflop - predict how long a computation takes on a machine (the DTFLOP model), "
       "measure it, and tune it to a deadline.",
       "dtflop"};
+  app.footer(
+      "Exit status: 0 done; 1 failed while running (a measurement, a device); 2 bad input (an option, a file, a "
+      "profile that cannot predict this); 3 a deadline (predict/run --deadline) or a target (validate --strict) "
+      "missed.");
   app.set_version_flag("--version", "dtflop 0.1.0");
   app.require_subcommand(1);
   app.fallthrough();
@@ -27,13 +32,15 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version end here too, with CLI11's exit code 0; every other parse error is bad input.
+    const int code = app.exit(e);
+    return code == 0 ? 0 : dtflop::cli::kExitBadInput;
   } catch (const dtflop::InputError& e) {
     fmt::print(stderr, "dtflop: error: {}\n", e.what());
-    return 2;
+    return dtflop::cli::kExitBadInput;
   } catch (const std::exception& e) {
-    fmt::print(stderr, "dtflop: internal error: {}\n", e.what());
-    return 1;
+    fmt::print(stderr, "dtflop: failed: {}\n", e.what());
+    return dtflop::cli::kExitFailure;
   }
-  return 0;
+  return dtflop::cli::exit_status();
 }

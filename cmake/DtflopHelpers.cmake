@@ -2,8 +2,9 @@
 
 # Warnings for our own targets.
 function(dtflop_warnings target)
+  # -Wno-missing-field-initializers: designated initializers leave the other fields at their defaults.
   target_compile_options(${target} PRIVATE
-    $<$<COMPILE_LANGUAGE:CXX>:-Wall -Wextra -Wpedantic -Wshadow -Wconversion -Wno-sign-conversion>)
+    "$<$<COMPILE_LANGUAGE:CXX>:-Wall;-Wextra;-Wpedantic;-Wshadow;-Wconversion;-Wno-sign-conversion;-Wno-missing-field-initializers>")
 endfunction()
 
 # dtflop_library(name SOURCES a.cpp b.cu ... DEPS lib... [CUDA_SOURCES x.cu ...])

@@ -179,6 +179,14 @@ MachineProfile load_profile(const std::filesystem::path& path) {
 }
 
 void write_file_atomically(const std::filesystem::path& path, const std::string& text) {
+  // An output replaces an earlier output (a regular file) and nothing else: not a link, a device
+  // file or a folder.
+  std::error_code ec0;
+  const auto st = std::filesystem::symlink_status(path, ec0);
+  if (!ec0 && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st))
+    throw InputError(fmt::format("'{}' exists and is not a regular file (a link, a device or a folder); write the "
+                                 "output to a new file name",
+                                 path.string()));
   auto tmp = path;
   tmp += ".tmp";
   {

@@ -28,7 +28,8 @@ CostCounts counts_from_json(const nlohmann::json& j);
 
 nlohmann::json to_json(const Prediction& p);
 
-// Writes `text` to `path` atomically (temporary file in the same folder + rename).
+// Writes `text` to `path` atomically (temporary file in the same folder + rename). Replaces an
+// earlier regular file only: throws InputError when `path` is a link, a device file or a folder.
 void write_file_atomically(const std::filesystem::path& path, const std::string& text);
 
 }  // namespace dtflop

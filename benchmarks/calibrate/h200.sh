@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # The calibration run on the lent H200: GPU tests, a quick probe for start values, then the
-# sweeps, in replicate rounds (docs/calibration.md, "Rounds").
+# sweeps, in replicate rounds (docs/calibration.md, "Rounds"). Bundle first, here:
+#   scripts/device-bundle.sh dtflop test_calibrate_gpu test_rbe_gpu test_probes_gpu
+# then, on the GPU machine with the bundle (.carry/, or BUNDLE=folder) beside the repository:
 #   bash benchmarks/calibrate/h200.sh all    everything below in one device call (5 rounds:
 #                                            about 400 s; the time limits below bound a stuck
 #                                            sweep, they do not add up to under 10 minutes), the
@@ -16,11 +18,14 @@
 #                                            and the GPU tests (about 2 minutes)
 # Each sweep is resumable and bounded in time, so a slow one cannot take the whole lease;
 # whatever was measured comes back in $OUT (or ./h200-out). Fitting and validation run
-# afterwards on the developer's machine from the stores (docs/PERFORMANCE.md).
+# afterwards on the developer's machine from the stores (docs/PERFORMANCE.md; the stores of
+# the recorded runs are in results/rbe-calibration/).
 set -uo pipefail
 cd "$(dirname "$0")/../.."
-export LD_LIBRARY_PATH=$PWD/.carry-calib/lib:${LD_LIBRARY_PATH:-}
-B=.carry-calib/bin
+bundle=${BUNDLE:-.carry}
+[ -x "$bundle/bin/dtflop" ] || { echo "no $bundle/bin/dtflop: run scripts/device-bundle.sh dtflop test_calibrate_gpu test_rbe_gpu test_probes_gpu first, and copy $bundle/ beside the repository" >&2; exit 2; }
+export LD_LIBRARY_PATH=$PWD/$bundle/lib:${LD_LIBRARY_PATH:-}
+B=$bundle/bin
 O=${OUT:-h200-out}
 part=${1:-}
 [[ "$part" == all || "$part" == resident ]] || { echo "usage: $0 all|resident" >&2; exit 2; }

@@ -7,7 +7,7 @@
 //   SeedSweep/<backend>/<dots>      the seed's sizes: ~369 dots, 1024 points, support 10..100 dots
 //   Frame1080p/<backend>            1920x1080 frames: frames per second
 // After the runs a summary prints medians, the 5 ms target, the ratio to OpenCV, and the
-// floors from the declared counts at the DESIGN.md reference rates of the H200.
+// floors from the declared counts at the H200 reference ceilings of docs/design.md.
 #include <algorithm>
 #include <cstdio>
 #include <map>
@@ -160,7 +160,7 @@ class Collector : public benchmark::ConsoleReporter {
   }
 };
 
-// Floor of a count set at the H200 reference rates of DESIGN.md: max(transfers, device
+// Floor of a count set at the H200 reference ceilings of docs/design.md: max(transfers, device
 // memory, arithmetic), plus host work at 55 GB/s... the transfer floor uses pinned 54 GB/s.
 double floor_ms(const CostCounts& c) {
   const double P = c.P;

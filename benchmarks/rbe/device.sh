@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
-# On the GPU machine, from the repository root, after benchmarks/rbe/bundle.sh here and `run`
-# with carry ["build-rbe-device/carry"]: GPU tests, the GPU benchmarks, the PyTorch peer in
-# the same call, the comparison table (dtflop vs PyTorch vs floor), cpu-par vs OpenCV.
-#   FILTER=regex (bench_rbe filter, default: cuda)  OUT=folder for logs (default $OUT or /tmp)
-#   BUNDLE=folder (default build-rbe-device/carry: what bundle.sh made, carried to the device)
+# On the GPU machine, from the repository root: GPU tests, the GPU benchmarks, the PyTorch peer
+# in the same call, the comparison table (dtflop vs PyTorch vs floor), cpu-par vs OpenCV.
+#   here:   scripts/device-bundle.sh test_rbe_gpu bench_rbe bench_rbe_cpu_ratio
+#   there:  OUT=folder benchmarks/rbe/device.sh     (with the bundle .carry/ beside the repository)
+#   FILTER=regex (bench_rbe filter, default: cuda)  OUT=folder for logs (default rbe-device-out)
+#   BUNDLE=folder (default .carry: what scripts/device-bundle.sh made)
 set -uo pipefail
-bundle=${BUNDLE:-build-rbe-device/carry}
+bundle=${BUNDLE:-.carry}
 export LD_LIBRARY_PATH=$PWD/$bundle/lib
-out=${OUT:-/tmp}
+out=${OUT:-rbe-device-out}
+mkdir -p "$out"
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm,clocks.mem,temperature.gpu,power.draw --format=csv
 echo "== GPU tests =="
 $bundle/bin/test_rbe_gpu --gtest_brief=1 2>&1 | tee "$out/test_rbe_gpu.log" | tail -40

@@ -3,14 +3,16 @@
 # GPU tests (twice: also with DTFLOP_RBE_NO_TMA, so that the cp.async tile copies are tested
 # too), bench_rbe at 1000x1000 k33, 1000x1000 k201 and 4000x4000 k33 (default layout and the
 # layout sweep), the PyTorch peer, the comparison table.
-#   here:   BUILD=build-rbe-opt-device benchmarks/rbe/bundle.sh test_rbe_gpu bench_rbe
-#   device: BUNDLE=build-rbe-opt-device/carry OUT=$OUT benchmarks/rbe/device_targets.sh
+#   here:   scripts/device-bundle.sh test_rbe_gpu bench_rbe
+#   there:  OUT=folder benchmarks/rbe/device_targets.sh   (bundle in .carry/, or BUNDLE=folder;
+#           logs in OUT, default rbe-device-out)
 # ALT=1 adds the defaults with cp.async tile copies (DTFLOP_RBE_NO_TMA, see docs/rbe.md);
 # NO_PEER=1 leaves the PyTorch peer out.
 set -uo pipefail
-bundle=${BUNDLE:-build-rbe-device/carry}
+bundle=${BUNDLE:-.carry}
 export LD_LIBRARY_PATH=$PWD/$bundle/lib
-out=${OUT:-/tmp}
+out=${OUT:-rbe-device-out}
+mkdir -p "$out"
 targets='^rbe/cuda-resident/(1000x1000/k(33|201)|4000x4000/k33)/'
 defaults='^rbe/cuda-resident/(1000x1000/k(33|201)|4000x4000/k33)/(32x8x16|layout-(32x16x8|64x8x8|64x4x16|32x4x16))/'
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm,clocks.mem,temperature.gpu,power.draw --format=csv

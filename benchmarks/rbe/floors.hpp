@@ -9,7 +9,7 @@
 
 namespace dtflop::rbe::bench {
 
-// Ceilings measured on the lent H200 (DESIGN.md reference figures): device-to-device copy
+// Ceilings measured on the lent H200 (docs/design.md, reference figures): device-to-device copy
 // 4.19 TB/s (read + write counted), FP32 FMA 55 TFLOP/s.
 inline constexpr double kH200Bandwidth = 4.2e12;
 inline constexpr double kH200Flops = 55e12;

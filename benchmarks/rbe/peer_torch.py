@@ -16,7 +16,7 @@ import sys
 
 CONFIGS = [(1000, 1000, 33), (1000, 1000, 201), (4000, 4000, 33)]
 TARGETS_US = {(1000, 1000, 33): 15, (1000, 1000, 201): 40, (4000, 4000, 33): 150}
-BANDWIDTH, RATE = 4.2e12, 55e12  # measured H200 ceilings (DESIGN.md)
+BANDWIDTH, RATE = 4.2e12, 55e12  # measured H200 ceilings (docs/design.md)
 
 
 def floor_us(nx, ny, k):

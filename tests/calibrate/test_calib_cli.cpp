@@ -70,7 +70,7 @@ int count_newlines(const std::string& s) { return static_cast<int>(std::count(s.
 TEST_F(CalibCli, KilledSweepResumesWithoutLosingOrRepeatingWork) {
   // 12 configurations of the cpu-seq backend, each ~0.05-0.2 s here.
   nlohmann::json plan = {{"description", "kill -9 test"}, {"configs", nlohmann::json::array()}};
-  for (int i = 0; i < 12; ++i) plan["configs"].push_back({{"nx", 500 + 10 * i}, {"ny", 400}, {"Ix", 25}, {"Iy", 25}});
+  for (int i = 0; i < 12; ++i) plan["configs"].push_back({{"grid", {500 + 10 * i, 400}}, {"kernel", "25x25"}});
   std::ofstream(path("plan.json")) << plan.dump();
   const std::string store = path("samples.jsonl");
   const std::vector<std::string> args = {"sweep", "rbe", "--plan", path("plan.json"), "--backend", "cpu-seq",
@@ -153,7 +153,7 @@ TEST_F(CalibCli, SweepRejectsBadInputBeforeMeasuring) {
 
 TEST_F(CalibCli, SweepRoundsStoreEveryRoundAndResume) {
   nlohmann::json plan = {{"description", "rounds test"}, {"configs", nlohmann::json::array()}};
-  for (int i = 0; i < 3; ++i) plan["configs"].push_back({{"nx", 60 + 10 * i}, {"ny", 50}, {"Ix", 5}, {"Iy", 5}});
+  for (int i = 0; i < 3; ++i) plan["configs"].push_back({{"grid", {60 + 10 * i, 50}}, {"kernel", "5x5"}});
   std::ofstream(path("plan.json")) << plan.dump();
   const std::string store = path("rounds.jsonl");
   const std::string base =
@@ -190,7 +190,7 @@ TEST_F(CalibCli, SweepRoundsStoreEveryRoundAndResume) {
   EXPECT_EQ(c.keys().size(), 9u);
   EXPECT_EQ(c.samples[8].round, 3);
 
-  r = test::run_dtflop("sweep rbe --help");
+  r = test::run_dtflop("sweep --help");
   EXPECT_NE(r.out.find("--rounds"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("slow spell"), std::string::npos) << r.out;
 }

@@ -39,6 +39,9 @@ inline CliResult run_dtflop(const std::string& args) {
   return r;
 }
 
+// A file of the source tree (e.g. docs/examples/h200.json).
+inline std::string source_path(const std::string& relative) { return std::string(DTFLOP_SOURCE_DIR) + "/" + relative; }
+
 inline int count_lines(const std::string& s) {
   int n = 0;
   for (char c : s) n += c == '\n';

@@ -144,7 +144,7 @@ void centroid_of(const cv::Mat& img, const cv::Mat& labels, cv::Rect roi, int id
   // Classify each window pixel once; both passes read the classes.
   std::vector<std::uint8_t> cls(static_cast<std::size_t>(win.area()));
   RingSums<double> ring;
-  std::int64_t nring = 0, nweight = 0;
+  std::int64_t nring = 0, nweight = 0, nscan = 0;
   first = -1;
   for (int y = win.y, k = 0; y < win.y + win.height; ++y)
     for (int x = win.x; x < win.x + win.width; ++x, ++k) {
@@ -154,7 +154,9 @@ void centroid_of(const cv::Mat& img, const cv::Mat& labels, cv::Rect roi, int id
         ring.add(x - cx, y - cy, static_cast<double>(img.template at<Img>(y + roi.y, x + roi.x)));
         ++nring;
       }
-      if (first < 0 && label(x, y) == id) first = static_cast<std::int64_t>(y) * roi.width + x;
+      const int l = label(x, y);
+      nscan += l == -1;  // classify_pixel read its neighbourhood
+      if (first < 0 && l == id) first = static_cast<std::int64_t>(y) * roi.width + x;
     }
   double a, b, c;
   solve_plane(ring, a, b, c);
@@ -168,6 +170,7 @@ void centroid_of(const cv::Mat& img, const cv::Mat& labels, cv::Rect roi, int id
   st.window_pixels += win.area();
   st.ring_pixels += nring;
   st.weighted_pixels += nweight;
+  st.scanned_pixels += nscan;
   if (!(w.w > 0) || nring == 0) {
     why = DotRejection::no_contrast;
     return;
@@ -196,6 +199,7 @@ AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threa
   cv::Mat labels, stats, cents;
   const int n = cv::connectedComponentsWithStats(mask, labels, stats, cents, 8, CV_32S, cv::CCL_DEFAULT);
   r.stats.components = n - 1;
+  for (int id = 1; id < n; ++id) r.stats.foreground_pixels += stats.at<int>(id, cv::CC_STAT_AREA);
 
   struct Item {
     DotObservation d;
@@ -242,6 +246,7 @@ AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threa
     r.stats.window_pixels += it.st.window_pixels;
     r.stats.ring_pixels += it.st.ring_pixels;
     r.stats.weighted_pixels += it.st.weighted_pixels;
+    r.stats.scanned_pixels += it.st.scanned_pixels;
   }
   std::sort(kept.begin(), kept.end(), [](const Item* a, const Item* b) { return a->first < b->first; });
   r.dots.reserve(kept.size());

@@ -1,8 +1,8 @@
 // Image analysis of the DCT workload (seed 6.1.2, 7.1): threshold, connected-component
 // labelling, filtering by area and shape, and the background-removed intensity-weighted
 // centroid of eq. 7.1 of every kept dot. The CPU implementation here uses OpenCV for the
-// threshold and the labelling; the CUDA backend has its own (cuda_backend.cu) with the same
-// rules and the same per-dot arithmetic (kernels.hpp).
+// threshold and the labelling; the CUDA backend has its own (cuda_backend.cpp, cuda_kernels.cu)
+// with the same rules and the same per-dot arithmetic (kernels.hpp).
 #pragma once
 
 #include <cstdint>
@@ -52,10 +52,12 @@ struct DotObservation {
 struct AnalysisStats {
   std::int64_t roi_pixels = 0;
   std::int64_t components = 0;      // after labelling, before filtering
+  std::int64_t foreground_pixels = 0;  // labelled pixels of all components (the mask's dot pixels)
   std::int64_t rejected_area = 0, rejected_shape = 0, rejected_border = 0, rejected_contrast = 0;
   std::int64_t window_pixels = 0;   // pixels of all kept dots' windows
   std::int64_t ring_pixels = 0;     // of which background-ring pixels
   std::int64_t weighted_pixels = 0; // of which weighted pixels
+  std::int64_t scanned_pixels = 0;  // of which background pixels whose (2 margin + 1)^2 labels were read
   double threshold = 0;             // threshold used, native grey levels
 };
 

@@ -24,7 +24,7 @@ std::string rejection_summary(const AnalysisStats& st) {
 
 }  // namespace
 
-void Backend::check_frame(const cv::Mat& frame) const {
+void PipelineState::check_frame(const cv::Mat& frame) const {
   if (ref_pos_.empty()) throw InputError("no reference frame was set before processing a frame");
   if (frame.empty()) throw InputError("the frame is empty (unreadable image?)");
   if (frame.size() != size_ || frame.depth() != depth_ || frame.channels() != 1)
@@ -34,7 +34,7 @@ void Backend::check_frame(const cv::Mat& frame) const {
                                  size_.width, size_.height, depth_ == CV_16U ? 16 : 8));
 }
 
-void Backend::accept_reference(const cv::Mat& image, std::vector<DotObservation> dots, const AnalysisStats& st) {
+void PipelineState::accept_reference(const cv::Mat& image, std::vector<DotObservation> dots, const AnalysisStats& st) {
   if (dots.empty())
     throw InputError(fmt::format("no dots were found in the reference image ({}); check the polarity (dark or "
                                  "light dots), the threshold and the area limits",
@@ -58,7 +58,7 @@ void Backend::accept_reference(const cv::Mat& image, std::vector<DotObservation>
   last_tracked_.assign(ref_pos_.size(), 0);
 }
 
-void Backend::track(const std::vector<Vec2>& found, FrameOutput& out) {
+void PipelineState::track(const std::vector<Vec2>& found, FrameOutput& out) {
   std::vector<Vec2> predicted;
   if (opt_.follow) {
     predicted = ref_pos_;
@@ -88,22 +88,22 @@ namespace {
 
 class CpuBackend final : public Backend {
  public:
-  CpuBackend(const PipelineOptions& o, bool parallel) : Backend(o), parallel_(parallel) {
-    threads_ = parallel ? (o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())))
-                        : 1;
-  }
+  CpuBackend(const PipelineOptions& o, bool parallel)
+      : Backend(o), parallel_(parallel), threads_(parallel ? cpu_threads(o) : 1) {}
   std::string name() const override { return parallel_ ? "cpu-par" : "cpu-seq"; }
 
   void set_reference(const cv::Mat& image) override {
-    AnalysisResult r = analyze(image, opt_.analysis, threads_);
-    accept_reference(image, std::move(r.dots), r.stats);
+    AnalysisResult r = analyze(image, options().analysis, threads_);
+    state().accept_reference(image, std::move(r.dots), r.stats);
   }
 
   FrameOutput process(const cv::Mat& frame) override {
-    check_frame(frame);
+    PipelineState& st = state();
+    st.check_frame(frame);
+    const PipelineOptions& opt = st.options();
     FrameOutput out;
     double t0 = now();
-    AnalysisResult r = analyze(frame, opt_.analysis, threads_);
+    AnalysisResult r = analyze(frame, opt.analysis, threads_);
     double t1 = now();
     out.seconds["analysis"] = t1 - t0;
     out.dots = std::move(r.dots);
@@ -111,27 +111,31 @@ class CpuBackend final : public Backend {
     std::vector<Vec2> found;
     found.reserve(out.dots.size());
     for (const auto& d : out.dots) found.push_back({d.x, d.y});
-    track(found, out);
+    st.track(found, out);
     double t2 = now();
     out.seconds["tracking"] = t2 - t1;
-    out.fields = opt_.interp == Interp::mls
-                     ? evaluate_mls(mls_, ref_pos_, out.displacement, out.tracked, opt_.mls, threads_)
-                     : evaluate_fe(fe_, out.displacement, out.tracked, threads_);
+    out.fields = opt.interp == Interp::mls
+                     ? evaluate_mls(st.mls_table(), st.reference_positions(), out.displacement, out.tracked, opt.mls,
+                                    threads_)
+                     : evaluate_fe(st.fe_table(), out.displacement, out.tracked, threads_);
     out.seconds["fields"] = now() - t2;
     out.seconds["total"] = now() - t0;
     FrameShape& s = out.shape;
     s.image_pixels = static_cast<std::int64_t>(frame.total());
     s.bytes_per_pixel = frame.depth() == CV_16U ? 2 : 1;
     s.roi_pixels = r.stats.roi_pixels;
+    s.foreground_pixels = r.stats.foreground_pixels;
     s.components = r.stats.components;
-    s.dots = static_cast<std::int64_t>(ref_pos_.size());
+    s.dots = static_cast<std::int64_t>(st.reference_positions().size());
     s.window_pixels = r.stats.window_pixels;
     s.ring_pixels = r.stats.ring_pixels;
     s.weighted_pixels = r.stats.weighted_pixels;
-    s.points = static_cast<std::int64_t>(points_.size());
-    s.support_entries = opt_.interp == Interp::mls ? mls_.entries() : 0;
-    s.interp = opt_.interp;
-    s.otsu = opt_.analysis.method == ThresholdMethod::otsu;
+    s.scanned_pixels = r.stats.scanned_pixels;
+    s.margin = opt.analysis.margin;
+    s.points = static_cast<std::int64_t>(st.points().size());
+    s.support_entries = st.support_entries();
+    s.interp = opt.interp;
+    s.otsu = opt.analysis.method == ThresholdMethod::otsu;
     out.counts = cpu_counts(s, threads_);
     return out;
   }
@@ -141,9 +145,57 @@ class CpuBackend final : public Backend {
   int threads_ = 1;
 };
 
+std::unique_ptr<Backend> make_cpu_seq(const PipelineOptions& o) { return std::make_unique<CpuBackend>(o, false); }
+std::unique_ptr<Backend> make_cpu_par(const PipelineOptions& o) { return std::make_unique<CpuBackend>(o, true); }
+CostCounts cpu_seq_counts(const FrameShape& s, const PipelineOptions&) { return cpu_counts(s, 1); }
+CostCounts cpu_par_counts(const FrameShape& s, const PipelineOptions& o) { return cpu_counts(s, cpu_threads(o)); }
+std::string cpu_available() { return {}; }
+
+std::unique_ptr<Backend> make_cuda(const PipelineOptions& o) {
+  const std::string why = cuda_unavailable_reason();
+  if (!why.empty()) throw InputError("the cuda backend cannot run here: " + why + "; use cpu-seq or cpu-par");
+#ifdef DTFLOP_HAVE_CUDA
+  return make_cuda_backend(o);
+#else
+  (void)o;
+  return nullptr;  // not reached: cuda_unavailable_reason() says CUDA is missing
+#endif
+}
+CostCounts cuda_frame_counts(const FrameShape& s, const PipelineOptions& o) {
+  return cuda_counts(s, o.pinned_frames ? HostMemory::pinned : HostMemory::pageable);
+}
+
 }  // namespace
 
-std::vector<std::string> backend_names() { return {"cpu-seq", "cpu-par", "cuda"}; }
+int cpu_threads(const PipelineOptions& o) {
+  return o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+const std::vector<BackendKind>& backend_kinds() {
+  static const std::vector<BackendKind> kinds = {
+      {"cpu-seq", "float64 reference: OpenCV threshold + sequential labelling, centroids, matching and fields on one "
+                  "thread", false, make_cpu_seq, cpu_seq_counts, cpu_available},
+      {"cpu-par", "float64: OpenCV's parallel labelling, centroids and fields on --threads threads", false,
+       make_cpu_par, cpu_par_counts, cpu_available},
+      {"cuda", "float32 on the device: frame upload, threshold, labelling, centroids, displacements and MLS/FE; "
+               "matching on the host", true, make_cuda, cuda_frame_counts, cuda_unavailable_reason},
+  };
+  return kinds;
+}
+
+const BackendKind& backend_kind(const std::string& name) {
+  for (const auto& k : backend_kinds())
+    if (k.name == name) return k;
+  std::string known;
+  for (const auto& k : backend_kinds()) known += (known.empty() ? "" : ", ") + k.name;
+  throw InputError(fmt::format("DCT backend '{}' is unknown; use one of {}", name, known));
+}
+
+std::vector<std::string> backend_names() {
+  std::vector<std::string> out;
+  for (const auto& k : backend_kinds()) out.push_back(k.name);
+  return out;
+}
 
 std::string cuda_unavailable_reason() {
 #ifdef DTFLOP_HAVE_CUDA
@@ -154,16 +206,7 @@ std::string cuda_unavailable_reason() {
 }
 
 std::unique_ptr<Backend> make_backend(const std::string& name, const PipelineOptions& o) {
-  if (name == "cpu-seq") return std::make_unique<CpuBackend>(o, false);
-  if (name == "cpu-par") return std::make_unique<CpuBackend>(o, true);
-  if (name == "cuda") {
-    const std::string why = cuda_unavailable_reason();
-    if (!why.empty()) throw InputError("the cuda backend cannot run here: " + why + "; use cpu-seq or cpu-par");
-#ifdef DTFLOP_HAVE_CUDA
-    return make_cuda_backend(o);
-#endif
-  }
-  throw InputError(fmt::format("backend '{}' is unknown; use cpu-seq, cpu-par or cuda", name));
+  return backend_kind(name).make(o);
 }
 
 }  // namespace dtflop::dct

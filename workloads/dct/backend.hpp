@@ -51,34 +51,34 @@ struct FrameOutput {
   std::map<std::string, double> seconds;  // per stage, host clock (cuda: device events too)
 };
 
-class Backend {
+// What every backend shares once a reference is set: the options, the reference dots, the
+// interpolation points, the look-up tables, the matching radius and the previous frame's
+// displacements (for following a sequence). Backends hold one and reach it through
+// Backend::state(); its data changes only through its own steps.
+class PipelineState {
  public:
-  virtual ~Backend() = default;
-  virtual std::string name() const = 0;
-  // Finds the reference dots and builds the look-up table. Throws InputError when the image
-  // holds no usable dots.
-  virtual void set_reference(const cv::Mat& image) = 0;
-  // One deformed frame. Throws InputError for a frame that does not fit the reference.
-  virtual FrameOutput process(const cv::Mat& frame) = 0;
-  // A frame-sized buffer the backend uploads from fastest (pinned host memory for cuda), for
-  // a camera or a renderer to write frames into. Valid until the next call.
-  virtual cv::Mat frame_buffer(cv::Size size, int type) { return cv::Mat(size, type); }
+  explicit PipelineState(PipelineOptions o) : opt_(std::move(o)) {}
 
-  const std::vector<DotObservation>& reference_dots() const { return ref_dots_; }
-  const std::vector<Vec2>& reference_positions() const { return ref_pos_; }
-  const std::vector<Vec2>& points() const { return points_; }
-  const PipelineOptions& options() const { return opt_; }
-  const MlsTable& mls_table() const { return mls_; }
-  const FeTable& fe_table() const { return fe_; }
-
- protected:
-  explicit Backend(PipelineOptions o) : opt_(std::move(o)) {}
-  // Shared host steps: accept the reference dots and build the tables.
+  // Accepts the reference dots found in `image` and builds the tables. Throws InputError when
+  // there are too few dots for the interpolation (with what the filters rejected).
   void accept_reference(const cv::Mat& image, std::vector<DotObservation> dots, const AnalysisStats& st);
   // Matching with the sequence prediction; fills out.matches, displacement, tracked.
   void track(const std::vector<Vec2>& found, FrameOutput& out);
+  // Throws InputError for a frame that does not fit the reference (or comes before one).
   void check_frame(const cv::Mat& frame) const;
 
+  const PipelineOptions& options() const { return opt_; }
+  cv::Size size() const { return size_; }
+  const std::vector<DotObservation>& reference_dots() const { return ref_dots_; }
+  const std::vector<Vec2>& reference_positions() const { return ref_pos_; }
+  const std::vector<Vec2>& points() const { return points_; }
+  const MlsTable& mls_table() const { return mls_; }
+  const FeTable& fe_table() const { return fe_; }
+  double match_radius() const { return match_radius_; }
+  // MLS support entries of the table (0 for FE): what the field stage reads per frame.
+  std::int64_t support_entries() const { return opt_.interp == Interp::mls ? mls_.entries() : 0; }
+
+ private:
   PipelineOptions opt_;
   cv::Size size_;
   int depth_ = 0;
@@ -92,7 +92,54 @@ class Backend {
   std::vector<std::uint8_t> last_tracked_;
 };
 
-// "cpu-seq", "cpu-par", "cuda". Throws InputError for an unknown name or a cuda backend
+class Backend {
+ public:
+  virtual ~Backend() = default;
+  virtual std::string name() const = 0;
+  // Finds the reference dots and builds the look-up table. Throws InputError when the image
+  // holds no usable dots.
+  virtual void set_reference(const cv::Mat& image) = 0;
+  // One deformed frame. Throws InputError for a frame that does not fit the reference.
+  virtual FrameOutput process(const cv::Mat& frame) = 0;
+  // A frame-sized buffer the backend uploads from fastest (pinned host memory for cuda), for
+  // a camera or a renderer to write frames into. Valid until the next call.
+  virtual cv::Mat frame_buffer(cv::Size size, int type) { return cv::Mat(size, type); }
+
+  const std::vector<DotObservation>& reference_dots() const { return state_.reference_dots(); }
+  const std::vector<Vec2>& reference_positions() const { return state_.reference_positions(); }
+  const std::vector<Vec2>& points() const { return state_.points(); }
+  const PipelineOptions& options() const { return state_.options(); }
+  const MlsTable& mls_table() const { return state_.mls_table(); }
+  const FeTable& fe_table() const { return state_.fe_table(); }
+
+ protected:
+  explicit Backend(PipelineOptions o) : state_(std::move(o)) {}
+  PipelineState& state() { return state_; }
+  const PipelineState& state() const { return state_; }
+
+ private:
+  PipelineState state_;
+};
+
+// The backends, declared once: what each is (name, description, whether it needs a GPU), how
+// to make its pipeline, its exact counts of one frame of a given shape, and why it cannot run
+// here (empty when it can). make_backend(), backend_names() and the DCT workload's backend
+// list (workload.hpp) all read this list.
+struct BackendKind {
+  std::string name;
+  std::string description;
+  bool needs_gpu = false;
+  std::unique_ptr<Backend> (*make)(const PipelineOptions& o) = nullptr;
+  CostCounts (*frame_counts)(const FrameShape& s, const PipelineOptions& o) = nullptr;
+  std::string (*unavailable)() = nullptr;
+};
+const std::vector<BackendKind>& backend_kinds();
+// Throws InputError naming the known backends when `name` is unknown.
+const BackendKind& backend_kind(const std::string& name);
+// The CPU threads a cpu-par pipeline uses for `o` (o.threads, or every hardware thread).
+int cpu_threads(const PipelineOptions& o);
+
+// "cpu-seq", "cpu-par", "cuda". Throws InputError for an unknown name, or a cuda backend
 // where dtflop was built without CUDA or no device is usable (with the reason).
 std::unique_ptr<Backend> make_backend(const std::string& name, const PipelineOptions& o);
 std::vector<std::string> backend_names();
@@ -100,8 +147,8 @@ std::vector<std::string> backend_names();
 std::string cuda_unavailable_reason();
 
 #ifdef DTFLOP_HAVE_CUDA
-std::unique_ptr<Backend> make_cuda_backend(const PipelineOptions& o);  // cuda_backend.cu
-std::string cuda_device_check();                                     // cuda_backend.cu
+std::unique_ptr<Backend> make_cuda_backend(const PipelineOptions& o);  // cuda_backend.cpp
+std::string cuda_device_check();                                     // cuda_backend.cpp
 #endif
 
 }  // namespace dtflop::dct

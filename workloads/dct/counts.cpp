@@ -27,6 +27,9 @@ FrameShape estimate_shape(std::int64_t width, std::int64_t height, int bytes_per
   // Weighted: the dot grown by `margin` (a square dilation, counted as a disc of r + margin).
   s.weighted_pixels = static_cast<std::int64_t>(std::llround(static_cast<double>(n_dots) * pi * (r + margin + 0.5) * (r + margin + 0.5)));
   s.ring_pixels = s.window_pixels - s.weighted_pixels;
+  // Every window pixel but the dot's own is background whose neighbourhood is read.
+  s.scanned_pixels = s.window_pixels - static_cast<std::int64_t>(std::llround(static_cast<double>(n_dots) * area));
+  s.margin = margin;
   s.points = n_points;
   s.support_entries = interp == Interp::mls ? n_points * dots_per_support : 0;
   s.interp = interp;
@@ -56,25 +59,55 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
   c.P = 8;
   c.precision = Precision::fp64;
   c.N_C = analysis_flops(s) + field_flops(s);
-  c.N_CC = 4 * s.roi_pixels + 4 * s.window_pixels + field_values(s);
+  const std::int64_t b = s.bytes_per_pixel;
+  const std::int64_t scan = static_cast<std::int64_t>(2 * s.margin + 1) * (2 * s.margin + 1);
+  const std::int64_t threshold = b == 2 ? 2 * b + 3 : b + 1;
+  const std::int64_t bytes = (s.otsu ? b : 0) * s.roi_pixels + threshold * s.roi_pixels + 13 * s.roi_pixels +
+                             10 * s.window_pixels + 4 * scan * s.scanned_pixels +
+                             b * (s.ring_pixels + s.weighted_pixels) + 8 * field_values(s);
+  c.N_CC = (bytes + 7) / 8;
+  c.cpu_footprint = s.roi_pixels * (b + 1 + 4 + (b == 2 ? 2 : 0)) + 8 * field_values(s);
   c.cpu_threads = threads < 1 ? 1 : threads;
   return c;
 }
 
+std::int64_t cuda_upload_bytes(const FrameShape& s) { return s.roi_pixels * s.bytes_per_pixel; }
+
 CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
+  static_assert(sizeof(FieldValue<float>) % 4 == 0, "the fields' records must be whole 4-byte values");
+  if (cuda_upload_bytes(s) % 4 != 0)
+    throw InputError(fmt::format("the cuda backend's counts are 4-byte values but its upload of {} px x {} byte(s) is "
+                                 "not a multiple of 4 bytes; use a region of interest whose pixel count is a "
+                                 "multiple of 4",
+                                 s.roi_pixels, s.bytes_per_pixel));
   CostCounts c;
   c.P = 4;
   c.precision = Precision::fp32;
   c.host_memory = frame_memory;
-  const std::int64_t roi_values = (s.roi_pixels * s.bytes_per_pixel + 3) / 4;
-  c.N_CG = roi_values + s.dots;  // only the region of interest is uploaded
+  const std::int64_t roi_values = cuda_upload_bytes(s) / 4;
+  const std::int64_t nc = s.components;
+  // Host -> device: the region of interest, then the match table (one int per reference dot).
+  c.N_CG = roi_values + s.dots;
   c.transfers_CG = 2;
-  c.N_GC = 1 + 8 * s.components + 7 * s.points;
-  c.transfers_GC = 3;
+  // Device -> host: the component count [and Otsu's threshold], 7 arrays of component records
+  // (centroid x, y as doubles; weight, status, area, root as 4-byte values; 3 pixel counts),
+  // and the fields.
+  const std::int64_t field_bytes = static_cast<std::int64_t>(sizeof(FieldValue<float>));
+  add_copies(c.copies_GC, 4, s.otsu ? 2 : 1);
+  add_copies(c.copies_GC, 8 * nc, 2);
+  add_copies(c.copies_GC, 4 * nc, 4);
+  add_copies(c.copies_GC, 12 * nc, 1);
+  add_copies(c.copies_GC, field_bytes * s.points, 1);
+  std::int64_t bytes_GC = 0;
+  for (const auto& k : c.copies_GC) {
+    bytes_GC += k.bytes * k.count;
+    c.transfers_GC += k.count;
+  }
+  c.N_GC = bytes_GC / 4;
   c.N_GG = roi_values + s.roi_pixels      // threshold + label init
            + 5 * s.roi_pixels             // union
            + 2 * s.foreground_pixels      // compress
-           + s.roi_pixels + s.components  // roots to ids
+           + s.roi_pixels + nc            // roots to ids
            + 2 * s.roi_pixels             // stats
            + 2 * s.window_pixels + 2 * s.weighted_pixels  // centroids
            + 6 * s.dots                   // displacements
@@ -86,6 +119,9 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
   }
   c.N_G = analysis_flops(s) + field_flops(s);
   c.N_C = 0;
+  // The host waits for the device three times a frame: for the component count, for the
+  // component records, and for the fields.
+  c.host_waits = 3;
   return c;
 }
 

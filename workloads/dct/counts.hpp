@@ -25,6 +25,9 @@ struct FrameShape {
   std::int64_t window_pixels = 0;      // sum of the kept dots' centroid windows
   std::int64_t ring_pixels = 0;        // of which background-ring pixels
   std::int64_t weighted_pixels = 0;    // of which weighted pixels
+  std::int64_t scanned_pixels = 0;     // of which background pixels whose neighbourhood's labels
+                                       // were read (the CPU's classification; 0 on cuda)
+  int margin = 2;                      // centroid margin: a scan reads (2 margin + 1)^2 labels
   std::int64_t points = 0;             // interpolation points n_m
   std::int64_t support_entries = 0;    // MLS: sum over points of their support dots
   Interp interp = Interp::mls;
@@ -44,10 +47,15 @@ std::int64_t field_flops(const FrameShape& s);
 // cpu-seq (threads = 1) and cpu-par: float64 (P = 8), nothing on a device.
 //   N_C  = 14 ring + 11 weighted + 48 n_f (plane + centroid) + 2 n_f (displacements)
 //          + MLS: 242 sum(l_m) + 603 n_m   |   FE: 40 n_m
-//   N_CC = 2 roi (threshold: read, write) + 2 roi (labelling: read mask, write labels)
-//          + 4 window (two passes, label + image) + MLS: 5 sum(l_m) + 8 n_m | FE: 12 n_m + 8 n_m
-//          (5 per support entry: index, X, Y, U_x, U_y; 8 per point: 2 position, 1 radius,
-//          5 outputs; FE: 3 indices + 9 coefficients per point)
+//   N_CC = the bytes the stages read and write, / 8 (rounded up), b bytes per pixel:
+//          Otsu histogram b roi; threshold (b + 1) roi (16-bit: a 16-bit mask converted to
+//          8 bits, 2b + 3); labelling with statistics 13 roi (mask read, labels written,
+//          read and written again); centroids 10 window (label read twice, class written
+//          and read) + 4 (2 margin + 1)^2 scanned + b (ring + weighted); fields 8 x (MLS:
+//          5 sum(l_m) + 8 n_m | FE: 12 n_m + 8 n_m) (5 per support entry: index, X, Y, U_x,
+//          U_y; 8 per point: 2 position, 1 radius, 5 outputs; FE: 3 indices + 9 coefficients)
+//   cpu_footprint = roi (b + 1 + 4) [+ 2 roi for the 16-bit mask] + the fields' bytes: the
+//          frame, the mask and the labels, the working set the model weighs against the cache
 CostCounts cpu_counts(const FrameShape& s, int threads);
 
 // Device buffers and launch layout of the cuda backend.
@@ -58,20 +66,26 @@ struct CudaLayout {
 };
 
 // cuda: float32 (P = 4 bytes per value; the frame counts as bytes / 4 values, the device's
-// double-precision centroid positions as 2 values each).
-//   N_CG = ceil(roi bytes / 4) (the region of interest is uploaded, not the whole frame)
-//          + n_f (device component of each reference dot's match)                2 copies
-//   N_GC = 1 (component count) + 8 components (centroid x, y as doubles, weight, area,
-//          status, first pixel) + 7 n_m (5 fields, status, support)            3 copies
+// double-precision centroid positions as 2 values each). Every copy and launch of a frame:
+//   N_CG = roi bytes / 4 (the region of interest is uploaded, not the whole frame)
+//          + n_f (the match table: each reference dot's device component)       2 copies
+//   N_GC = 1 (component count) [+ 1 Otsu threshold] + 11 components (centroid x, y as
+//          doubles, weight, status, area, root, 3 pixel counts: 7 copies) + n_m fields
+//          (sizeof(FieldValue<float>) / 4 each)                             9 [10] copies
+//          copies_GC lists them by size
 //   N_GG = roi bytes / 4 + roi (threshold + label init: read pixel, write label)
 //          + 5 roi (union: own and 4 neighbour labels) + 2 fg (compress)
 //          + roi + components (roots to ids) + 2 roi (stats: label, root)
 //          + 2 window + 2 weighted (centroid: label and pixel, then pixel again)
 //          + 6 n_f (displacements: 2 doubles in, 2 floats out) + MLS: 5 sum(l_m) + 8 n_m
-//          | FE: 12 n_m + 8 n_m;  Otsu adds roi (histogram read) + 256 + 256
+//          | FE: 12 n_m + 8 n_m;  Otsu adds roi bytes / 4 (histogram read) + 256 + 256
 //   N_G  = the FLOPs above;  N_C = 0 (matching is comparisons, not FLOPs)
 //   launches = 9 (+2 with Otsu): init, union, compress, ids, stats-init, stats, centroid,
 //              displacement, fields [+ histogram, otsu]
+//   host_waits = 3 (the count, the component records, the fields)
+// Throws InputError when the uploaded bytes are not whole 4-byte values.
 CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory);
+// Bytes of the frame's upload (the region of interest).
+std::int64_t cuda_upload_bytes(const FrameShape& s);
 
 }  // namespace dtflop::dct

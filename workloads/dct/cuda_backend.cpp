@@ -90,7 +90,7 @@ class Events {
   }
 
  private:
-  cudaEvent_t e_[8]{};
+  cudaEvent_t e_[10]{};
 };
 
 class CudaBackend final : public Backend {
@@ -116,38 +116,42 @@ class CudaBackend final : public Backend {
   }
 
   void set_reference(const cv::Mat& image) override {
-    validate(opt_.analysis, image.size());
+    validate(options().analysis, image.size());
     if (image.empty() || image.channels() != 1 || (image.depth() != CV_8U && image.depth() != CV_16U))
       throw InputError("the image must be one-channel 8- or 16-bit grey");
     Found f = find_dots(image, nullptr);
-    accept_reference(image, f.dots, f.stats);
+    state().accept_reference(image, f.dots, f.stats);
+    const std::vector<Vec2>& ref_pos = state().reference_positions();
+    const std::vector<Vec2>& points = state().points();
+    const MlsTable& mls = state().mls_table();
+    const FeTable& fe = state().fe_table();
     // Reference positions, the table and the points go to the device once.
-    std::vector<double2> ref(ref_pos_.size());
-    for (std::size_t j = 0; j < ref.size(); ++j) ref[j] = make_double2(ref_pos_[j].x, ref_pos_[j].y);
+    std::vector<double2> ref(ref_pos.size());
+    for (std::size_t j = 0; j < ref.size(); ++j) ref[j] = make_double2(ref_pos[j].x, ref_pos[j].y);
     upload(d_ref_, ref);
-    std::vector<double2> pts(points_.size());
-    for (std::size_t m = 0; m < pts.size(); ++m) pts[m] = make_double2(points_[m].x, points_[m].y);
+    std::vector<double2> pts(points.size());
+    for (std::size_t m = 0; m < pts.size(); ++m) pts[m] = make_double2(points[m].x, points[m].y);
     upload(d_pts_, pts);
-    std::vector<unsigned char> geom(points_.size());
-    if (opt_.interp == Interp::mls) {
-      std::vector<float> rho(mls_.rho.begin(), mls_.rho.end());
-      for (std::size_t m = 0; m < geom.size(); ++m) geom[m] = static_cast<unsigned char>(mls_.geometry[m]);
+    std::vector<unsigned char> geom(points.size());
+    if (options().interp == Interp::mls) {
+      std::vector<float> rho(mls.rho.begin(), mls.rho.end());
+      for (std::size_t m = 0; m < geom.size(); ++m) geom[m] = static_cast<unsigned char>(mls.geometry[m]);
       upload(d_rho_, rho);
-      upload(d_offsets_, mls_.offsets);
-      upload(d_lut_, mls_.dots);
+      upload(d_offsets_, mls.offsets);
+      upload(d_lut_, mls.dots);
     } else {
-      for (std::size_t m = 0; m < geom.size(); ++m) geom[m] = static_cast<unsigned char>(fe_.geometry[m]);
-      upload(d_tri_, fe_.tri);
-      upload(d_N_, std::vector<float>(fe_.N.begin(), fe_.N.end()));
-      upload(d_Nx_, std::vector<float>(fe_.Nx.begin(), fe_.Nx.end()));
-      upload(d_Ny_, std::vector<float>(fe_.Ny.begin(), fe_.Ny.end()));
+      for (std::size_t m = 0; m < geom.size(); ++m) geom[m] = static_cast<unsigned char>(fe.geometry[m]);
+      upload(d_tri_, fe.tri);
+      upload(d_N_, std::vector<float>(fe.N.begin(), fe.N.end()));
+      upload(d_Nx_, std::vector<float>(fe.Nx.begin(), fe.Nx.end()));
+      upload(d_Ny_, std::vector<float>(fe.Ny.begin(), fe.Ny.end()));
     }
     upload(d_geom_, geom);
     DCT_CUDA(cudaStreamSynchronize(stream_));
   }
 
   FrameOutput process(const cv::Mat& frame) override {
-    check_frame(frame);
+    state().check_frame(frame);
     FrameOutput out;
     const double t0 = host_now();
     Found f = find_dots(frame, &out);
@@ -157,32 +161,35 @@ class CudaBackend final : public Backend {
     std::vector<Vec2> found;
     found.reserve(f.dots.size());
     for (const auto& d : f.dots) found.push_back({d.x, d.y});
-    track(found, out);
+    state().track(found, out);
     const double t2 = host_now();
     // Match table: reference dot -> component id on the device.
-    const std::size_t nf = ref_pos_.size(), nm = points_.size();
+    const std::size_t nf = state().reference_positions().size(), nm = state().points().size();
     match_.resize(nf);
     for (std::size_t j = 0; j < nf; ++j) {
       const int k = out.matches.ref_to_def[j];
       match_[j] = k < 0 ? -1 : f.comp_of_dot[k];
     }
-    ev_.record(4, stream_);
+    const double t_host_match = host_now() - t2;
+    ev_.record(6, stream_);
     DCT_CUDA(cudaMemcpyAsync(d_match_.ensure(nf), match_.data(), nf * sizeof(int), cudaMemcpyHostToDevice, stream_));
+    ev_.record(7, stream_);
     launch_displacement(static_cast<int>(nf), d_ref_.get(), d_cx_.get(), d_cy_.get(), d_match_.get(), d_U_.ensure(nf),
                         d_valid_.ensure(nf), stream_);
-    const int bp = opt_.layout.block_points;
+    const int bp = options().layout.block_points;
     FieldValue<float>* d_out = d_fields_.ensure(nm);
-    if (opt_.interp == Interp::mls) {
+    if (options().interp == Interp::mls) {
       launch_mls(static_cast<int>(nm), d_pts_.get(), d_rho_.get(), d_geom_.get(), d_offsets_.get(), d_lut_.get(),
-                 d_ref_.get(), d_U_.get(), d_valid_.get(), static_cast<int>(opt_.mls.weight), opt_.mls.min_dots,
-                 static_cast<float>(opt_.mls.min_pivot_ratio), d_out, bp, stream_);
+                 d_ref_.get(), d_U_.get(), d_valid_.get(), static_cast<int>(options().mls.weight), options().mls.min_dots,
+                 static_cast<float>(options().mls.min_pivot_ratio), d_out, bp, stream_);
     } else {
       launch_fe(static_cast<int>(nm), d_tri_.get(), d_N_.get(), d_Nx_.get(), d_Ny_.get(), d_geom_.get(), d_U_.get(),
                 d_valid_.get(), d_out, bp, stream_);
     }
     host_fields_.resize(nm);
+    ev_.record(8, stream_);
     DCT_CUDA(cudaMemcpyAsync(host_fields_.data(), d_out, nm * sizeof(FieldValue<float>), cudaMemcpyDeviceToHost, stream_));
-    ev_.record(5, stream_);
+    ev_.record(9, stream_);
     DCT_CUDA(cudaStreamSynchronize(stream_));
     const double t3 = host_now();
     out.fields.resize(nm);
@@ -190,14 +197,22 @@ class CudaBackend final : public Backend {
       const auto& g = host_fields_[m];
       out.fields[m] = {g.ux, g.uy, g.exx, g.eyy, g.exy, g.status, g.support};
     }
+    const double t4 = host_now();
     out.seconds["analysis"] = t1 - t0;
     out.seconds["tracking"] = t2 - t1;
     out.seconds["fields"] = t3 - t2;
-    out.seconds["total"] = host_now() - t0;
-    out.seconds["device_upload"] = ev_.between(0, 1);
+    out.seconds["total"] = t4 - t0;
+    // The host's own work (no device wait inside): sorting the components' records into dots,
+    // matching, the match table and the fields' conversion. The model counts none of it
+    // (N_C = 0: comparisons and copies of records, not FLOPs).
+    out.seconds["host"] = f.host_seconds + (t2 - t1) + t_host_match + (t4 - t3);
+    // Device-side durations between events (copies and kernels apart).
+    out.seconds["device_upload"] = ev_.between(0, 1) + ev_.between(6, 7);
+    out.seconds["device_download"] = ev_.between(2, 3) + ev_.between(4, 5) + ev_.between(8, 9);
     out.seconds["device_labelling"] = ev_.between(1, 2);
-    out.seconds["device_centroids"] = ev_.between(2, 3);
-    out.seconds["device_fields"] = ev_.between(4, 5);
+    out.seconds["device_centroids"] = ev_.between(3, 4);
+    out.seconds["device_fields"] = ev_.between(7, 8);
+    out.seconds["device_kernels"] = ev_.between(1, 2) + ev_.between(3, 4) + ev_.between(7, 8);
     FrameShape& s = out.shape;
     s.image_pixels = static_cast<std::int64_t>(frame.total());
     s.bytes_per_pixel = frame.depth() == CV_16U ? 2 : 1;
@@ -208,10 +223,11 @@ class CudaBackend final : public Backend {
     s.window_pixels = f.stats.window_pixels;
     s.ring_pixels = f.stats.ring_pixels;
     s.weighted_pixels = f.stats.weighted_pixels;
+    s.margin = options().analysis.margin;
     s.points = static_cast<std::int64_t>(nm);
-    s.support_entries = opt_.interp == Interp::mls ? mls_.entries() : 0;
-    s.interp = opt_.interp;
-    s.otsu = opt_.analysis.method == ThresholdMethod::otsu;
+    s.support_entries = state().support_entries();
+    s.interp = options().interp;
+    s.otsu = options().analysis.method == ThresholdMethod::otsu;
     out.counts = cuda_counts(s, f.pinned ? HostMemory::pinned : HostMemory::pageable);
     return out;
   }
@@ -223,6 +239,7 @@ class CudaBackend final : public Backend {
     AnalysisStats stats;
     std::int64_t foreground = 0;
     bool pinned = false;
+    double host_seconds = 0;  // the host's loop over the components' records
   };
 
   template <class T>
@@ -238,10 +255,10 @@ class CudaBackend final : public Backend {
 
   template <class Pix>
   Found find_dots_t(const cv::Mat& image, FrameOutput*) {
-    const cv::Rect r = effective_roi(opt_.analysis, image.size());
+    const cv::Rect r = effective_roi(options().analysis, image.size());
     const Roi roi{r.x, r.y, r.width, r.height};
     const long long n = static_cast<long long>(r.width) * r.height;
-    const int bpx = opt_.layout.block_pixels;
+    const int bpx = options().layout.block_pixels;
     Found f;
     // Upload the region of interest (pinned when the frame lives in our pinned buffer).
     Pix* d_img = d_img_.template ensure<Pix>(static_cast<std::size_t>(n));
@@ -252,22 +269,23 @@ class CudaBackend final : public Backend {
                                r.width * sizeof(Pix), r.height, cudaMemcpyHostToDevice, stream_));
     ev_.record(1, stream_);
     int* L = d_labels_.ensure(static_cast<std::size_t>(n));
-    const int dark = opt_.analysis.polarity == Polarity::dark_dots;
+    const int dark = options().analysis.polarity == Polarity::dark_dots;
     const bool wide = sizeof(Pix) == 2;
     int* d_T = nullptr;
     int T_fixed = 0;
-    if (opt_.analysis.method == ThresholdMethod::otsu) {
+    if (options().analysis.method == ThresholdMethod::otsu) {
       d_T = d_T_.ensure(1);
       launch_otsu(d_img, wide, r.width, r.height, d_hist_.ensure(256), d_T, bpx, stream_);
     } else {
-      T_fixed = static_cast<int>(wide ? std::floor(opt_.analysis.threshold * 257) : std::floor(opt_.analysis.threshold));
+      T_fixed = static_cast<int>(wide ? std::floor(options().analysis.threshold * 257) : std::floor(options().analysis.threshold));
     }
     int* d_count = d_count_.ensure(2);
     launch_labels(d_img, wide, r.width, r.height, d_T, T_fixed, dark != 0, L, d_count, bpx, stream_);
+    ev_.record(2, stream_);
     int count = 0, T_used = T_fixed;
     DCT_CUDA(cudaMemcpyAsync(&count, d_count, sizeof(int), cudaMemcpyDeviceToHost, stream_));
     if (d_T) DCT_CUDA(cudaMemcpyAsync(&T_used, d_T, sizeof(int), cudaMemcpyDeviceToHost, stream_));
-    ev_.record(2, stream_);
+    ev_.record(3, stream_);
     DCT_CUDA(cudaStreamSynchronize(stream_));
     f.stats.roi_pixels = n;
     f.stats.components = count;
@@ -277,13 +295,14 @@ class CudaBackend final : public Backend {
     CompStats cs{d_area_.ensure(nc), d_minx_.ensure(nc), d_miny_.ensure(nc),
                  d_maxx_.ensure(nc), d_maxy_.ensure(nc), d_root_.ensure(nc)};
     launch_stats(L, r.width, r.height, cs, count, bpx, stream_);
-    const AnalysisOptions& a = opt_.analysis;
+    const AnalysisOptions& a = options().analysis;
     const DotParams dp{a.min_area, a.max_area, static_cast<float>(a.max_aspect), static_cast<float>(a.min_fill),
                        a.margin, a.reject_border ? 1 : 0, dark};
     const DotOut dout{d_cx_.ensure(nc), d_cy_.ensure(nc), d_weight_.ensure(nc), d_status_.ensure(nc),
                       d_pixels_.ensure(3 * nc)};
     if (count > 2147483647 / 2) throw std::runtime_error("too many components");
-    launch_centroids(d_img, wide, L, r.width, r.height, roi, cs, dp, dout, count, opt_.layout.block_dots, stream_);
+    launch_centroids(d_img, wide, L, r.width, r.height, roi, cs, dp, dout, count, options().layout.block_dots, stream_);
+    ev_.record(4, stream_);
     h_cx_.resize(nc); h_cy_.resize(nc); h_w_.resize(nc); h_status_.resize(nc); h_area_.resize(nc);
     h_root_.resize(nc); h_pixels_.resize(3 * nc);
     DCT_CUDA(cudaMemcpyAsync(h_cx_.data(), dout.x, nc * sizeof(double), cudaMemcpyDeviceToHost, stream_));
@@ -293,8 +312,9 @@ class CudaBackend final : public Backend {
     DCT_CUDA(cudaMemcpyAsync(h_area_.data(), cs.area, nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
     DCT_CUDA(cudaMemcpyAsync(h_root_.data(), cs.root, nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
     DCT_CUDA(cudaMemcpyAsync(h_pixels_.data(), dout.pixels, 3 * nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
-    ev_.record(3, stream_);
+    ev_.record(5, stream_);
     DCT_CUDA(cudaStreamSynchronize(stream_));
+    const double th = host_now();
     std::vector<int> kept;
     for (std::size_t k = 0; k < nc; ++k) {
       f.foreground += h_area_[k];
@@ -319,6 +339,7 @@ class CudaBackend final : public Backend {
       f.dots.push_back(d);
       f.comp_of_dot.push_back(k);
     }
+    f.host_seconds = host_now() - th;
     return f;
   }
 

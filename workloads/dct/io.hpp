@@ -1,4 +1,4 @@
-// File I/O of the DCT workload (library dtflop_dct_io, not in the device bundle): images
+// File I/O of the DCT workload (library dtflop_dct_io, built with DTFLOP_IMAGE_IO): images
 // through OpenCV's codecs, CSV of fields and dots, and colour-mapped PNG overlays of a field
 // on the image with a colour bar and units.
 #pragma once

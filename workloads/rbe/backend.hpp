@@ -3,8 +3,8 @@
 // A backend runs RBE steps (prediction by convolution with the motion kernel, correction by the
 // likelihood, normalization by A_c times the sum, seed eqs. 4.10-4.12 / 5.3-5.7) on one kind of
 // hardware, declares the exact cost counts of a step beside its code, and reports the host-clock
-// time of each step's components. The registry is one explicit list (registry.cpp): adding a
-// backend is adding its files and one line there.
+// time of each step's components. The registry is one explicit list (backends() in
+// backend.cpp): adding a backend is adding its files and one line there.
 //
 // What a caller (the CLI, calibrate/, tune/) does:
 //   auto b = rbe::make_backend("cuda-resident", options);  // throws InputError if unknown/invalid
@@ -70,7 +70,8 @@ inline constexpr int kDefaultGpuSms = 132;
 // How cuda-resident lays out its work; the tuner searches this space. A block is
 // block_x x block_y threads; each thread computes cells_per_thread consecutive cells along y,
 // so one block covers a tile of block_x x (block_y * cells_per_thread) cells.
-// Invalid layouts are rejected by validate_layout() with a message, never by a crash.
+// Invalid layouts are rejected by resident_plan() (backend_counts.hpp) with a message, never
+// by a crash.
 // The default, 32x8x16, was the best single layout over the three target configurations on the
 // H200 (docs/PERFORMANCE.md); the tuner searches the rest.
 struct Layout {

@@ -21,6 +21,7 @@ FrameShape hand_shape() {
   s.window_pixels = 7'000'000;
   s.ring_pixels = 2'000'000;
   s.weighted_pixels = 4'500'000;
+  s.scanned_pixels = 2'500'000;
   s.points = 2048;
   s.support_entries = 2048 * 60;
   s.interp = Interp::mls;
@@ -33,12 +34,20 @@ TEST(DctCounts, CpuMatchesFormulas) {
   const CostCounts c = cpu_counts(s, 16);
   // 14 ring + 11 weighted + (44 + 4) per dot + 2 per dot + 341 per support entry + 207 per point.
   EXPECT_EQ(c.N_C, 14LL * 2'000'000 + 11LL * 4'500'000 + 48LL * 1600 + 2LL * 1600 + 341LL * 2048 * 60 + 207LL * 2048);
-  EXPECT_EQ(c.N_CC, 4LL * 20'000'000 + 4LL * 7'000'000 + 5LL * 2048 * 60 + 8LL * 2048);
+  // Bytes: Otsu 1 + threshold 2 + labelling 13 per analysed pixel, 10 per window pixel, 25
+  // labels of 4 bytes per scanned pixel, a byte per ring or weighted pixel, 8 per field value.
+  EXPECT_EQ(c.N_CC, (16LL * 20'000'000 + 10LL * 7'000'000 + 100LL * 2'500'000 + 6'500'000 +
+                     8 * (5LL * 2048 * 60 + 8LL * 2048)) / 8);
+  EXPECT_EQ(c.cpu_footprint, 6LL * 20'000'000 + 8 * (5LL * 2048 * 60 + 8LL * 2048));
   EXPECT_EQ(c.P, 8);
   EXPECT_EQ(c.precision, Precision::fp64);
   EXPECT_EQ(c.cpu_threads, 16);
   EXPECT_EQ(c.N_CG + c.N_GC + c.N_GG + c.N_G + c.launches, 0);
   EXPECT_EQ(cpu_counts(s, 0).cpu_threads, 1);
+  // 16-bit frames: twice the pixel reads, a 16-bit mask converted to 8 bits.
+  FrameShape w = s;
+  w.bytes_per_pixel = 2;
+  EXPECT_EQ(cpu_counts(w, 1).N_CC - c.N_CC, (20'000'000LL * (2 - 1) + 20'000'000LL * (7 - 2) + 6'500'000) / 8);
 }
 
 TEST(DctCounts, CudaMatchesFormulas) {
@@ -46,8 +55,13 @@ TEST(DctCounts, CudaMatchesFormulas) {
   const CostCounts c = cuda_counts(s, HostMemory::pinned);
   EXPECT_EQ(c.N_CG, 20'000'000 / 4 + 1600);
   EXPECT_EQ(c.transfers_CG, 2);
-  EXPECT_EQ(c.N_GC, 1 + 8 * 1700 + 7 * 2048);
-  EXPECT_EQ(c.transfers_GC, 3);
+  // Count and Otsu threshold (4 bytes each), 7 arrays of component records (x, y as doubles,
+  // weight, status, area, root, 3 pixel counts: 44 bytes a component), the fields.
+  const std::int64_t field = sizeof(FieldValue<float>);
+  EXPECT_EQ(c.N_GC, (4 + 4 + 44 * 1700 + field * 2048) / 4);
+  EXPECT_EQ(c.transfers_GC, 10);
+  EXPECT_EQ(c.copies_GC, (std::vector<CopySize>{{4, 2}, {8 * 1700, 2}, {4 * 1700, 4}, {12 * 1700, 1}, {field * 2048, 1}}));
+  EXPECT_EQ(c.host_waits, 3);
   const std::int64_t roi = 20'000'000, rv = roi / 4;
   EXPECT_EQ(c.N_GG, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + 2 * 7'000'000 + 2 * 4'500'000 +
                         6 * 1600 + 5 * 2048 * 60 + 8 * 2048 + rv + 512);
@@ -61,11 +75,16 @@ TEST(DctCounts, CudaMatchesFormulas) {
   s.support_entries = 0;
   const CostCounts f = cuda_counts(s, HostMemory::pageable);
   EXPECT_EQ(f.launches, 9);
+  EXPECT_EQ(f.transfers_GC, 9);  // no threshold to read back
   EXPECT_EQ(f.N_G, 14LL * 2'000'000 + 11LL * 4'500'000 + 50LL * 1600 + 40LL * 2048);
   EXPECT_EQ(f.host_memory, HostMemory::pageable);
   // 16-bit frames: twice the bytes uploaded.
   s.bytes_per_pixel = 2;
   EXPECT_EQ(cuda_counts(s, HostMemory::pinned).N_CG, 20'000'000 / 2 + 1600);
+  // An upload that is not whole 4-byte values cannot be declared exactly.
+  s.bytes_per_pixel = 1;
+  s.roi_pixels = 641 * 481;
+  EXPECT_THROW(cuda_counts(s, HostMemory::pinned), InputError);
 }
 
 TEST(DctCounts, EstimateIsCloseToAMeasuredRun) {
@@ -87,8 +106,8 @@ TEST(DctCounts, EstimateIsCloseToAMeasuredRun) {
   EXPECT_EQ(m.window_pixels, m.ring_pixels + m.weighted_pixels + 0);  // isolated dots: nothing ignored
   EXPECT_EQ(out.counts, cpu_counts(m, 1));
   const FrameShape e = estimate_shape(640, 480, 1, m.dots, 8, 48, 30, Interp::mls);
-  EXPECT_NEAR(static_cast<double>(e.window_pixels), static_cast<double>(m.window_pixels), 0.15 * m.window_pixels);
-  EXPECT_NEAR(static_cast<double>(e.weighted_pixels), static_cast<double>(m.weighted_pixels), 0.15 * m.weighted_pixels);
+  EXPECT_NEAR(static_cast<double>(e.window_pixels), static_cast<double>(m.window_pixels), 0.15 * static_cast<double>(m.window_pixels));
+  EXPECT_NEAR(static_cast<double>(e.weighted_pixels), static_cast<double>(m.weighted_pixels), 0.15 * static_cast<double>(m.weighted_pixels));
   EXPECT_THROW(estimate_shape(0, 480, 1, 10, 8, 48, 30, Interp::mls), InputError);
 }
 

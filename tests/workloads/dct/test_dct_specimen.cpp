@@ -1,4 +1,4 @@
-// The renderer's truth: closed forms against DESIGN.md's checks, strain against the
+// The renderer's truth: closed forms against the checks of docs/design.md, strain against the
 // displacement's own derivatives, exact pre-images, exact area coverage, patterns' gaps.
 #include <cmath>
 

@@ -11,22 +11,28 @@ namespace dtflop {
 namespace {
 
 TEST(RbeCli, RunsCpuSeqAndReportsTimesAndExactCounts) {
-  const auto r = test::run_dtflop("run rbe --backend cpu-seq --grid 40x30 --kernel 5x3 --steps 20 --json");
+  const auto r = test::run_dtflop("run rbe --backend cpu-seq --grid 40x30 --kernel 5x3 --steps 20 --reps 3 --json");
   ASSERT_EQ(r.status, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["backend"], "cpu-seq");
   EXPECT_EQ(j["steps"], 20);
-  EXPECT_GT(j["measured"]["step_median"].get<double>(), 0);
-  EXPECT_GT(j["measured"]["components_median"]["predict"].get<double>(), 0);
-  EXPECT_EQ(j["counts"]["N_C"].get<std::int64_t>(),
-            rbe::cpu_seq_counts({40, 30, 5, 3}, rbe::Prediction::separable).N_C);
+  EXPECT_EQ(j["repetitions"], 3);
+  EXPECT_GT(j["measured_per_step"]["total"]["median"].get<double>(), 0);
+  EXPECT_GT(j["measured_per_step"]["C"]["median"].get<double>(), 0);
+  // A CPU step is all CPU work: the component cannot exceed the total.
+  EXPECT_LE(j["measured_per_step"]["C"]["median"].get<double>(), j["measured_per_step"]["total"]["median"].get<double>());
+  const auto step = rbe::cpu_seq_counts({40, 30, 5, 3}, rbe::Prediction::separable);
+  EXPECT_EQ(j["counts_per_step"]["N_C"].get<std::int64_t>(), step.N_C);
+  EXPECT_EQ(j["counts_per_repetition"]["N_C"].get<std::int64_t>(), 20 * step.N_C);
 }
 
-TEST(RbeCli, TablesForCpuPar) {
-  const auto r = test::run_dtflop("run rbe -b cpu-par --grid 64 --kernel 9 --steps 10 --threads 1");
+TEST(RbeCli, TablesForCpuParWithPredictionBesideEachComponent) {
+  const auto r = test::run_dtflop("run rbe -b cpu-par --grid 64 --kernel 9 --steps 10 --threads 1 --machine " +
+                                  test::source_path("docs/examples/h200.json"));
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("Measured per step"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("on 1 thread"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("pred/meas"), std::string::npos) << r.out;
 }
 
 TEST(RbeCli, BadInputIsOneLineAndExitStatus2) {
@@ -34,12 +40,14 @@ TEST(RbeCli, BadInputIsOneLineAndExitStatus2) {
     const char* args;
     const char* says;
   };
-  for (const Case c : {Case{"run rbe --backend gpu-x", "unknown RBE backend 'gpu-x'"},
+  for (const Case c : {Case{"run rbe --backend gpu-x", "no backend 'gpu-x'"},
                        Case{"run rbe -b cpu-seq --grid 10x10 --kernel 11", "larger than the grid"},
                        Case{"run rbe -b cpu-seq --grid 0x10", "--grid"},
                        Case{"run rbe -b cuda-resident --layout 33x8", "multiple of 8"},
                        Case{"run rbe -b cpu-seq --layout 32x8", "cuda-resident only"},
-                       Case{"run rbe -b cpu-seq --steps 0", "at least 1"}}) {
+                       Case{"run rbe -b cpu-seq --steps 0", "--steps"},
+                       Case{"run rbe -b cpu-seq --reps 1", "--reps"},
+                       Case{"run rbe -b cpu-seq --machine /nonexistent/m.json", "m.json"}}) {
     SCOPED_TRACE(c.args);
     const auto r = test::run_dtflop(c.args);
     EXPECT_EQ(r.status, 2);

@@ -1,0 +1,221 @@
+// `dtflop fields`: the DCT full-field measurement on image files or on a rendered specimen.
+// Per frame it writes a CSV of the points (u_x, u_y, e_xx, e_yy, e_xy, validity) and a
+// colour-mapped PNG overlay of each field on the image, with a colour bar and units.
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <fmt/printf.h>
+
+#include "cli/command.hpp"
+#include "cli/table.hpp"
+#include "model/errors.hpp"
+#include "model/units.hpp"
+#include "workloads/dct/backend.hpp"
+#include "workloads/dct/io.hpp"
+#include "workloads/dct/specimen.hpp"
+
+namespace dtflop::cli {
+namespace {
+
+struct RunDctOptions {
+  std::string backend = "cpu-par";
+  std::string reference;
+  std::string frames;
+  std::string specimen;
+  std::string support = "60dots";
+  std::string interp = "mls";
+  std::string weight = "cubic";
+  std::string points = "32x32";
+  std::string threshold = "otsu";
+  std::string polarity = "dark";
+  std::string roi;
+  int min_area = 12;
+  int max_area = 20000;
+  double search_radius = 0;
+  int threads = 0;
+  std::string out;
+  bool no_overlays = false;
+};
+
+// "def_%04d.png" -> the existing files for k = 0, 1, ... (starting at 0 or 1, up to the
+// first gap). A name without '%' is one frame.
+std::vector<std::filesystem::path> expand_frames(const std::string& pattern) {
+  std::vector<std::filesystem::path> out;
+  if (pattern.find('%') == std::string::npos) {
+    out.emplace_back(pattern);
+    return out;
+  }
+  for (int k = 0; k < 1000000; ++k) {
+    std::string name;
+    try {
+      name = fmt::sprintf(pattern, k);
+    } catch (const std::exception& e) {
+      throw InputError(fmt::format("--frames '{}' is not a printf pattern with one integer (e.g. def_%04d.png): {}",
+                                   pattern, e.what()));
+    }
+    if (std::filesystem::exists(name)) out.emplace_back(name);
+    else if (k >= 1) break;
+  }
+  if (out.empty())
+    throw InputError(fmt::format("--frames '{}' matches no file (tried indices 0 and 1 onwards)", pattern));
+  return out;
+}
+
+cv::Rect parse_roi(const std::string& s) {
+  int x, y, w, h;
+  char c1, c2, c3;
+  std::istringstream in(s);
+  if (!(in >> x >> c1 >> y >> c2 >> w >> c3 >> h) || c1 != ',' || c2 != ',' || c3 != ',' || w <= 0 || h <= 0)
+    throw InputError(fmt::format("--roi '{}' is not x,y,width,height with positive sizes", s));
+  return {x, y, w, h};
+}
+
+void run(const RunDctOptions& o) {
+  using namespace dtflop::dct;
+  if (o.specimen.empty() == o.reference.empty())
+    throw InputError("give either --reference (with --frames) or --specimen, not both and not neither");
+  if (!o.reference.empty() && o.frames.empty())
+    throw InputError("--reference needs --frames 'def_%04d.png' (the deformed images)");
+  PipelineOptions p;
+  p.interp = interp_from_string(o.interp);
+  p.mls.support = parse_support(o.support);
+  p.mls.weight = weight_from_string(o.weight);
+  const Size2 grid = parse_size2(o.points, "--points", 4096);
+  if (grid.x < 2 || grid.y < 2) throw InputError("--points needs at least 2x2 points");
+  p.points_x = static_cast<int>(grid.x);
+  p.points_y = static_cast<int>(grid.y);
+  p.threads = o.threads;
+  p.match.search_radius = o.search_radius;
+  p.analysis.min_area = o.min_area;
+  p.analysis.max_area = o.max_area;
+  if (o.polarity == "dark") p.analysis.polarity = Polarity::dark_dots;
+  else if (o.polarity == "light") p.analysis.polarity = Polarity::light_dots;
+  else throw InputError(fmt::format("--polarity '{}' is unknown; use dark or light", o.polarity));
+  if (o.threshold.rfind("fixed:", 0) == 0) {
+    p.analysis.method = ThresholdMethod::fixed;
+    try {
+      p.analysis.threshold = std::stod(o.threshold.substr(6));
+    } catch (const std::exception&) {
+      throw InputError(fmt::format("--threshold '{}': write fixed:128 (8-bit scale)", o.threshold));
+    }
+  } else {
+    p.analysis.method = threshold_method_from_string(o.threshold);
+  }
+  if (!o.roi.empty()) p.analysis.roi = parse_roi(o.roi);
+
+  // Inputs: files, or a rendered specimen (whose truth is then compared).
+  cv::Mat reference;
+  std::vector<std::filesystem::path> frame_files;
+  std::unique_ptr<Specimen> specimen;
+  if (!o.specimen.empty()) {
+    specimen = std::make_unique<Specimen>(parse_specimen(o.specimen));
+    reference = specimen->reference_image();
+  } else {
+    reference = read_grey(o.reference);
+    frame_files = expand_frames(o.frames);
+  }
+  auto backend = make_backend(o.backend, p);
+  backend->set_reference(reference);
+  const std::filesystem::path dir(o.out);
+  std::filesystem::create_directories(dir);
+  fmt::print("backend {}: {} reference dots, {} points ({}x{}), {} {}, support {}\n", backend->name(),
+             backend->reference_dots().size(), backend->points().size(), grid.x, grid.y, to_string(p.interp),
+             p.interp == Interp::mls ? to_string(p.mls.weight) : "", p.mls.support.str());
+
+  Table t({"frame", "dots", "matched", "lost", "appeared", "valid points", "mean e_xx [ue]", "mean e_yy [ue]",
+           "time"});
+  const std::size_t n_frames = specimen ? 1 : frame_files.size();
+  for (std::size_t k = 0; k < n_frames; ++k) {
+    cv::Mat frame;
+    std::string label;
+    if (specimen) {
+      frame = specimen->deformed_image();
+      label = "specimen";
+    } else {
+      frame = read_grey(frame_files[k]);
+      label = frame_files[k].filename().string();
+    }
+    FrameOutput out;
+    try {
+      out = backend->process(frame);
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("frame {}: {}", label, e.what()));
+    }
+    const std::string stem = fmt::format("frame_{:04d}", k + 1);
+    write_fields_csv(dir / (stem + ".csv"), backend->points(), out.fields);
+    int valid = 0;
+    double mxx = 0, myy = 0;
+    for (const auto& f : out.fields)
+      if (f.status == PointStatus::ok) { ++valid; mxx += f.exx; myy += f.eyy; }
+    if (!o.no_overlays)
+      for (Field f : {Field::ux, Field::uy, Field::exx, Field::eyy, Field::exy}) {
+        std::vector<double> v;
+        for (const auto& x : out.fields) v.push_back(x.status == PointStatus::ok ? field_value(x, f) : std::nan(""));
+        write_image(dir / fmt::format("{}_{}.png", stem, field_name(f)),
+                    overlay(frame, backend->points(), p.points_x, p.points_y, v, field_name(f), field_unit(f)));
+      }
+    const int lost = static_cast<int>(backend->reference_dots().size()) - out.matches.matched;
+    t.row({label, fmt::format("{}", out.dots.size()), fmt::format("{}", out.matches.matched), fmt::format("{}", lost),
+           fmt::format("{}", out.matches.appeared.size()), fmt::format("{} of {}", valid, out.fields.size()),
+           valid ? fmt::format("{:.1f}", 1e6 * mxx / valid) : "-", valid ? fmt::format("{:.1f}", 1e6 * myy / valid) : "-",
+           format_duration(out.seconds["total"])});
+    if (lost > 0 || !out.matches.appeared.empty()) fmt::print("frame {}: {}\n", label, out.matches.summary());
+    if (specimen) {
+      double se = 0, su = 0;
+      int n = 0;
+      for (std::size_t m = 0; m < out.fields.size(); ++m) {
+        const auto& f = out.fields[m];
+        if (f.status != PointStatus::ok) continue;
+        const Vec2 P = backend->points()[m];
+        const Vec2 u = specimen->deformation->displacement(P);
+        const Strain e = specimen->deformation->strain(P);
+        su += std::pow(f.ux - u.x, 2) + std::pow(f.uy - u.y, 2);
+        se += std::pow(f.exx - e.xx, 2) + std::pow(f.eyy - e.yy, 2) + std::pow(f.exy - e.xy, 2);
+        ++n;
+      }
+      if (n)
+        fmt::print("against the closed form ({}): displacement RMS error {:.4f} px, strain RMS error {:.1f} "
+                   "microstrain over {} valid points\n",
+                   specimen->deformation->describe(), std::sqrt(su / (2 * n)), 1e6 * std::sqrt(se / (3 * n)), n);
+    }
+  }
+  fmt::print("{}", t.str());
+  fmt::print("wrote per frame: {0}/frame_NNNN.csv{1}\n", dir.string(),
+             o.no_overlays ? "" : fmt::format(" and {}/frame_NNNN_{{u_x,u_y,e_xx,e_yy,e_xy}}.png", dir.string()));
+}
+
+}  // namespace
+
+void add_fields_command(CLI::App& root) {
+  auto* app = root.add_subcommand(
+      "fields",
+      "Dot centroid tracking (the DCT workload on images): displacement and strain fields from a reference image and deformed frames "
+      "(or a rendered --specimen), by MLS (eqs. 7.2-7.6) or linear FE");
+  auto o = std::make_shared<RunDctOptions>();
+  app->add_option("--backend", o->backend, "cpu-seq (float64), cpu-par or cuda")->capture_default_str();
+  app->add_option("--reference", o->reference, "Reference (undeformed) image");
+  app->add_option("--frames", o->frames, "Deformed frames: a file or a printf pattern, e.g. 'def_%04d.png'");
+  app->add_option("--specimen", o->specimen, "Render a specimen instead (see `dtflop specimen --help`) and compare with its truth");
+  app->add_option("--support", o->support, "MLS support domain: dots per support (60dots) or radius (12.5px)")
+      ->capture_default_str();
+  app->add_option("--interp", o->interp, "mls or fe")->capture_default_str();
+  app->add_option("--weight", o->weight, "MLS weight: cubic, quartic or gaussian")->capture_default_str();
+  app->add_option("--points", o->points, "Interpolation grid over the reference dots, e.g. 64x32")->capture_default_str();
+  app->add_option("--threshold", o->threshold, "otsu, adaptive or fixed:128 (8-bit scale)")->capture_default_str();
+  app->add_option("--polarity", o->polarity, "dark (dark dots on light ground) or light")->capture_default_str();
+  app->add_option("--roi", o->roi, "Region of interest x,y,width,height (px)");
+  app->add_option("--min-area", o->min_area, "Smallest dot, px (the seed's Area2)")->capture_default_str();
+  app->add_option("--max-area", o->max_area, "Largest dot, px (the seed's Area1)")->capture_default_str();
+  app->add_option("--search-radius", o->search_radius, "Matching radius, px (0: 0.4 x dot spacing)")->capture_default_str();
+  app->add_option("--threads", o->threads, "cpu-par threads (0: all)")->capture_default_str();
+  app->add_option("-o,--out", o->out, "Output folder")->required();
+  app->add_flag("--no-overlays", o->no_overlays, "Write only the CSV files");
+  app->callback([o] { run(*o); });
+}
+
+}  // namespace dtflop::cli

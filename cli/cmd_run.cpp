@@ -1,0 +1,178 @@
+// `dtflop run WORKLOAD --backend NAME [parameters]`: measures one configuration by the shared
+// protocol (calibrate/measure.hpp: warm-up, CUPTI-traced and untraced repetitions, host clocks)
+// and prints the measured time per step and its components beside the cost counts and, with
+// --machine, the model's prediction of each component. The same path for every workload.
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "calibrate/machine.hpp"
+#include "calibrate/measure.hpp"
+#include "cli/command.hpp"
+#include "cli/model_tables.hpp"
+#include "cli/table.hpp"
+#include "cli/workload_cli.hpp"
+#include "model/errors.hpp"
+#include "model/json_io.hpp"
+#include "model/units.hpp"
+
+namespace dtflop::cli {
+namespace {
+
+using namespace dtflop::calib;
+
+struct RunCommon {
+  PredictArgs predict;
+  MeasureSettings measure;
+  bool no_cupti = false;
+  bool json = false;
+  std::string output;  // also write the JSON result here
+};
+
+void run(const RunCommon& o, const WorkloadArgs& a) {
+  const workload::Workload& w = *a.workload;
+  const Chosen c = choose(a);
+  check_output(o.output, {o.predict.machine});
+  const std::optional<double> deadline = deadline_of(o.predict);
+  if (deadline && o.predict.machine.empty())
+    throw InputError("--deadline needs a machine profile to predict against; add --machine machine.json");
+  // Everything that can be wrong with the profile is found before anything is measured.
+  std::optional<MachineProfile> profile;
+  std::optional<Variant> wanted;
+  if (!o.predict.machine.empty()) {
+    profile = load_profile(o.predict.machine);
+    wanted = wanted_variant(o.predict, *profile);
+    (void)predict_with_fallback(*profile, c.backend->counts(c.config, &profile->identity), *wanted);
+  }
+  Protocol protocol = open_protocol(w, *c.backend, o.measure, o.no_cupti);
+  const MachineIdentity here = this_machine();
+  const MeasureSettings& st = protocol.settings;
+  fmt::print(stderr, "dtflop run {}: {} on {}: {} warm-up, {}{} repetitions of {} {}{}\n", w.name(),
+             w.describe(*c.backend, c.config), describe(here), st.warmup, st.repetitions,
+             protocol.profiler ? fmt::format(" CUPTI-traced and {} untraced", st.repetitions) : std::string(),
+             st.steps, w.step_name(), st.steps == 1 ? "" : "s");
+  const Sample s = measure(w, *c.backend, c.config, protocol, here, w.key(*c.backend, c.config), "run");
+  const double steps = static_cast<double>(s.steps);
+
+  std::optional<Predicted> pred;
+  if (profile) pred = predict_with_fallback(*profile, s.counts, *wanted);
+  if (pred && !pred->fallback.empty()) fmt::print(stderr, "dtflop: note: {}\n", pred->fallback);
+  for (const char* k : {"counts_mismatch", "work_mismatch"})
+    if (s.detail.contains(k))
+      fmt::print(stderr, "dtflop: warning: the declared counts disagree with what ran ({}): {}\n", k,
+                 s.detail[k].get<std::string>());
+
+  const Stats& total = *s.find(Component::total);
+  nlohmann::json measured = nlohmann::json::object();
+  for (const auto& [comp, stats] : s.components)
+    measured[std::string(to_string(comp))] = {{"median", stats.median / steps},
+                                              {"p25", stats.p25 / steps},
+                                              {"p75", stats.p75 / steps}};
+  const CostCounts per_step = c.backend->counts(c.config, profile ? &profile->identity : nullptr);
+  nlohmann::json out = {{"workload", std::string(w.name())},
+                        {"backend", c.backend->name()},
+                        {"description", w.describe(*c.backend, c.config)},
+                        {"parameters", c.config},
+                        {"machine_measured", to_json(here)},
+                        {"steps", s.steps},
+                        {"repetitions", s.repetitions()},
+                        {"warmup", s.warmup},
+                        {"timing", {{"source", std::string(to_string(s.source))}, {"note", s.timing_note}}},
+                        {"measured_per_step", measured},
+                        {"counts_per_step", to_json(per_step)},
+                        {"counts_per_repetition", to_json(s.counts)},
+                        {"detail", s.detail}};
+  if (pred) {
+    out["machine"] = machine_json(o.predict.machine, *profile);
+    out["variant"] = std::string(to_string(pred->variant));
+    if (!pred->fallback.empty()) out["variant_fallback"] = pred->fallback;
+    out["prediction_per_repetition"] = to_json(pred->prediction);
+    out["predicted_over_measured"] = pred->prediction.total / total.median;
+    if (deadline) {
+      out["deadline"] = *deadline;
+      out["meets_deadline"] = total.median / steps <= *deadline;
+      out["predicted_meets_deadline"] = pred->prediction.total / steps <= *deadline;
+    }
+  }
+  // The deadline is judged on what was measured.
+  if (deadline && total.median / steps > *deadline) set_exit_status(kExitMissed);
+  if (!o.output.empty()) write_file_atomically(o.output, out.dump(2) + "\n");
+  if (o.json) {
+    fmt::print("{}\n", out.dump(2));
+    return;
+  }
+  fmt::print("{}\n", w.describe(*c.backend, c.config));
+  fmt::print("\nMeasured per {} (median of {} repetitions of {} {}; {}):\n", w.step_name(), s.repetitions(), s.steps,
+             w.step_name(), to_string(s.source));
+  std::vector<std::string> head = {"component", "measured", "p25..p75"};
+  if (pred) head.insert(head.end(), {"predicted", "pred/meas"});
+  Table t(head);
+  for (Component comp : all_components()) {
+    const Stats* m = s.find(comp);
+    if (!m) continue;
+    std::vector<std::string> row = {std::string(to_string(comp)), format_duration(m->median / steps),
+                                    fmt::format("{}..{}", format_duration(m->p25 / steps), format_duration(m->p75 / steps))};
+    if (pred) {
+      const double p = predicted(pred->prediction, comp);
+      row.push_back(format_duration(p / steps));
+      row.push_back(m->median > 0 ? fmt::format("{:.2f}", p / m->median) : "-");
+    }
+    t.row(row);
+  }
+  fmt::print("{}", t.str());
+  if (!s.timing_note.empty()) fmt::print("({})\n", s.timing_note);
+  fmt::print("\nCost counts per {}:\n", w.step_name());
+  print_counts(per_step);
+  if (!pred) {
+    fmt::print("\n(add --machine machine.json for the model's prediction of each component)\n");
+  } else {
+    fmt::print("\nPredicted by the DTFLOP model ({} variant) on {}, per repetition of {} {}:\n", to_string(pred->variant),
+               machine_name(*profile), s.steps, w.step_name());
+    print_prediction(pred->prediction);
+    fmt::print("predicted / measured: {:.2f}\n", pred->prediction.total / total.median);
+  }
+  if (deadline) {
+    const bool ok = total.median / steps <= *deadline;
+    fmt::print("\nDeadline dt_p = {}: {} (measured {} per {})\n", format_duration(*deadline), ok ? "MET" : "MISSED",
+               format_duration(total.median / steps), w.step_name());
+  }
+}
+
+}  // namespace
+
+void add_run_command(CLI::App& root) {
+  auto* app = root.add_subcommand(
+      "run", "Measure one configuration of a workload on one backend (warm-up, timed repetitions, CUPTI on a GPU) "
+             "and print the measured time per step and its components, the cost counts and, with --machine, the "
+             "model's prediction beside each.");
+  // An unknown workload is rejected by the parser as an unexpected argument, named in its message;
+  // no workload at all is caught here.
+  app->callback([app] {
+    if (app->get_subcommands().empty())
+      throw InputError(fmt::format("name the workload to run: {} (e.g. `dtflop run rbe --help`)", workload::names()));
+  });
+  auto o = std::make_shared<RunCommon>();
+  add_predict_options(*app, o->predict);
+  app->add_option("--steps", o->measure.steps, "Steps (frames) per repetition (default: the workload's for the backend)")
+      ->check(CLI::Range(std::int64_t{1}, std::int64_t{1} << 30));
+  app->add_option("--reps", o->measure.repetitions, "Timed repetitions (default: the workload's for the backend)")
+      ->check(CLI::Range(2, 100000));
+  app->add_option("--warmup", o->measure.warmup, "Untimed repetitions first (default: the workload's)")
+      ->check(CLI::Range(0, 100000));
+  app->add_flag("--no-cupti", o->no_cupti, "Time device work with host clocks only");
+  app->add_flag("--json", o->json, "Print JSON instead of tables");
+  app->add_option("--output,-o", o->output, "Also write the JSON result to this file (replaced only if it is a "
+                                             "regular file)");
+  for (const workload::Workload* w : workload::all()) {
+    auto* sub = app->add_subcommand(std::string(w->name()), std::string(w->description()));
+    sub->fallthrough();
+    auto a = add_workload_options(*sub, *w);
+    sub->callback([o, a] { run(*o, *a); });
+  }
+}
+
+}  // namespace dtflop::cli

@@ -1,0 +1,139 @@
+#include "cli/workload_cli.hpp"
+
+#include <filesystem>
+
+#include <fmt/format.h>
+
+#include "model/errors.hpp"
+#include "model/units.hpp"
+
+namespace dtflop::cli {
+
+std::shared_ptr<WorkloadArgs> add_workload_options(CLI::App& app, const workload::Workload& w,
+                                                   const std::string& default_backend) {
+  auto a = std::make_shared<WorkloadArgs>();
+  a->workload = &w;
+  a->app = &app;
+  a->backend = default_backend;
+  std::string backends;
+  for (const auto& b : w.backends())
+    backends += fmt::format("\n  {}{}: {}", b->name(), b->needs_gpu() ? " (GPU)" : "", b->info().description);
+  auto* opt = app.add_option("--backend,-b", a->backend, "Backend:" + backends);
+  if (default_backend.empty()) opt->required();
+  else opt->capture_default_str();
+  for (const auto& p : w.params()) {
+    std::string help = p.help;
+    if (!p.fallback.is_null())
+      help += fmt::format(" [default: {}]", p.fallback.is_string() ? p.fallback.get<std::string>() : p.fallback.dump());
+    if (!p.backends.empty()) {
+      std::string only;
+      for (const auto& b : p.backends) only += (only.empty() ? "" : ", ") + b;
+      help += " (" + only + " only)";
+    }
+    app.add_option_function<std::string>(
+        "--" + p.name, [a, name = p.name](const std::string& v) { a->values[name] = v; }, help);
+  }
+  return a;
+}
+
+Chosen choose(const WorkloadArgs& a) {
+  const workload::Backend& b = a.workload->backend(a.backend);
+  nlohmann::json given = nlohmann::json::object();
+  for (const auto& [name, text] : a.values) given[name] = text;
+  return {&b, a.workload->validate(given, b)};
+}
+
+void add_predict_options(CLI::App& app, PredictArgs& args) {
+  app.add_option("--machine,-m", args.machine, "Machine profile (JSON) written by `dtflop probe` or `dtflop calibrate`")
+      ->check(CLI::ExistingFile);
+  app.add_option("--variant", args.variant,
+                 "Model variant: " + variant_names(", ") +
+                     " (default: the one the profile's calibration chose, else extended; docs/model.md)");
+  app.add_option("--deadline", args.deadline, "Real-time deadline dt_p per step, e.g. 1ms or 250us (exit status 3 "
+                                              "when missed)");
+}
+
+Variant wanted_variant(const PredictArgs& args, const MachineProfile& profile) {
+  if (!args.variant.empty()) {
+    const auto v = variant_from_string(args.variant);
+    if (!v) throw InputError(fmt::format("--variant '{}' is unknown; use {}", args.variant, variant_names()));
+    return *v;
+  }
+  if (auto it = profile.metadata.find("model_variant"); it != profile.metadata.end()) {
+    const auto v = variant_from_string(it->second);
+    if (!v)
+      throw InputError(fmt::format("the profile's metadata.model_variant '{}' is no variant ({}); fix the file or "
+                                   "give --variant",
+                                   it->second, variant_names()));
+    return *v;
+  }
+  return Variant::extended;
+}
+
+Predicted predict_with_fallback(const MachineProfile& profile, const CostCounts& counts, Variant wanted) {
+  const auto& order = all_variants();  // from the simplest
+  std::string missing_wanted;
+  for (auto it = std::find(order.rbegin(), order.rend(), wanted); it != order.rend(); ++it) {
+    try {
+      Predicted r;
+      r.variant = *it;
+      r.prediction = predict(profile, counts, *it);
+      if (*it != wanted)
+        r.fallback = fmt::format("{}; predicting with the {} variant instead", missing_wanted, to_string(*it));
+      return r;
+    } catch (const MissingParameter& e) {
+      if (*it == Variant::seed) throw;
+      if (missing_wanted.empty()) {
+        std::string names;
+        for (Param p : required_params(counts, wanted, profile.identity.cpu_llc_bytes, has_staging(profile)))
+          if (!profile.has(p)) names += (names.empty() ? "" : ", ") + std::string(info(p).name);
+        missing_wanted = fmt::format("the profile lacks {}, which the {} variant needs (`dtflop calibrate` fits "
+                                     "parameters no probe measures from measured runs: docs/calibration.md)",
+                                     names, to_string(wanted));
+      }
+    }
+  }
+  throw std::logic_error("predict_with_fallback: no variant tried");
+}
+
+std::optional<double> deadline_of(const PredictArgs& args) {
+  if (args.deadline.empty()) return std::nullopt;
+  return parse_duration(args.deadline, "--deadline");
+}
+
+void check_output(const std::string& output, const std::vector<std::string>& inputs) {
+  if (output.empty()) return;
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const auto st = fs::symlink_status(output, ec);
+  if (ec || !fs::exists(st)) return;
+  if (!fs::is_regular_file(st))
+    throw InputError(fmt::format("--output '{}' exists and is not a regular file (a link, a device or a folder); "
+                                 "name a new file",
+                                 output));
+  for (const auto& in : inputs)
+    if (!in.empty() && fs::exists(in, ec) && fs::equivalent(output, in, ec))
+      throw InputError(fmt::format("--output '{}' is the input '{}'; name another file so the input stays", output, in));
+}
+
+nlohmann::json machine_json(const std::string& file, const MachineProfile& p) {
+  return {{"file", file},
+          {"cpu_model", p.identity.cpu_model},
+          {"gpu_name", p.identity.gpu_name},
+          {"measured_at", p.identity.measured_at}};
+}
+
+std::string machine_name(const MachineProfile& p) {
+  return p.identity.gpu_name.empty() ? p.identity.cpu_model : p.identity.gpu_name;
+}
+
+namespace {
+int& status() {
+  static int s = 0;
+  return s;
+}
+}  // namespace
+void set_exit_status(int s) { status() = s; }
+int exit_status() { return status(); }
+
+}  // namespace dtflop::cli

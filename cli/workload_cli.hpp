@@ -1,0 +1,80 @@
+// What every verb that takes a workload (`predict`, `run`, `sweep`) shares: the workload's
+// parameters as command-line options (one spelling everywhere: --grid, --kernel, --host-memory,
+// ...), the backend, and a prediction from a machine profile that never fails for want of a
+// parameter no probe measures (it falls back to the richest variant the profile supports and
+// says so on stderr).
+#pragma once
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "model/predict.hpp"
+#include "model/profile.hpp"
+#include "workloads/workload.hpp"
+
+namespace dtflop::cli {
+
+struct WorkloadArgs {
+  const workload::Workload* workload = nullptr;
+  CLI::App* app = nullptr;
+  std::string backend;
+  std::map<std::string, std::string> values;  // parameter -> text as typed (given ones only count)
+};
+// Adds --backend and one option per parameter of `w` to `app`.
+std::shared_ptr<WorkloadArgs> add_workload_options(CLI::App& app, const workload::Workload& w,
+                                                   const std::string& default_backend = {});
+
+struct Chosen {
+  const workload::Backend* backend = nullptr;
+  workload::Config config;
+};
+// The backend and the validated configuration the command line names (defaults for the rest).
+// Throws InputError for an unknown backend, an option that does not apply to it, a bad value.
+Chosen choose(const WorkloadArgs& args);
+
+// --machine, --variant and --deadline, as `predict` and `run` take them.
+struct PredictArgs {
+  std::string machine;
+  std::string variant;   // empty: the variant the profile's calibration chose, else extended
+  std::string deadline;
+};
+void add_predict_options(CLI::App& app, PredictArgs& args);
+
+struct Predicted {
+  Variant variant = Variant::extended;
+  std::string fallback;   // why `variant` is not the one asked for (empty: it is)
+  Prediction prediction;
+};
+// The variant `args` asks for on `profile`: --variant, else the profile's chosen one, else extended.
+Variant wanted_variant(const PredictArgs& args, const MachineProfile& profile);
+// Predicts `counts` on `profile` with the wanted variant, or with the richest simpler one whose
+// parameters the profile holds (saying why in `fallback`). Throws MissingParameter only when not
+// even the seed variant can be computed (e.g. a GPU backend on a profile without a GPU).
+Predicted predict_with_fallback(const MachineProfile& profile, const CostCounts& counts, Variant wanted);
+// The deadline of --deadline (seconds), if given. Throws InputError for a bad duration.
+std::optional<double> deadline_of(const PredictArgs& args);
+
+// Checks, before any work, that `output` can take a result: not a link, device file or folder, and
+// not the same file as an input. Throws InputError saying which.
+void check_output(const std::string& output, const std::vector<std::string>& inputs);
+
+// JSON of a machine profile's identity for reports.
+nlohmann::json machine_json(const std::string& file, const MachineProfile& profile);
+// "NVIDIA H200" or the CPU model.
+std::string machine_name(const MachineProfile& profile);
+
+// Exit statuses (docs/cli.md): 0 done, 1 failed while running, 2 bad input, 3 a deadline or
+// target missed. A command sets 3 through this; main() returns it.
+inline constexpr int kExitFailure = 1;
+inline constexpr int kExitBadInput = 2;
+inline constexpr int kExitMissed = 3;
+void set_exit_status(int status);
+int exit_status();
+
+}  // namespace dtflop::cli

@@ -1,0 +1,576 @@
+#include "workloads/dct/workload.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <thread>
+#include <tuple>
+
+#include <fmt/format.h>
+
+#include "model/errors.hpp"
+#include "model/units.hpp"
+#include "workloads/dct/analysis.hpp"
+
+namespace dtflop::dct {
+
+namespace wl = ::dtflop::workload;
+using nlohmann::json;
+
+namespace {
+
+// ---- Geometry of a configuration ------------------------------------------------------------
+
+constexpr double kMaxPixels = 24'000'000;  // 24 MP, the seed's stills (6000x4000)
+constexpr int kMaxPoints = 16384;
+// Dots keep an edge-to-edge gap of one radius (centres >= 3 r apart) and stay this far from
+// the image's edge beyond their radius: the centroid window (margin 2 + ring 2 px), the motion
+// of the deformed frame (<= 0.6 px at 24 MP) and a pixel to spare.
+constexpr double kEdge = 8;
+// Random dots are thrown until they cover at most this fraction of the pattern area with their
+// exclusion discs (diameter 3 r): random sequential adsorption jams at 0.547, and the renderer
+// gives up after 200 tries per dot; at 0.35 the plans' dots are placed at the first try.
+constexpr double kMaxCover = 0.35;
+
+double hw_threads() { return static_cast<double>(std::max(1u, std::thread::hardware_concurrency())); }
+
+struct Geometry {
+  std::int64_t w = 0, h = 0;
+  std::int64_t dots = 0;
+  double radius = 0;
+  std::int64_t nx = 0, ny = 0;
+  std::int64_t support = 0;
+  Interp interp = Interp::mls;
+  int bytes_per_pixel = 1;
+};
+
+Geometry geometry_of(const wl::Config& c) {
+  Geometry g;
+  std::tie(g.w, g.h) = wl::get_size2(c, "size");
+  g.dots = wl::get_int(c, "dots");
+  g.radius = wl::get_real(c, "radius");
+  std::tie(g.nx, g.ny) = wl::get_size2(c, "points");
+  g.support = wl::get_int(c, "support");
+  g.interp = interp_from_string(wl::get_text(c, "interp"));
+  g.bytes_per_pixel = wl::get_text(c, "bits") == "16" ? 2 : 1;
+  return g;
+}
+
+double inset(double radius) { return radius + kEdge; }
+
+// The area dots may occupy, px^2 (0 when the edges leave none).
+double pattern_area(std::int64_t w, std::int64_t h, double radius) {
+  const double aw = static_cast<double>(w) - 1 - 2 * inset(radius), ah = static_cast<double>(h) - 1 - 2 * inset(radius);
+  return aw > 0 && ah > 0 ? aw * ah : 0;
+}
+
+// How many dots of `radius` the image holds at the covering limit.
+std::int64_t capacity(std::int64_t w, std::int64_t h, double radius) {
+  const double d = 3 * radius;
+  return static_cast<std::int64_t>(std::floor(kMaxCover * pattern_area(w, h, radius) / (std::numbers::pi / 4 * d * d)));
+}
+
+std::int64_t physical_memory() {
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && page > 0 ? static_cast<std::int64_t>(pages) * page : 0;
+}
+
+// ---- The contract's backend: one per entry of backend_kinds() --------------------------------
+
+class Run final : public wl::Run {
+ public:
+  Run(const BackendKind& kind, const wl::Config& c, std::int64_t steps) : kind_(kind), steps_(steps) {
+    opt_ = pipeline_options(c, kind.name);
+    const Specimen sp = specimen_of(c);
+    const cv::Mat reference = sp.reference_image();
+    deformed_ = sp.deformed_image();
+    pipe_ = kind.make(opt_);
+    pipe_->set_reference(reference);
+    const auto expected = static_cast<std::size_t>(wl::get_int(c, "dots"));
+    if (pipe_->reference_dots().size() != expected)
+      throw std::runtime_error(fmt::format("{} found {} of the {} dots rendered in the reference frame; the counts "
+                                           "would not be the configuration's (report this configuration)",
+                                           kind.name, pipe_->reference_dots().size(), expected));
+    // Declared before the first frame.
+    shape_ = declared_shape(*pipe_, deformed_);
+    frame_counts_ = kind.frame_counts(shape_, opt_);
+    counts_ = frame_counts_.scaled(steps_);
+    frame_ = deformed_;
+    if (opt_.pinned_frames && kind.needs_gpu) {
+      frame_ = pipe_->frame_buffer(deformed_.size(), deformed_.type());
+      deformed_.copyTo(frame_);
+    }
+  }
+
+  CostCounts counts() const override { return counts_; }
+
+  wl::PhaseTimes repeat() override {
+    wl::PhaseTimes t;
+    const auto t0 = std::chrono::steady_clock::now();
+    double host = 0, kernels = 0;
+    for (std::int64_t i = 0; i < steps_; ++i) {
+      last_ = pipe_->process(frame_);
+      if (kind_.needs_gpu) {
+        host += last_.seconds.at("host");
+        kernels += last_.seconds.at("device_kernels");
+      }
+    }
+    t.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (kind_.needs_gpu) {
+      // Copies and kernels are not bracketed from the host (they interleave on the stream): the
+      // protocol takes CG, GC and G from CUPTI; G_events is the kernels' time between events.
+      // C is the host's own work (matching, the component records, the fields' conversion),
+      // which the counts do not price (N_C = 0).
+      t.C = host;
+      t.G_events = kernels;
+    } else {
+      t.C = t.wall;  // the whole frame is CPU work
+    }
+    ran_ = true;
+    return t;
+  }
+
+  std::string check() override {
+    if (!ran_) return "no frame was processed";
+    const std::string shape = shape_difference(shape_, last_.shape);
+    const std::string counts = counts_difference(frame_counts_, last_.counts);
+    if (shape.empty() && counts.empty()) return {};
+    return fmt::format("{} frame differs from the declared one: {}{}{}", kind_.name, shape,
+                       !shape.empty() && !counts.empty() ? "; " : "", counts);
+  }
+
+  json detail() const override {
+    json d = {{"reference_dots", pipe_->reference_dots().size()},
+              {"points", pipe_->points().size()},
+              {"support_entries", shape_.support_entries},
+              {"window_pixels", shape_.window_pixels},
+              {"components", shape_.components}};
+    if (ran_) {
+      std::int64_t valid = 0;
+      for (const auto& f : last_.fields) valid += f.status == PointStatus::ok;
+      d["frame_dots"] = last_.dots.size();
+      d["matched"] = last_.matches.matched;
+      d["valid_points"] = valid;
+      json sec = json::object();
+      for (const auto& [k, v] : last_.seconds) sec[k] = v;
+      d["last_frame_seconds"] = sec;
+    }
+    if (kind_.name == "cpu-par") d["threads"] = cpu_threads(opt_);
+    return d;
+  }
+
+ private:
+  const BackendKind& kind_;
+  std::int64_t steps_;
+  PipelineOptions opt_;
+  std::unique_ptr<Backend> pipe_;
+  cv::Mat deformed_, frame_;
+  FrameShape shape_;
+  CostCounts frame_counts_, counts_;
+  FrameOutput last_;
+  bool ran_ = false;
+};
+
+class ContractBackend final : public wl::Backend {
+ public:
+  explicit ContractBackend(const BackendKind& k) : wl::Backend({k.name, k.description, k.needs_gpu}), kind_(k) {}
+
+  std::string unavailable() const override {
+    const std::string why = kind_.unavailable();
+    return why.empty() ? why : fmt::format("the {} backend cannot run here: {}; use cpu-seq or cpu-par", name(), why);
+  }
+
+  CostCounts counts(const wl::Config& c, const MachineIdentity*) const override {
+    return kind_.frame_counts(estimated_shape(c), pipeline_options(c, name()));
+  }
+
+  std::unique_ptr<wl::Run> prepare(const wl::Config& c, std::int64_t steps) const override {
+    if (steps < 1 || steps > 1'000'000)
+      throw InputError(fmt::format("dct --steps {} must lie in 1..1000000 frames per repetition", steps));
+    if (const std::string why = unavailable(); !why.empty()) throw wl::DeviceUnavailable(why);
+    return std::make_unique<Run>(kind_, c, steps);
+  }
+
+ private:
+  const BackendKind& kind_;
+};
+
+// ---- Plans ------------------------------------------------------------------------------------
+
+// A portable generator: the same plan from the same seed with every standard library.
+class Draw {
+ public:
+  explicit Draw(std::uint64_t seed) : s_(seed ^ 0x9E3779B97F4A7C15ULL) {}
+  std::uint64_t next() {  // splitmix64
+    std::uint64_t z = (s_ += 0x9E3779B97F4A7C15ULL);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    return z ^ (z >> 31);
+  }
+  double unit() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
+  double real(double lo, double hi) { return lo + (hi - lo) * unit(); }
+  std::int64_t whole(std::int64_t lo, std::int64_t hi) {
+    return lo + static_cast<std::int64_t>(next() % static_cast<std::uint64_t>(hi - lo + 1));
+  }
+
+ private:
+  std::uint64_t s_;
+};
+
+std::string size_text(std::int64_t w, std::int64_t h) { return fmt::format("{}x{}", w, h); }
+
+// The points grid NXxNY nearest to `count` points with the image's aspect.
+std::pair<std::int64_t, std::int64_t> grid_for(std::int64_t count, std::int64_t w, std::int64_t h) {
+  const double aspect = static_cast<double>(w) / static_cast<double>(h);
+  const auto ny = std::max<std::int64_t>(1, std::llround(std::sqrt(static_cast<double>(count) / aspect)));
+  const auto nx = std::max<std::int64_t>(1, std::llround(static_cast<double>(count) / static_cast<double>(ny)));
+  return {std::min<std::int64_t>(nx, 256), std::min<std::int64_t>(ny, 256)};
+}
+
+// The simulated open-hole plate of the seed (7.5.1): 369 dots in a 1100x1100 image, radius 9 px.
+json seed_plate() {
+  return {{"size", "1100x1100"}, {"dots", 369}, {"radius", 9}, {"points", "32x32"}, {"support", 40}};
+}
+
+// Image sizes of real stills and the dots real specimens carried (560..1611), growing with the
+// image; the dots' radius grows with the image's side.
+struct Still {
+  std::int64_t w, h;
+};
+constexpr Still kStills[] = {{1920, 1080}, {2560, 1920}, {3264, 2448}, {4000, 3000}, {4928, 3264}, {6000, 4000}};
+
+class DctWorkload final : public wl::Workload {
+ public:
+  DctWorkload() {
+    using wl::Kind;
+    std::vector<std::string> choices_interp = {"mls", "fe"};
+    params_ = {
+        {"size", Kind::size2, "frame size WxH (up to 24 MP, e.g. 6000x4000)", "1600x1200", 64, 16384, {}, {}, "px"},
+        {"dots", Kind::integer, "dots on the specimen (random, edge-to-edge gap >= their radius)", 400, 6, 20000, {},
+         {}, "dots"},
+        {"radius", Kind::real, "dot radius in the image", 8, 3, 40, {}, {}, "px"},
+        {"points", Kind::size2, "interpolation points, a grid NXxNY over the reference dots (seed: 384..2048)",
+         "32x32", 1, 256, {}, {}, ""},
+        {"support", Kind::integer, "dots per MLS support domain (seed: 10..100; >= 6 for the quadratic basis)", 40, 6,
+         1000, {}, {}, "dots"},
+        {"interp", Kind::choice, "field interpolation: mls (moving least squares) or fe (linear triangles)", "mls", 0,
+         0, choices_interp, {}, ""},
+        {"bits", Kind::choice, "bits per pixel of the frames", "8", 0, 0, {"8", "16"}, {}, ""},
+        {"threads", Kind::integer, "CPU threads (default: every hardware thread)", static_cast<int>(hw_threads()), 1, 1024, {},
+         {"cpu-par"}, ""},
+        {"host-memory", Kind::choice,
+         "host memory the frames are uploaded from: pinned (a camera's DMA buffer) or pageable", "pinned", 0, 0,
+         {"pinned", "pageable"}, {"cuda"}, ""},
+        {"specimen-seed", Kind::integer, "seed of the specimen's dot pattern and sensor noise", 1, 0, 2147483647, {}, {}, ""},
+    };
+    for (const auto& k : backend_kinds()) backends_.push_back(std::make_unique<ContractBackend>(k));
+  }
+
+  std::string_view name() const override { return "dct"; }
+  std::string_view description() const override {
+    return "dot centroid tracking: threshold, labelling, centroids, matching and MLS/FE strain fields of one frame";
+  }
+  std::string_view step_name() const override { return "frame"; }
+  const std::vector<wl::ParamSpec>& params() const override { return params_; }
+  const std::vector<std::unique_ptr<wl::Backend>>& backends() const override { return backends_; }
+
+  std::string label(const wl::Config& c) const override {
+    const Geometry g = geometry_of(c);
+    std::string s = fmt::format("{}x{} {}d r{:g} {}x{}p", g.w, g.h, g.dots, g.radius, g.nx, g.ny);
+    s += g.interp == Interp::mls ? fmt::format(" s{}", g.support) : " fe";
+    if (g.bytes_per_pixel == 2) s += " 16b";
+    if (wl::has(c, "host-memory") && wl::get_text(c, "host-memory") == "pageable") s += " pageable";
+    return s;
+  }
+
+  std::string describe(const wl::Backend& b, const wl::Config& c) const override {
+    const Geometry g = geometry_of(c);
+    return fmt::format("one {}x{} {}-bit frame of {} dots (radius {:g} px) to {} {} at {}x{} points{} on {}", g.w,
+                       g.h, 8 * g.bytes_per_pixel, g.dots, g.radius, g.interp == Interp::mls ? "MLS" : "FE",
+                       "strain fields", g.nx, g.ny,
+                       g.interp == Interp::mls ? fmt::format(", {} dots per support", g.support) : "", b.name());
+  }
+
+  std::vector<std::pair<std::string, std::string>> plan_names() const override {
+    return {
+        {"seed-support", "the seed's open-hole plate (369 dots, 1024 points, 1100x1100) with 10, 20, ..., 100 dots "
+                         "per support domain (10 configurations)"},
+        {"seed-points", "the seed's plate with 40 dots per support and 384..2048 points (8 grids)"},
+        {"image-sizes", "stills of 2 to 24 MP (1920x1080 .. 6000x4000) with 560..1611 dots growing with the image, "
+                        "2048 points, 60 dots per support (6 configurations)"},
+    };
+  }
+
+  wl::PlanConfigs plan(const std::string& spec, const wl::Backend& b, std::uint64_t seed) const override {
+    wl::PlanConfigs p;
+    p.name = spec;
+    std::vector<json> given;
+    if (spec == "seed-support") {
+      p.description = plan_names()[0].second;
+      for (int s = 10; s <= 100; s += 10) {
+        json c = seed_plate();
+        c["support"] = s;
+        given.push_back(c);
+      }
+    } else if (spec == "seed-points") {
+      p.description = plan_names()[1].second;
+      constexpr std::array<std::array<int, 2>, 8> grids = {
+          {{24, 16}, {32, 16}, {32, 24}, {32, 32}, {40, 32}, {48, 32}, {56, 32}, {64, 32}}};
+      for (const auto& [nx, ny] : grids) {
+        json c = seed_plate();
+        c["points"] = size_text(nx, ny);
+        given.push_back(c);
+      }
+    } else if (spec == "image-sizes") {
+      p.description = plan_names()[2].second;
+      const double mp0 = 1920.0 * 1080, mp1 = 6000.0 * 4000;
+      for (const Still& s : kStills) {
+        const double f = (static_cast<double>(s.w * s.h) - mp0) / (mp1 - mp0);
+        given.push_back({{"size", size_text(s.w, s.h)},
+                         {"dots", std::llround(560 + f * (1611 - 560))},
+                         {"radius", std::round(10 + f * 14)},
+                         {"points", "64x32"},
+                         {"support", 60}});
+      }
+    } else if (spec.rfind("random:", 0) == 0) {
+      const std::string n_text = spec.substr(7);
+      std::int64_t n = 0;
+      try {
+        std::size_t used = 0;
+        n = std::stoll(n_text, &used);
+        if (used != n_text.size()) n = 0;
+      } catch (...) {
+        n = 0;
+      }
+      if (n < 1 || n > 100000)
+        throw InputError(fmt::format("--plan '{}': N must be a whole number in 1..100000 (e.g. random:50)", spec));
+      p.description = fmt::format(
+          "{} configurations drawn from seed {}: 0.3..24 MP (aspect 1..1.8), 100..1611 dots of radius 4..24 px "
+          "(fewer or smaller where the image cannot hold them), 384..2048 points, 10..100 dots per support, "
+          "mls (3 in 4) or fe, 8-bit (3 in 4) or 16-bit{}",
+          n, seed, b.name() == "cuda" ? ", pinned or pageable frames" : "");
+      Draw d(seed);
+      for (std::int64_t i = 0; i < n; ++i) given.push_back(draw(d, b));
+    } else {
+      return plan_from_file(spec, b);
+    }
+    for (std::size_t i = 0; i < given.size(); ++i) {
+      try {
+        p.configs.push_back(validate(given[i], b));
+      } catch (const InputError& e) {
+        throw std::logic_error(fmt::format("dct plan {} configuration {} is invalid (a workload bug): {}", spec, i,
+                                           e.what()));
+      }
+    }
+    return p;
+  }
+
+  wl::ProtocolDefaults defaults(const wl::Backend& b) const override {
+    // A CPU frame takes milliseconds (0.3 MP) to a second (24 MP at one thread): 2 frames a
+    // repetition. The device's frames take ~1-10 ms: 10 frames a repetition.
+    if (b.needs_gpu()) return {10, 7, 2};
+    return {2, 5, 1};
+  }
+
+ protected:
+  void check(const wl::Config& c, const wl::Backend& b) const override {
+    const Geometry g = geometry_of(c);
+    const double pixels = static_cast<double>(g.w) * static_cast<double>(g.h);
+    if (pixels > kMaxPixels)
+      throw InputError(fmt::format("dct --size {}x{} holds {:.1f} MP, more than the 24 MP of the seed's stills; give "
+                                   "a smaller image (e.g. 6000x4000)",
+                                   g.w, g.h, pixels / 1e6));
+    const std::int64_t need = host_bytes(c, b.name()), have = physical_memory();
+    if (have > 0 && need > have / 2)
+      throw InputError(fmt::format("dct --size {}x{} needs about {:.1f} GB of host memory, more than half of this "
+                                   "machine's {:.1f} GB; give a smaller image",
+                                   g.w, g.h, static_cast<double>(need) / 1e9, static_cast<double>(have) / 1e9));
+    if (pattern_area(g.w, g.h, g.radius) <= 0)
+      throw InputError(fmt::format("dct --size {}x{} leaves no room for dots of radius {:g} px (they keep {:g} px from "
+                                   "the edge); give a larger image or a smaller --radius",
+                                   g.w, g.h, g.radius, inset(g.radius)));
+    const std::int64_t cap = capacity(g.w, g.h, g.radius);
+    if (g.dots > cap)
+      throw InputError(fmt::format("dct --dots {} of radius {:g} px is an image the plan cannot hold: a {}x{} image "
+                                   "holds at most {} such dots (centres >= {:g} px apart); give fewer dots, a smaller "
+                                   "--radius or a larger --size",
+                                   g.dots, g.radius, g.w, g.h, cap, 3 * g.radius));
+    if (g.nx * g.ny > kMaxPoints)
+      throw InputError(fmt::format("dct --points {}x{} asks for {} points, more than {}; give a coarser grid", g.nx,
+                                   g.ny, g.nx * g.ny, kMaxPoints));
+    if (g.interp == Interp::mls && g.support > g.dots)
+      throw InputError(fmt::format("dct --support {} asks for more dots per support domain than the {} dots; give "
+                                   "--support <= --dots",
+                                   g.support, g.dots));
+    if (b.name() == "cuda" && (g.w * g.h * g.bytes_per_pixel) % 4 != 0)
+      throw InputError(fmt::format("dct --size {}x{}: the cuda backend's counts are 4-byte values and a {}-bit frame "
+                                   "of {} px is not whole 4-byte values; give an even width and height",
+                                   g.w, g.h, 8 * g.bytes_per_pixel, g.w * g.h));
+  }
+
+ private:
+  // One random configuration for `b`, within every plan's ranges and the constraints.
+  json draw(Draw& d, const wl::Backend& b) const {
+    const double mp = std::exp(d.real(std::log(0.3e6), std::log(kMaxPixels)));
+    const double aspect = d.real(1.0, 1.8);
+    auto even = [](double x) { return 2 * std::max<std::int64_t>(32, std::llround(x / 2)); };
+    std::int64_t w = even(std::sqrt(mp * aspect)), h = even(std::sqrt(mp / aspect));
+    while (static_cast<double>(w) * static_cast<double>(h) > kMaxPixels) w -= 2;
+    std::int64_t dots = d.whole(100, 1611);
+    double radius = std::round(d.real(4, 24) * 2) / 2;
+    while (radius > 4 && capacity(w, h, radius) < dots) radius -= 0.5;
+    dots = std::min(dots, capacity(w, h, radius));
+    const auto [nx, ny] = grid_for(d.whole(384, 2048), w, h);
+    const bool mls = d.unit() < 0.75;
+    json c = {{"size", size_text(w, h)},
+              {"dots", dots},
+              {"radius", radius},
+              {"points", size_text(nx, ny)},
+              {"support", std::min<std::int64_t>(d.whole(10, 100), dots)},
+              {"interp", mls ? "mls" : "fe"},
+              {"bits", d.unit() < 0.75 ? "8" : "16"},
+              {"specimen-seed", d.whole(1, 1'000'000)}};
+    if (b.name() == "cuda") c["host-memory"] = d.unit() < 0.5 ? "pinned" : "pageable";
+    return c;
+  }
+
+  std::vector<wl::ParamSpec> params_;
+  std::vector<std::unique_ptr<wl::Backend>> backends_;
+};
+
+}  // namespace
+
+const wl::Workload& workload() {
+  static const DctWorkload w;
+  return w;
+}
+
+// ---- What a configuration means ----------------------------------------------------------
+
+PipelineOptions pipeline_options(const wl::Config& c, const std::string& backend) {
+  const Geometry g = geometry_of(c);
+  PipelineOptions o;
+  o.interp = g.interp;
+  o.mls.support.kind = Support::Kind::dots;
+  o.mls.support.dots = static_cast<int>(g.support);
+  o.points_x = static_cast<int>(g.nx);
+  o.points_y = static_cast<int>(g.ny);
+  o.threads = backend == "cpu-par" ? static_cast<int>(wl::get_int(c, "threads")) : 1;
+  o.pinned_frames = !wl::has(c, "host-memory") || wl::get_text(c, "host-memory") == "pinned";
+  return o;
+}
+
+Specimen specimen_of(const wl::Config& c) {
+  const Geometry g = geometry_of(c);
+  const auto seed = static_cast<std::uint64_t>(wl::get_int(c, "specimen-seed"));
+  Specimen s;
+  s.render.width = static_cast<int>(g.w);
+  s.render.height = static_cast<int>(g.h);
+  s.render.bit_depth = 8 * g.bytes_per_pixel;
+  s.render.noise_sigma = 1;  // a grey level of sensor noise
+  s.render.supersample = 4;  // 16 samples per edge pixel: the timing does not need 1e-3 px truth
+  s.render.seed = seed;
+  validate(s.render);
+  const Vec2 centre{0.5 * static_cast<double>(g.w - 1), 0.5 * static_cast<double>(g.h - 1)};
+  s.deformation = make_uniform(centre, kStrain, -0.3 * kStrain);
+  const double e = inset(g.radius);
+  const PatternArea area{e, e, static_cast<double>(g.w) - 1 - e, static_cast<double>(g.h) - 1 - e, {}, 0};
+  s.dots = random_pattern(area, g.radius, g.radius, static_cast<int>(g.dots), seed);
+  return s;
+}
+
+FrameShape estimated_shape(const wl::Config& c) {
+  const Geometry g = geometry_of(c);
+  FrameShape s = estimate_shape(g.w, g.h, g.bytes_per_pixel, g.dots, g.radius, g.nx * g.ny, g.support, g.interp);
+  s.otsu = true;
+  return s;
+}
+
+std::int64_t host_bytes(const wl::Config& c, const std::string& backend) {
+  const Geometry g = geometry_of(c);
+  const std::int64_t px = g.w * g.h;
+  // Rendering: three float planes (dot and hole coverage, the image); frames: reference,
+  // deformed [and its pinned copy]; analysis: mask (1 byte) and labels (4 bytes).
+  const std::int64_t frames = (backend == "cuda" ? 3 : 2) * g.bytes_per_pixel;
+  return px * (12 + frames + 1 + 4);
+}
+
+FrameShape declared_shape(const Backend& pipeline, const cv::Mat& frame) {
+  const PipelineOptions& o = pipeline.options();
+  const AnalysisResult a = analyze(frame, o.analysis, 1);
+  FrameShape s;
+  s.image_pixels = static_cast<std::int64_t>(frame.total());
+  s.bytes_per_pixel = frame.depth() == CV_16U ? 2 : 1;
+  s.roi_pixels = a.stats.roi_pixels;
+  s.foreground_pixels = a.stats.foreground_pixels;
+  s.components = a.stats.components;
+  s.dots = static_cast<std::int64_t>(pipeline.reference_positions().size());
+  s.window_pixels = a.stats.window_pixels;
+  s.ring_pixels = a.stats.ring_pixels;
+  s.weighted_pixels = a.stats.weighted_pixels;
+  // The cuda backend does not classify by scanning: it reports no scanned pixels.
+  s.scanned_pixels = pipeline.name() == "cuda" ? 0 : a.stats.scanned_pixels;
+  s.margin = o.analysis.margin;
+  s.points = static_cast<std::int64_t>(pipeline.points().size());
+  s.support_entries = o.interp == Interp::mls ? pipeline.mls_table().entries() : 0;
+  s.interp = o.interp;
+  s.otsu = o.analysis.method == ThresholdMethod::otsu;
+  return s;
+}
+
+namespace {
+void differ(std::string& out, const char* what, std::int64_t declared, std::int64_t measured) {
+  if (declared == measured) return;
+  out += fmt::format("{}{} {} (declared {})", out.empty() ? "" : ", ", what, measured, declared);
+}
+}  // namespace
+
+std::string shape_difference(const FrameShape& d, const FrameShape& m) {
+  std::string out;
+  differ(out, "image pixels", d.image_pixels, m.image_pixels);
+  differ(out, "bytes per pixel", d.bytes_per_pixel, m.bytes_per_pixel);
+  differ(out, "analysed pixels", d.roi_pixels, m.roi_pixels);
+  // The CPU backends do not report the foreground (their counts do not use it).
+  if (m.foreground_pixels != 0) differ(out, "foreground pixels", d.foreground_pixels, m.foreground_pixels);
+  differ(out, "components", d.components, m.components);
+  differ(out, "dots", d.dots, m.dots);
+  differ(out, "window pixels", d.window_pixels, m.window_pixels);
+  differ(out, "ring pixels", d.ring_pixels, m.ring_pixels);
+  differ(out, "weighted pixels", d.weighted_pixels, m.weighted_pixels);
+  differ(out, "scanned pixels", d.scanned_pixels, m.scanned_pixels);
+  differ(out, "margin", d.margin, m.margin);
+  differ(out, "points", d.points, m.points);
+  differ(out, "support entries", d.support_entries, m.support_entries);
+  if (d.interp != m.interp) out += fmt::format("{}interp {} (declared {})", out.empty() ? "" : ", ", to_string(m.interp), to_string(d.interp));
+  if (d.otsu != m.otsu) out += fmt::format("{}otsu {} (declared {})", out.empty() ? "" : ", ", m.otsu, d.otsu);
+  return out;
+}
+
+std::string counts_difference(const CostCounts& d, const CostCounts& m) {
+  std::string out;
+  differ(out, "P", d.P, m.P);
+  differ(out, "N_CG", d.N_CG, m.N_CG);
+  differ(out, "N_GC", d.N_GC, m.N_GC);
+  differ(out, "N_GG", d.N_GG, m.N_GG);
+  differ(out, "N_C", d.N_C, m.N_C);
+  differ(out, "N_G", d.N_G, m.N_G);
+  differ(out, "N_CC", d.N_CC, m.N_CC);
+  differ(out, "cpu_footprint", d.cpu_footprint, m.cpu_footprint);
+  differ(out, "transfers_CG", d.transfers_CG, m.transfers_CG);
+  differ(out, "transfers_GC", d.transfers_GC, m.transfers_GC);
+  differ(out, "launches", d.launches, m.launches);
+  differ(out, "host_waits", d.host_waits, m.host_waits);
+  differ(out, "cpu_threads", d.cpu_threads, m.cpu_threads);
+  if (d.host_memory != m.host_memory)
+    out += fmt::format("{}host memory {} (declared {})", out.empty() ? "" : ", ", to_string(m.host_memory),
+                       to_string(d.host_memory));
+  if (d.copies_GC != m.copies_GC) out += fmt::format("{}device->host copy sizes", out.empty() ? "" : ", ");
+  if (out.empty() && !(d == m)) out = "other counts";
+  return out;
+}
+
+}  // namespace dtflop::dct
