@@ -301,19 +301,40 @@ __global__ void k_mls(int n, const double2* pts, const float* rho, const unsigne
   }
   const double2 p = pts[m];
   const float r = rho[m], inv = 1.f / r;
-  MlsMoments<float> mo;
-  float u0x = 0.f, u0y = 0.f;
-  bool have0 = false;
-  for (int k = offsets[m]; k < offsets[m + 1]; ++k) {
+  const int k0 = offsets[m], k1 = offsets[m + 1];
+  // The reference displacement: the first tracked dot's (nearest first), as on the host.
+  float2 u0 = make_float2(0.f, 0.f);
+  for (int k = k0; k < k1; ++k)
+    if (valid[dots[k]]) {
+      u0 = U[dots[k]];
+      break;
+    }
+  // Two passes over the tracked support dots (kernels.hpp, MlsPoint); the second reads the
+  // same entries again, from cache. Offsets are taken in double before rounding to float.
+  MlsPoint<float> mp;
+  for (int k = k0; k < k1; ++k) {
     const int j = dots[k];
     if (!valid[j]) continue;
     const float2 u = U[j];
-    if (!have0) { u0x = u.x; u0y = u.y; have0 = true; }
     const double2 X = ref[j];
-    mo.add(static_cast<Weight>(weight), static_cast<float>(X.x - p.x) * inv, static_cast<float>(X.y - p.y) * inv,
-           u.x - u0x, u.y - u0y);
+    mp.add(static_cast<Weight>(weight), static_cast<float>(X.x - p.x) * inv, static_cast<float>(X.y - p.y) * inv,
+           u.x - u0.x, u.y - u0.y);
   }
-  out[m] = mls_solve<float>(mo, r, u0x, u0y, min_dots, min_pivot);
+  f.support = mp.n;
+  f.status = mp.solve(min_dots, min_pivot);
+  if (f.status != PointStatus::ok) {
+    out[m] = f;
+    return;
+  }
+  for (int k = k0; k < k1; ++k) {
+    const int j = dots[k];
+    if (!valid[j]) continue;
+    const float2 u = U[j];
+    const double2 X = ref[j];
+    mp.add_residual(static_cast<Weight>(weight), static_cast<float>(X.x - p.x) * inv,
+                    static_cast<float>(X.y - p.y) * inv, u.x - u0.x, u.y - u0.y);
+  }
+  out[m] = mp.field(r, u0.x, u0.y);
 }
 
 __global__ void k_fe(int n, const int* tri, const float* N, const float* Nx, const float* Ny,

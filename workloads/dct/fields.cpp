@@ -159,17 +159,28 @@ std::vector<FieldValue<double>> evaluate_mls(const MlsTable& t, const std::vecto
       }
       const Vec2 xm = t.points[m];
       const double rho = t.rho[m];
-      MlsMoments<double> mo;
-      bool have0 = false;
+      // The reference displacement: the first tracked dot's (nearest first).
       Vec2 u0{};
-      for (int k = t.offsets[m]; k < t.offsets[m + 1]; ++k) {
-        const int j = t.dots[k];
-        if (!tracked[j]) continue;
-        if (!have0) { u0 = disp[j]; have0 = true; }
-        mo.add(o.weight, (reference[j].x - xm.x) / rho, (reference[j].y - xm.y) / rho, disp[j].x - u0.x,
-               disp[j].y - u0.y);
-      }
-      f = mls_solve<double>(mo, rho, u0.x, u0.y, o.min_dots, o.min_pivot_ratio);
+      for (int k = t.offsets[m]; k < t.offsets[m + 1]; ++k)
+        if (tracked[t.dots[k]]) {
+          u0 = disp[t.dots[k]];
+          break;
+        }
+      // Two passes over the tracked support dots (kernels.hpp, MlsPoint).
+      MlsPoint<double> mp;
+      auto each_dot = [&](auto&& visit) {
+        for (int k = t.offsets[m]; k < t.offsets[m + 1]; ++k) {
+          const int j = t.dots[k];
+          if (tracked[j])
+            visit((reference[j].x - xm.x) / rho, (reference[j].y - xm.y) / rho, disp[j].x - u0.x, disp[j].y - u0.y);
+        }
+      };
+      each_dot([&](double xi, double eta, double ux, double uy) { mp.add(o.weight, xi, eta, ux, uy); });
+      f.support = mp.n;
+      f.status = mp.solve(o.min_dots, o.min_pivot_ratio);
+      if (f.status != PointStatus::ok) continue;
+      each_dot([&](double xi, double eta, double ux, double uy) { mp.add_residual(o.weight, xi, eta, ux, uy); });
+      f = mp.field(rho, u0.x, u0.y);
     }
   };
   if (threads > 1) cv::parallel_for_(cv::Range(0, static_cast<int>(n)), work);

@@ -120,8 +120,10 @@ DTFLOP_HD void weight_fn(Weight kind, T s, T& w, T& dw_over_s) {
       dw_over_s = s > T(0) ? T(-4) * q * q / s : T(0);
     }
   } else if (kind == Weight::quartic) {
+    // 1 - 6 s^2 + 8 s^3 - 3 s^4, factored: the expanded sum cancels near s = 1, where float32
+    // made W zero or negative for dots inside the support (and a support count differ).
     const T q = T(1) - s;
-    w = T(1) - T(6) * s * s + T(8) * s * s * s - T(3) * s * s * s * s;
+    w = q * q * q * (T(1) + T(3) * s);
     dw_over_s = T(-12) * q * q;
   } else {
     const T a2 = T(kGaussAlpha * kGaussAlpha);
@@ -149,133 +151,164 @@ struct FieldValue {
   int support = 0;  // dots that contributed
 };
 
-// Accumulated MLS moments at one point, with everything scaled by the support radius rho:
-// xi = (X_j - x_m) / rho, basis p(xi) = [1, xi, eta, xi^2, eta^2, xi eta]; A = sum W p p',
-// Ax = rho dA/dx = sum (rho dW/dx) p p', likewise Ay; b = sum W p U, bx, by likewise.
+// 1 / sqrt(v): the device's reciprocal square root, the host's 1 / sqrt.
 template <class T>
-struct MlsMoments {
-  T A[21] = {}, Ax[21] = {}, Ay[21] = {};
-  T b[2][6] = {}, bx[2][6] = {}, by[2][6] = {};
-  int n = 0;
+DTFLOP_HD T rsqrt_of(T v) {
+#ifdef __CUDA_ARCH__
+  if constexpr (sizeof(T) == sizeof(float)) return rsqrtf(v);
+  else return rsqrt(v);
+#else
+  return T(1) / std::sqrt(v);
+#endif
+}
 
-  // One dot at scaled offset (xi, eta) with displacement (ux, uy) relative to the point's
-  // reference displacement. FLOPs: s (3 + sqrt 1), weight 10, rho dW/dx and dy (3), basis
-  // (3), W p, Wx p, Wy p (18), three 21-entry symmetric outer products (126), the right-hand
-  // sides (72): 236; with the caller's offsets (xi, eta: 2 subtracts + 2 multiplies; U - U0:
-  // 2 subtracts), kFlopsPerSupportDot = 242.
+// MLS at one point x_m. Offsets are centred on the point and scaled by its support radius rho,
+// xi = (X_j - x_m) / rho, and the basis is p(xi) = [1, xi, eta, xi^2, eta^2, xi eta], so that
+// p(0) = e0. The weighted fit a = A^-1 b (A = sum W p p', b = sum W p U, per component) gives
+// u = a_0, and differentiating A a = b at x_m (only W depends on x) gives
+//   rho du/dx = a_1 + g' sum_j (rho dW_j/dx) p_j r_j,   g = A^-1 e0,   r_j = U_j - p_j' a,
+// likewise d/dy with a_2: the derivative of eq. 7.6 written with the fit's residuals r_j.
+//
+// Numerics. A is never formed. The product P' W P squares the conditioning of the weighted
+// least-squares problem sqrt(W) P a = sqrt(W) U: with a Gaussian weight on a support a few dot
+// pitches wide, A's condition number reaches 1e5-1e6 (in centred and scaled coordinates),
+// and float32 moments lost up to 6e-5 in strain against float64. Instead, pass 1 (add)
+// reduces the rows sqrt(W_j) [p_j' | U_j'] into the triangular factor R (R'R = A) by Givens
+// rotations, one dot at a time, which costs only the conditioning of sqrt(W) P (the square
+// root of A's); solve() back-substitutes a and g from R; pass 2 (add_residual) runs over the
+// same dots again and sums the residual terms, which are small, where summing (rho dW/dx) p U
+// and (rho dW/dx) p p' separately and subtracting would cancel. Float32 on the device then
+// matches float64 to ~1e-7 in strain on such supports.
+template <class T>
+struct MlsPoint {
+  T R[6][8] = {};  // R in columns 0-5 (upper triangle), Q' sqrt(W) U_x and U_y in 6 and 7
+  T a[2][6] = {};  // the fit, per component (after solve)
+  T g[6] = {};     // A^-1 e0 (after solve)
+  T cx[2][6] = {}, cy[2][6] = {};  // sum (rho dW/dx) p r and sum (rho dW/dy) p r (pass 2)
+  int n = 0;       // dots with W > 0
+
+  // Pass 1: the dot at scaled offset (xi, eta) with displacement (ux, uy) relative to the
+  // point's reference displacement. FLOPs: s (3 + sqrt 1), weight 10, sqrt(W) 1, basis 3,
+  // the row sqrt(W) [p | U] 7; six rotations: c, s and R_ii (h = x^2 + y^2, 1 / sqrt(h), 3
+  // multiplies: 7) and (7 - i) column pairs of 4 multiplies + 2 adds for i = 0..5 (162):
+  // 204. Total 229.
   DTFLOP_HD void add(Weight kind, T xi, T eta, T ux, T uy) {
     using std::sqrt;
-    const T s = sqrt(xi * xi + eta * eta);
     T w, dws;
-    weight_fn(kind, s, w, dws);
+    weight_fn(kind, sqrt(xi * xi + eta * eta), w, dws);
     if (!(w > T(0))) return;
     ++n;
-    // d/dx of W(|x - X_j| / rho) at x = x_m, times rho: -xi W'(s) / s.
-    const T wx = -xi * dws, wy = -eta * dws;
+    const T sw = sqrt(w);
     const T p[6] = {T(1), xi, eta, xi * xi, eta * eta, xi * eta};
-    T wp[6], wxp[6], wyp[6];
-    for (int i = 0; i < 6; ++i) { wp[i] = w * p[i]; wxp[i] = wx * p[i]; wyp[i] = wy * p[i]; }
-    int k = 0;
-    for (int i = 0; i < 6; ++i)
-      for (int j = i; j < 6; ++j, ++k) {
-        A[k] += wp[i] * p[j];
-        Ax[k] += wxp[i] * p[j];
-        Ay[k] += wyp[i] * p[j];
+    T row[8];
+    row[0] = sw;
+    for (int i = 1; i < 6; ++i) row[i] = sw * p[i];
+    row[6] = sw * ux;
+    row[7] = sw * uy;
+    for (int i = 0; i < 6; ++i) {
+      const T y = row[i];
+      if (y == T(0)) continue;
+      const T x = R[i][i];
+      // c = x / r, s = y / r, r = sqrt(x^2 + y^2), with one reciprocal square root (on the
+      // device one instruction, which need not be correctly rounded: the rotation is then
+      // orthogonal times a factor within a few ulp of 1, and R_ii = h k takes the same factor).
+      const T h = x * x + y * y, k = rsqrt_of(h), c = x * k, s = y * k;
+      R[i][i] = h * k;
+      for (int j = i + 1; j < 8; ++j) {
+        const T rj = R[i][j], qj = row[j];
+        R[i][j] = c * rj + s * qj;
+        row[j] = c * qj - s * rj;
       }
-    const T u[2] = {ux, uy};
+    }
+  }
+
+  // Between the passes. Status: too_few_dots below `min_dots`; ill_conditioned when A's LDL'
+  // pivots (R_ii^2) span more than 1 / min_pivot_ratio. FLOPs: pivots and the test (7); a,
+  // two back substitutions (2 x 36); g, one forward and one back substitution (2 x 36): 151.
+  DTFLOP_HD PointStatus solve(int min_dots, T min_pivot_ratio) {
+    if (n < min_dots) return PointStatus::too_few_dots;
+    T dmax = R[0][0] * R[0][0], dmin = dmax;
+    for (int i = 1; i < 6; ++i) {
+      const T d = R[i][i] * R[i][i];
+      dmax = d > dmax ? d : dmax;
+      dmin = d < dmin ? d : dmin;
+    }
+    if (!(dmin > min_pivot_ratio * dmax)) return PointStatus::ill_conditioned;
     for (int c = 0; c < 2; ++c)
-      for (int i = 0; i < 6; ++i) {
-        b[c][i] += wp[i] * u[c];
-        bx[c][i] += wxp[i] * u[c];
-        by[c][i] += wyp[i] * u[c];
+      for (int i = 5; i >= 0; --i) {
+        T v = R[i][6 + c];
+        for (int j = i + 1; j < 6; ++j) v -= R[i][j] * a[c][j];
+        a[c][i] = v / R[i][i];
       }
+    T z[6];  // R' z = e0
+    for (int i = 0; i < 6; ++i) {
+      T v = i == 0 ? T(1) : T(0);
+      for (int k = 0; k < i; ++k) v -= R[k][i] * z[k];
+      z[i] = v / R[i][i];
+    }
+    for (int i = 5; i >= 0; --i) {  // R g = z
+      T v = z[i];
+      for (int j = i + 1; j < 6; ++j) v -= R[i][j] * g[j];
+      g[i] = v / R[i][i];
+    }
+    return PointStatus::ok;
+  }
+
+  // Pass 2, over the same dots as pass 1. FLOPs: s 4, weight 10, rho dW/dx and dy (3),
+  // basis 3, the two residuals (2 x 11), (rho dW/dx) p and (rho dW/dy) p (10), the four
+  // 6-term sums (48): 100.
+  DTFLOP_HD void add_residual(Weight kind, T xi, T eta, T ux, T uy) {
+    using std::sqrt;
+    T w, dws;
+    weight_fn(kind, sqrt(xi * xi + eta * eta), w, dws);
+    if (!(w > T(0))) return;
+    // d/dx of W(|x - X_j| / rho) at x = x_m, times rho: -xi W'(s) / s.
+    const T nd = -dws, wx = xi * nd, wy = eta * nd;
+    const T p[6] = {T(1), xi, eta, xi * xi, eta * eta, xi * eta};
+    T wxp[6], wyp[6];
+    wxp[0] = wx;
+    wyp[0] = wy;
+    for (int i = 1; i < 6; ++i) { wxp[i] = wx * p[i]; wyp[i] = wy * p[i]; }
+    const T u[2] = {ux, uy};
+    for (int c = 0; c < 2; ++c) {
+      T r = u[c] - a[c][0];
+      for (int i = 1; i < 6; ++i) r -= p[i] * a[c][i];
+      for (int i = 0; i < 6; ++i) {
+        cx[c][i] += wxp[i] * r;
+        cy[c][i] += wyp[i] * r;
+      }
+    }
+  }
+
+  // The field at the point from both passes; `u0` is the reference displacement that was
+  // subtracted from every dot's (MLS reproduces constants, so it is added back). FLOPs: the
+  // four derivatives (4 x 12), scaling by 1 / rho (4), u0 added back (2), e_xy (2): 56.
+  DTFLOP_HD FieldValue<T> field(T rho, T u0x, T u0y) const {
+    T dx[2], dy[2];
+    for (int c = 0; c < 2; ++c) {
+      T sx = a[c][1], sy = a[c][2];
+      for (int i = 0; i < 6; ++i) {
+        sx += g[i] * cx[c][i];
+        sy += g[i] * cy[c][i];
+      }
+      dx[c] = sx / rho;
+      dy[c] = sy / rho;
+    }
+    FieldValue<T> f;
+    f.support = n;
+    f.ux = a[0][0] + u0x;
+    f.uy = a[1][0] + u0y;
+    f.exx = dx[0];
+    f.eyy = dy[1];
+    f.exy = T(0.5) * (dy[0] + dx[1]);
+    return f;
   }
 };
-constexpr std::int64_t kFlopsPerSupportDot = 242;
-
-DTFLOP_HD int sym_index(int i, int j) {
-  if (i > j) { const int t = i; i = j; j = t; }
-  return i * 6 - i * (i - 1) / 2 + (j - i);
-}
-
-// Solves the moments for the field at the point. `u0` is the reference displacement that
-// was subtracted from every dot's displacement (MLS reproduces constants, so it is added
-// back). FLOPs: LDL' of the 6x6 (120), three solves with it (3 x 66), the right-hand sides
-// e1 - Ax g and e2 - Ay g (156), the dot products for u and its derivatives (120), scaling by
-// 1 / rho (4), u0 added back (2), e_xy (3): kFlopsPerPoint = 603.
-template <class T>
-DTFLOP_HD FieldValue<T> mls_solve(const MlsMoments<T>& m, T rho, T u0x, T u0y, int min_dots,
-                                  T min_pivot_ratio) {
-  FieldValue<T> f;
-  f.support = m.n;
-  if (m.n < min_dots) {
-    f.status = PointStatus::too_few_dots;
-    return f;
-  }
-  // LDL' factorization.
-  T L[6][6] = {}, d[6];
-  T dmax = T(0), dmin = T(0);
-  for (int j = 0; j < 6; ++j) {
-    T v = m.A[sym_index(j, j)];
-    for (int k = 0; k < j; ++k) v -= L[j][k] * L[j][k] * d[k];
-    d[j] = v;
-    if (j == 0) { dmax = v; dmin = v; }
-    dmax = v > dmax ? v : dmax;
-    dmin = v < dmin ? v : dmin;
-    if (!(v > T(0))) break;
-    for (int i = j + 1; i < 6; ++i) {
-      T x = m.A[sym_index(i, j)];
-      for (int k = 0; k < j; ++k) x -= L[i][k] * L[j][k] * d[k];
-      L[i][j] = x / v;
-    }
-  }
-  if (!(dmin > min_pivot_ratio * dmax)) {
-    f.status = PointStatus::ill_conditioned;
-    return f;
-  }
-  auto solve = [&](T* r) {
-    for (int i = 0; i < 6; ++i)
-      for (int k = 0; k < i; ++k) r[i] -= L[i][k] * r[k];
-    for (int i = 0; i < 6; ++i) r[i] /= d[i];
-    for (int i = 5; i >= 0; --i)
-      for (int k = i + 1; k < 6; ++k) r[i] -= L[k][i] * r[k];
-  };
-  // gamma = A^-1 p(0), p(0) = e0.
-  T g[6] = {T(1), T(0), T(0), T(0), T(0), T(0)};
-  solve(g);
-  // rho d(gamma)/dx = A^-1 (e1 - Ax gamma); likewise y with e2.
-  T gx[6], gy[6];
-  for (int i = 0; i < 6; ++i) {
-    T sx = T(0), sy = T(0);
-    for (int j = 0; j < 6; ++j) {
-      sx += m.Ax[sym_index(i, j)] * g[j];
-      sy += m.Ay[sym_index(i, j)] * g[j];
-    }
-    gx[i] = (i == 1 ? T(1) : T(0)) - sx;
-    gy[i] = (i == 2 ? T(1) : T(0)) - sy;
-  }
-  solve(gx);
-  solve(gy);
-  T u[2], dx[2], dy[2];
-  for (int c = 0; c < 2; ++c) {
-    T v = T(0), vx = T(0), vy = T(0);
-    for (int i = 0; i < 6; ++i) {
-      v += g[i] * m.b[c][i];
-      vx += gx[i] * m.b[c][i] + g[i] * m.bx[c][i];
-      vy += gy[i] * m.b[c][i] + g[i] * m.by[c][i];
-    }
-    u[c] = v;
-    dx[c] = vx / rho;
-    dy[c] = vy / rho;
-  }
-  f.ux = u[0] + u0x;
-  f.uy = u[1] + u0y;
-  f.exx = dx[0];
-  f.eyy = dy[1];
-  f.exy = T(0.5) * (dy[0] + dx[1]);
-  return f;
-}
-constexpr std::int64_t kFlopsPerPoint = 603;
+// Per support dot: pass 1 (229) + pass 2 (100) + the caller's offsets, twice (xi, eta: 2
+// subtracts + 2 multiplies; U - U0: 2 subtracts; 6 each pass).
+constexpr std::int64_t kFlopsPerSupportDot = 229 + 100 + 2 * 6;
+// Per point: solve (151) + field (56).
+constexpr std::int64_t kFlopsPerPoint = 151 + 56;
 
 // FE (linear triangles): u = sum N_i U_i (2 components x 3 terms x 2 FLOPs = 12) and the
 // four displacement derivatives from the constant shape-function gradients (4 x 3 x 2 = 24),

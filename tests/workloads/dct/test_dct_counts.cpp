@@ -32,8 +32,8 @@ FrameShape hand_shape() {
 TEST(DctCounts, CpuMatchesFormulas) {
   const FrameShape s = hand_shape();
   const CostCounts c = cpu_counts(s, 16);
-  // 14 ring + 11 weighted + (44 + 4) per dot + 2 per dot + 242 per support entry + 603 per point.
-  EXPECT_EQ(c.N_C, 14LL * 2'000'000 + 11LL * 4'500'000 + 48LL * 1600 + 2LL * 1600 + 242LL * 2048 * 60 + 603LL * 2048);
+  // 14 ring + 11 weighted + (44 + 4) per dot + 2 per dot + 341 per support entry + 207 per point.
+  EXPECT_EQ(c.N_C, 14LL * 2'000'000 + 11LL * 4'500'000 + 48LL * 1600 + 2LL * 1600 + 341LL * 2048 * 60 + 207LL * 2048);
   // Bytes: Otsu 1 + threshold 2 + labelling 13 per analysed pixel, 10 per window pixel, 25
   // labels of 4 bytes per scanned pixel, a byte per ring or weighted pixel, 8 per field value.
   EXPECT_EQ(c.N_CC, (16LL * 20'000'000 + 10LL * 7'000'000 + 100LL * 2'500'000 + 6'500'000 +

@@ -1,9 +1,13 @@
 // The cuda backend against cpu-seq (float64) on fresh random specimens: the same dots, the
 // same matches, centroids and fields within float32 rounding; labelling against OpenCV's;
 // every statistic written; counts as declared. Skips without a device.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <limits>
 #include <random>
+#include <string>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -17,11 +21,17 @@
 namespace dtflop::dct {
 namespace {
 
+// A fresh seed per run (so that every run tries new specimens), or DTFLOP_DCT_SEED to rerun
+// one: failures name the seed (SCOPED_TRACE in the tests below).
 std::uint64_t fresh_seed() {
+  if (const char* fixed = std::getenv("DTFLOP_DCT_SEED")) return std::strtoull(fixed, nullptr, 10);
   static std::random_device rd;
   const std::uint64_t s = (static_cast<std::uint64_t>(rd()) << 32) ^ rd();
-  std::printf("specimen seed %llu\n", static_cast<unsigned long long>(s % 1000000007ULL));
   return s % 1000000007ULL;
+}
+
+std::string seed_note(std::uint64_t seed) {
+  return fmt::format("specimen seed {} (rerun it with DTFLOP_DCT_SEED={})", seed, seed);
 }
 
 struct Case {
@@ -29,7 +39,8 @@ struct Case {
   PipelineOptions opt;
 };
 
-void compare(const Case& c) {
+// Returns the largest strain difference over the points both estimated.
+double compare(const Case& c) {
   SCOPED_TRACE(c.spec);
   const Specimen s = parse_specimen(c.spec);
   const cv::Mat ref = s.reference_image(), def = s.deformed_image();
@@ -37,7 +48,9 @@ void compare(const Case& c) {
   auto gpu = make_backend("cuda", c.opt);
   cpu->set_reference(ref);
   gpu->set_reference(ref);
-  ASSERT_EQ(cpu->reference_dots().size(), gpu->reference_dots().size());
+  const double not_compared = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(cpu->reference_dots().size(), gpu->reference_dots().size());
+  if (cpu->reference_dots().size() != gpu->reference_dots().size()) return not_compared;
   for (std::size_t j = 0; j < cpu->reference_dots().size(); ++j) {
     EXPECT_NEAR(cpu->reference_dots()[j].x, gpu->reference_dots()[j].x, 2e-4);
     EXPECT_NEAR(cpu->reference_dots()[j].y, gpu->reference_dots()[j].y, 2e-4);
@@ -48,7 +61,8 @@ void compare(const Case& c) {
   def.copyTo(pinned);
   const FrameOutput a = cpu->process(def);
   const FrameOutput b = gpu->process(pinned);
-  ASSERT_EQ(a.dots.size(), b.dots.size());
+  EXPECT_EQ(a.dots.size(), b.dots.size());
+  if (a.dots.size() != b.dots.size()) return not_compared;
   EXPECT_EQ(a.stats.components, b.stats.components);
   EXPECT_EQ(a.stats.threshold, b.stats.threshold);
   EXPECT_EQ(a.stats.window_pixels, b.stats.window_pixels);
@@ -76,7 +90,10 @@ void compare(const Case& c) {
               compared, worst_u, worst_e);
   EXPECT_GT(compared, static_cast<int>(a.fields.size()) / 2);
   EXPECT_LT(worst_u, 5e-4);  // float32 centroid sums and displacements
-  EXPECT_LT(worst_e, 5e-6);  // 5 microstrain: float32 moments of a cond ~1e3 system
+  // 2 microstrain. MLS in float32 costs ~1e-7 here (kernels.hpp, MlsPoint: the weighted fit
+  // is factored, not solved through its normal equations, whose condition numbers reach 1e5
+  // on the Gaussian 45 px case below); the rest is the float32 centroids.
+  EXPECT_LT(worst_e, 2e-6);
   const FrameOutput c2 = gpu->process(def);
   EXPECT_EQ(c2.counts.host_memory, HostMemory::pageable);
   EXPECT_EQ(b.counts.host_memory, HostMemory::pinned);
@@ -87,35 +104,46 @@ void compare(const Case& c) {
       EXPECT_EQ(b.fields[m].exx, c2.fields[m].exx);  // deterministic
     }
   }
+  return worst_e;
 }
 
 TEST(DctCuda, MatchesCpuSeqOnFreshSpecimens) {
   DTFLOP_REQUIRE_GPU();
   const std::uint64_t seed = fresh_seed();
+  SCOPED_TRACE(seed_note(seed));
+  RecordProperty("seed", std::to_string(seed));
   PipelineOptions o;
   o.mls.support = parse_support("40dots");
   o.points_x = 24;
   o.points_y = 18;
-  compare({fmt::format("uniform:size=900x700,pattern=random,radius=7,gap=6,noise=2,seed={}", seed), o});
-  compare({fmt::format("kirsch:size=1000x800,a=90,pattern=random,radius=6,gap=5,noise=1,blur=0.7,seed={}", seed + 1), o});
+  double mls = 0, fe = 0;
+  mls = std::max(mls, compare({fmt::format("uniform:size=900x700,pattern=random,radius=7,gap=6,noise=2,seed={}", seed), o}));
+  mls = std::max(mls, compare({fmt::format("kirsch:size=1000x800,a=90,pattern=random,radius=6,gap=5,noise=1,blur=0.7,seed={}",
+                                           seed + 1), o}));
   PipelineOptions light = o;
   light.analysis.polarity = Polarity::light_dots;
   light.analysis.method = ThresholdMethod::fixed;
   light.analysis.threshold = 100;
   light.layout = {64, 32, 64};
-  compare({fmt::format("bending:size=800x600,pattern=random,radius=6,gap=6,polarity=light,bits=16,lighting=0.2,seed={}",
-                       seed + 2),
-           light});
-  PipelineOptions fe = o;
-  fe.interp = Interp::fe;
-  fe.layout = {1024, 256, 256};
-  fe.analysis.roi = cv::Rect(40, 30, 700, 500);
-  compare({fmt::format("rotation:size=800x600,deg=0.4,pattern=random,radius=5,gap=5,seed={}", seed + 3), fe});
+  mls = std::max(mls, compare({fmt::format("bending:size=800x600,pattern=random,radius=6,gap=6,polarity=light,bits=16,"
+                                           "lighting=0.2,seed={}", seed + 2),
+                               light}));
+  PipelineOptions fe_opt = o;
+  fe_opt.interp = Interp::fe;
+  fe_opt.layout = {1024, 256, 256};
+  fe_opt.analysis.roi = cv::Rect(40, 30, 700, 500);
+  fe = compare({fmt::format("rotation:size=800x600,deg=0.4,pattern=random,radius=5,gap=5,seed={}", seed + 3), fe_opt});
   PipelineOptions radius = o;
   radius.mls.support = parse_support("45px");
   radius.mls.weight = Weight::gaussian;
-  compare({fmt::format("translation:size=640x480,dx=1.3,dy=-0.6,pattern=random,radius=5,gap=4,noise=3,seed={}", seed + 4),
-           radius});
+  mls = std::max(mls, compare({fmt::format("translation:size=640x480,dx=1.3,dy=-0.6,pattern=random,radius=5,gap=4,noise=3,"
+                                           "seed={}", seed + 4),
+                               radius}));
+  // One line per run, for the distribution over repeated runs (docs/PERFORMANCE.md).
+  std::printf("DctCuda max |de| GPU - cpu-seq: MLS %.2e, FE %.2e (seed %llu)\n", mls, fe,
+              static_cast<unsigned long long>(seed));
+  RecordProperty("max_strain_difference_mls", fmt::format("{:.3e}", mls));
+  RecordProperty("max_strain_difference_fe", fmt::format("{:.3e}", fe));
 }
 
 TEST(DctCuda, LabellingMatchesOpenCv) {
@@ -123,7 +151,9 @@ TEST(DctCuda, LabellingMatchesOpenCv) {
   // Random shapes, convex and not (discs, rings, L's, bars, specks), one per 40 px cell with
   // background between cells: the union-find labels the same 8-connected components as
   // OpenCV, with the same areas, in the same order.
-  std::mt19937 rng(static_cast<unsigned>(fresh_seed()));
+  const std::uint64_t seed = fresh_seed();
+  SCOPED_TRACE(seed_note(seed));
+  std::mt19937 rng(static_cast<unsigned>(seed));
   cv::Mat img(521, 733, CV_8U, cv::Scalar(255));
   for (int cy = 0; cy + 40 <= img.rows; cy += 40)
     for (int cx = 0; cx + 40 <= img.cols; cx += 40) {
