@@ -92,16 +92,25 @@ bool measured(const std::vector<double>& v) {
 }
 double med(const std::vector<double>& v) { return measured(v) ? summarize(v).median : 0.0; }
 
-// Declared counts against what CUPTI saw: one line per difference (empty: they agree).
+// Declared counts against what CUPTI saw: one line per difference (empty: they agree). Counts are
+// in values of P bytes and a copy of b bytes moves ceil(b / P) of them, so the declared bytes P N
+// may exceed the bytes copied by less than P per copy, never more, and never fall short.
 std::string counts_mismatch(const CostCounts& k, const DeviceActivity& a) {
   std::string out;
   auto cmp = [&out](const char* what, std::int64_t declared, std::int64_t seen) {
     if (declared != seen) out += fmt::format("{}{}: declared {}, CUPTI saw {}", out.empty() ? "" : "; ", what, declared, seen);
   };
+  auto bytes = [&out, &k](const char* what, std::int64_t values, std::int64_t copies, std::uint64_t seen_bytes) {
+    const auto seen = static_cast<std::int64_t>(seen_bytes);
+    const std::int64_t declared = k.P * values;
+    if (declared < seen || declared - seen >= k.P * std::max<std::int64_t>(copies, 1))
+      out += fmt::format("{}{}: declared {} values of {} bytes, CUPTI saw {} bytes", out.empty() ? "" : "; ", what,
+                         values, k.P, seen);
+  };
   cmp("host->device copies", k.transfers_CG, a.to_device.count);
-  cmp("host->device bytes", k.P * k.N_CG, static_cast<std::int64_t>(a.to_device.bytes));
+  bytes("host->device", k.N_CG, k.transfers_CG, a.to_device.bytes);
   cmp("device->host copies", k.transfers_GC, a.to_host.count);
-  cmp("device->host bytes", k.P * k.N_GC, static_cast<std::int64_t>(a.to_host.bytes));
+  bytes("device->host", k.N_GC, k.transfers_GC, a.to_host.bytes);
   cmp("kernels", k.launches, a.kernels);
   return out;
 }

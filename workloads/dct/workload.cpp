@@ -406,10 +406,6 @@ class DctWorkload final : public wl::Workload {
       throw InputError(fmt::format("dct --support {} asks for more dots per support domain than the {} dots; give "
                                    "--support <= --dots",
                                    g.support, g.dots));
-    if (b.name() == "cuda" && (g.w * g.h * g.bytes_per_pixel) % 4 != 0)
-      throw InputError(fmt::format("dct --size {}x{}: the cuda backend's counts are 4-byte values and a {}-bit frame "
-                                   "of {} px is not whole 4-byte values; give an even width and height",
-                                   g.w, g.h, 8 * g.bytes_per_pixel, g.w * g.h));
   }
 
  private:

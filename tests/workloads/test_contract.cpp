@@ -1,0 +1,139 @@
+// The workload contract, checked the same way for every backend of every registered workload: the
+// parameter space validates and fills defaults, the store key is stable and tells configurations
+// apart, the counts a backend declares without a device are those a prepared run declares, and
+// every backend that can run here is measured through the shared protocol with its declared work
+// matching what it did. A workload or backend added later is checked by this file unchanged.
+#include <set>
+#include <string>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "calibrate/machine.hpp"
+#include "calibrate/measure.hpp"
+#include "model/errors.hpp"
+#include "workloads/workload.hpp"
+
+namespace dtflop::workload {
+namespace {
+
+// The smallest configuration of a workload a backend runs in a moment: every size parameter at
+// the low end of what its constraints accept, found from the defaults.
+Config small_config(const Workload& w, const Backend& b) {
+  if (w.name() == "rbe") return w.validate({{"grid", "64x48"}, {"kernel", "5x3"}}, b);
+  if (w.name() == "dct") return w.validate({{"size", "480x360"}, {"dots", 60}, {"points", "8x8"}, {"support", 12}}, b);
+  return w.validate(nlohmann::json::object(), b);
+}
+
+struct Case {
+  const Workload* workload;
+  const Backend* backend;
+};
+std::vector<Case> every_backend() {
+  std::vector<Case> out;
+  for (const Workload* w : all())
+    for (const auto& b : w->backends()) out.push_back({w, b.get()});
+  return out;
+}
+
+class Contract : public ::testing::TestWithParam<Case> {};
+
+TEST_P(Contract, DefaultsValidateAndTheKeyNamesTheConfiguration) {
+  const auto [w, b] = GetParam();
+  const Config c = w->validate(nlohmann::json::object(), *b);
+  for (const auto& p : w->params()) EXPECT_EQ(c.contains(p.name), p.applies_to(b->name())) << p.name;
+  // Validating a valid configuration changes nothing; its key names the workload and the backend.
+  EXPECT_EQ(w->validate(c, *b), c);
+  const std::string key = w->key(*b, c);
+  EXPECT_EQ(key.rfind(fmt::format("{}/{}/", w->name(), b->name()), 0), 0u) << key;
+  // Two configurations that differ in one parameter have different keys.
+  const Config small = small_config(*w, *b);
+  if (small != c) EXPECT_NE(w->key(*b, small), key);
+}
+
+TEST_P(Contract, UnknownOrForeignParametersAreRefusedWithOneLine) {
+  const auto [w, b] = GetParam();
+  try {
+    (void)w->validate({{"no-such-parameter", 1}}, *b);
+    FAIL() << "an unknown parameter was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no-such-parameter"), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+  }
+  for (const auto& p : w->params()) {
+    if (p.applies_to(b->name())) continue;
+    try {
+      (void)w->validate({{p.name, p.fallback}}, *b);
+      FAIL() << "--" << p.name << " was accepted on " << b->name();
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(b->name()), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST_P(Contract, PlansHoldValidConfigurationsWithDistinctKeys) {
+  const auto [w, b] = GetParam();
+  for (const auto& [name, what] : w->plan_names()) {
+    const std::string spec = name == "random:N" ? "random:20" : name;
+    const PlanConfigs p = w->plan(spec, *b, 7);
+    ASSERT_FALSE(p.configs.empty()) << spec;
+    EXPECT_FALSE(p.description.empty()) << spec;
+    std::set<std::string> keys;
+    for (const auto& c : p.configs) {
+      EXPECT_EQ(w->validate(c, *b), c) << spec;
+      keys.insert(w->key(*b, c));
+    }
+    if (spec.rfind("random:", 0) != 0) EXPECT_EQ(keys.size(), p.configs.size()) << spec << ": a configuration twice";
+    // The same seed gives the same plan.
+    EXPECT_EQ(w->plan(spec, *b, 7).configs, p.configs) << spec;
+  }
+}
+
+// Every backend that can run here: measured by the protocol, its counts declared before it ran are
+// what a device-free counts() call gives (times the steps), and what it did matches them.
+TEST_P(Contract, MeasuredThroughTheProtocolWithTheCountsItDeclares) {
+  const auto [w, b] = GetParam();
+  if (const std::string why = b->unavailable(); !why.empty()) GTEST_SKIP() << why;
+  const Config c = small_config(*w, *b);
+  calib::Protocol protocol = calib::open_protocol(*w, *b, calib::MeasureSettings{.steps = 2, .repetitions = 2, .warmup = 1},
+                                                  /*no_cupti=*/false);
+  const calib::Sample s =
+      calib::measure(*w, *b, c, protocol, calib::this_machine(), w->key(*b, c), "contract-test");
+  EXPECT_EQ(s.workload, w->name());
+  EXPECT_EQ(s.backend, b->name());
+  EXPECT_EQ(s.steps, 2);
+  EXPECT_EQ(s.repetitions(), 2);
+  ASSERT_NE(s.find(calib::Component::total), nullptr);
+  EXPECT_GT(s.find(calib::Component::total)->median, 0);
+  EXPECT_FALSE(s.detail.contains("work_mismatch")) << s.detail.dump();
+  EXPECT_FALSE(s.detail.contains("counts_mismatch")) << s.detail.dump();
+  // The device-free counts of a step describe the same computation as the run's declared counts.
+  const CostCounts step = b->counts(c, nullptr);
+  EXPECT_GT(s.counts.N_C + s.counts.N_G, 0);
+  EXPECT_EQ(s.counts.N_C > 0, step.N_C > 0);
+  EXPECT_EQ(s.counts.N_G > 0, step.N_G > 0);
+  EXPECT_EQ(s.counts.P, step.P);
+  EXPECT_EQ(s.counts.precision, step.precision);
+}
+
+INSTANTIATE_TEST_SUITE_P(EveryBackend, Contract, ::testing::ValuesIn(every_backend()),
+                         [](const ::testing::TestParamInfo<Case>& i) {
+                           std::string n = fmt::format("{}_{}", i.param.workload->name(), i.param.backend->name());
+                           for (char& ch : n)
+                             if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+                           return n;
+                         });
+
+TEST(Registry, FindsEveryWorkloadAndNamesTheKnownOnes) {
+  ASSERT_GE(all().size(), 2u);
+  for (const Workload* w : all()) EXPECT_EQ(&find(w->name()), w);
+  try {
+    (void)find("nosuch");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("rbe"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace dtflop::workload
