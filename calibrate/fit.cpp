@@ -194,7 +194,7 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
   if (n_samples < free)
     throw InputError(fmt::format(
         "{} sample{} cannot determine {} parameters; measure at least {} configurations (e.g. "
-        "`dtflop sweep rbe --plan seed-test2`)",
+        "`dtflop sweep WORKLOAD --plan random:50`)",
         n_samples, n_samples == 1 ? "" : "s", free, free));
 
   // A parameter whose term the samples barely feel would run off to zero or infinity (in log

@@ -1,5 +1,7 @@
 #include "calibrate/store.hpp"
 
+#include <algorithm>
+
 #include <fcntl.h>
 #include <sys/file.h>
 #include <unistd.h>
@@ -188,6 +190,41 @@ void StoreWriter::append(const Sample& s) {
   }
   if (::fdatasync(fd_) != 0)
     throw InputError(fmt::format("flushing sample store '{}' failed: {}", path_.string(), errno_text(errno)));
+}
+
+bool SampleFilter::keeps(const Sample& s) const {
+  if (!backends.empty() && std::find(backends.begin(), backends.end(), s.backend) == backends.end()) return false;
+  return std::all_of(match.begin(), match.end(), [&s](const std::string& m) { return s.key.find(m) != std::string::npos; });
+}
+
+LoadedSamples load_samples(const std::vector<std::string>& stores, const SampleFilter& filter) {
+  if (stores.empty()) throw InputError("name at least one --store");
+  LoadedSamples out;
+  for (const auto& path : stores) {
+    if (!std::filesystem::exists(path))
+      throw InputError(fmt::format("sample store '{}' does not exist; measure one with `dtflop sweep WORKLOAD --backend "
+                                   "NAME --plan PLAN --store {}`",
+                                   path, path));
+    StoreContents c = read_store(path);
+    for (auto& w : c.warnings) out.warnings.push_back(std::move(w));
+    if (c.samples.empty())
+      throw InputError(fmt::format("sample store '{}' holds no samples; measure some with `dtflop sweep`", path));
+    for (auto& s : c.samples)
+      if (filter.keeps(s)) out.samples.push_back(std::move(s));
+  }
+  if (out.samples.empty()) {
+    std::string list;
+    for (const auto& b : filter.backends) list += (list.empty() ? "" : ", ") + b;
+    throw InputError(fmt::format("the stores hold no samples of backend {}{}; drop --backend / --match or name what "
+                                 "the stores hold",
+                                 list.empty() ? "(any)" : list, filter.match.empty() ? "" : " matching --match"));
+  }
+  for (const Sample& s : out.samples)
+    if (s.workload != out.samples.front().workload)
+      throw InputError(fmt::format("the samples are of more than one workload ({} in '{}', {} in '{}'); fit or "
+                                   "validate one workload at a time: split the stores or pick backends with --backend",
+                                   out.samples.front().workload, out.samples.front().key, s.workload, s.key));
+  return out;
 }
 
 }  // namespace dtflop::calib

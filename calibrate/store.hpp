@@ -31,6 +31,23 @@ struct StoreContents {
 // last one (naming the line).
 StoreContents read_store(const std::filesystem::path& path);
 
+// Which samples of the stores a fit or a validation takes: of these backends (empty: any), with keys
+// containing every one of `match`.
+struct SampleFilter {
+  std::vector<std::string> backends;
+  std::vector<std::string> match;
+  bool keeps(const Sample& s) const;
+};
+// Reads every store and keeps the samples `filter` keeps, printing nothing: warnings (a torn last
+// line) are returned. Throws InputError (one line, saying what to do) for a store that does not
+// exist or holds no sample, when no sample is kept, and when the kept samples are of more than one
+// workload (a fit or a validation is of one workload's backends; split the stores or use --backend).
+struct LoadedSamples {
+  std::vector<Sample> samples;
+  std::vector<std::string> warnings;
+};
+LoadedSamples load_samples(const std::vector<std::string>& stores, const SampleFilter& filter);
+
 // Appends samples to a store. Only one writer at a time (an exclusive lock on the file).
 class StoreWriter {
  public:

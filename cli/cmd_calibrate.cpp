@@ -41,37 +41,10 @@ struct CalibrateOptions {
   std::string rounds_combine = "median";
 };
 
-bool matches(const Sample& s, const std::vector<std::string>& match) {
-  for (const auto& m : match)
-    if (s.key.find(m) == std::string::npos) return false;
-  return true;
-}
-
-std::vector<Sample> load_samples(const std::vector<std::string>& stores, const std::vector<std::string>& backends,
-                                 const std::vector<std::string>& match) {
-  std::vector<Sample> all;
-  for (const auto& path : stores) {
-    if (!fs::exists(path))
-      throw InputError(fmt::format("sample store '{}' does not exist; measure one with `dtflop sweep rbe "
-                                   "--plan seed-test1 --backend ... --store {}`",
-                                   path, path));
-    StoreContents c = read_store(path);
-    for (const auto& w : c.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
-    if (c.samples.empty())
-      throw InputError(fmt::format("sample store '{}' holds no samples; measure some with `dtflop sweep`", path));
-    for (auto& s : c.samples)
-      if ((backends.empty() || std::find(backends.begin(), backends.end(), s.backend) != backends.end()) &&
-          matches(s, match))
-        all.push_back(std::move(s));
-  }
-  if (all.empty()) {
-    std::string list;
-    for (const auto& b : backends) list += (list.empty() ? "" : ", ") + b;
-    throw InputError(fmt::format("the stores hold no samples of backend {}{}; drop --backend / --match or name "
-                                 "what the stores hold",
-                                 list.empty() ? "(any)" : list, match.empty() ? "" : " matching --match"));
-  }
-  return all;
+std::vector<Sample> loaded_samples(const std::vector<std::string>& stores, const SampleFilter& filter) {
+  LoadedSamples l = load_samples(stores, filter);
+  for (const auto& w : l.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
+  return std::move(l.samples);
 }
 
 void check_machine(const std::vector<Sample>& samples, const MachineProfile& profile, const std::string& file) {
@@ -124,7 +97,7 @@ void run(const CalibrateOptions& o) {
   const MachineProfile probed = load_profile(o.machine);
   // The rounds of one configuration (`dtflop sweep --rounds`) become one sample: the median of their medians.
   const MergedRounds merged =
-      merge_rounds(load_samples(o.stores, o.backends, o.match), parse_round_combine(o.rounds_combine));
+      merge_rounds(loaded_samples(o.stores, {o.backends, o.match}), parse_round_combine(o.rounds_combine));
   for (const auto& w : merged.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
   const std::vector<Sample>& samples = merged.samples;
   check_machine(samples, probed, o.machine);

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "cli/command.hpp"
+#include "workloads/workload.hpp"
 #include "cli/table.hpp"
 #include "model/errors.hpp"
 #include "model/units.hpp"
@@ -90,7 +91,7 @@ void add_density_command(CLI::App& root) {
       "The seed's dot-density study: strain error vs dots per MLS support domain (13..193) on a rendered "
       "specimen under 0.1% tension");
   auto o = std::make_shared<DensityOptions>();
-  app->add_option("--backend", o->backend, "cpu-seq, cpu-par or cuda")->capture_default_str();
+  app->add_option("--backend", o->backend, "DCT backend: " + workload::find("dct").backend_names())->capture_default_str();
   app->add_option("--specimen", o->specimen, "Specimen (see `dtflop specimen --help`)")->capture_default_str();
   app->add_option("--supports", o->supports, "Dots per support, comma-separated")->capture_default_str();
   app->add_option("--points", o->points, "Interpolation grid")->capture_default_str();

@@ -12,6 +12,7 @@
 #include <fmt/printf.h>
 
 #include "cli/command.hpp"
+#include "workloads/workload.hpp"
 #include "cli/table.hpp"
 #include "model/errors.hpp"
 #include "model/units.hpp"
@@ -197,7 +198,7 @@ void add_fields_command(CLI::App& root) {
       "Dot centroid tracking (the DCT workload on images): displacement and strain fields from a reference image and deformed frames "
       "(or a rendered --specimen), by MLS (eqs. 7.2-7.6) or linear FE");
   auto o = std::make_shared<RunDctOptions>();
-  app->add_option("--backend", o->backend, "cpu-seq (float64), cpu-par or cuda")->capture_default_str();
+  app->add_option("--backend", o->backend, "DCT backend: " + workload::find("dct").backend_names())->capture_default_str();
   app->add_option("--reference", o->reference, "Reference (undeformed) image");
   app->add_option("--frames", o->frames, "Deformed frames: a file or a printf pattern, e.g. 'def_%04d.png'");
   app->add_option("--specimen", o->specimen, "Render a specimen instead (see `dtflop specimen --help`) and compare with its truth");
@@ -212,7 +213,7 @@ void add_fields_command(CLI::App& root) {
   app->add_option("--min-area", o->min_area, "Smallest dot, px (the seed's Area2)")->capture_default_str();
   app->add_option("--max-area", o->max_area, "Largest dot, px (the seed's Area1)")->capture_default_str();
   app->add_option("--search-radius", o->search_radius, "Matching radius, px (0: 0.4 x dot spacing)")->capture_default_str();
-  app->add_option("--threads", o->threads, "cpu-par threads (0: all)")->capture_default_str();
+  app->add_option("--threads", o->threads, "CPU threads of a parallel backend (0: all)")->capture_default_str();
   app->add_option("-o,--out", o->out, "Output folder")->required();
   app->add_flag("--no-overlays", o->no_overlays, "Write only the CSV files");
   app->callback([o] { run(*o); });

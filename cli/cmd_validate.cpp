@@ -16,6 +16,7 @@
 #include "calibrate/store.hpp"
 #include "calibrate/validate.hpp"
 #include "cli/command.hpp"
+#include "workloads/workload.hpp"
 #include "cli/workload_cli.hpp"
 #include "cli/table.hpp"
 #include "model/errors.hpp"
@@ -59,12 +60,15 @@ nlohmann::json stats_json(const ErrorStats& e) {
           {"max_rel", e.max_rel}, {"bias", e.bias},         {"worst", e.worst}};
 }
 
+// The configuration in the workload's own words ("1000x1000 k33x33"); the key where the sample's
+// parameters are not (or no longer) a configuration of a known workload.
 std::string params_text(const Sample& s) {
-  const auto& p = s.parameters;
-  if (p.contains("nx") && p.contains("Ix"))
-    return fmt::format("grid {}x{}, kernel {}x{}", p["nx"].get<long long>(), p["ny"].get<long long>(),
-                       p["Ix"].get<long long>(), p["Iy"].get<long long>());
-  return s.key;
+  try {
+    const workload::Workload& w = workload::find(s.workload);
+    return w.label(w.validate(s.parameters, w.backend(s.backend)));
+  } catch (const std::exception&) {
+    return s.key;
+  }
 }
 
 int run(const ValidateOptions& o) {
@@ -91,25 +95,16 @@ int run(const ValidateOptions& o) {
   std::vector<Sample> loaded;
   std::string fit_stores;
   if (auto it = profile.metadata.find("fit_stores"); it != profile.metadata.end()) fit_stores = it->second;
+  LoadedSamples l = load_samples(o.stores, {o.backends, o.match});
+  for (const auto& w : l.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
+  loaded = std::move(l.samples);
   for (const auto& path : o.stores) {
-    if (!fs::exists(path))
-      throw InputError(fmt::format("sample store '{}' does not exist; measure held-out samples with `dtflop sweep "
-                                   "rbe --plan random:50 ... --store {}`",
-                                   path, path));
-    StoreContents c = read_store(path);
-    for (const auto& w : c.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
-    if (c.samples.empty()) throw InputError(fmt::format("sample store '{}' holds no samples", path));
     const std::string abs = fs::absolute(path).lexically_normal().string();
     if (!fit_stores.empty() && (";" + fit_stores + ";").find(";" + abs + ";") != std::string::npos)
       fmt::print(stderr,
                  "dtflop: warning: '{}' was used to fit this profile, so these errors are not held-out errors\n",
                  path);
-    for (auto& s : c.samples)
-      if ((o.backends.empty() || std::find(o.backends.begin(), o.backends.end(), s.backend) != o.backends.end()) &&
-          std::all_of(o.match.begin(), o.match.end(), [&s](const std::string& m) { return s.key.find(m) != std::string::npos; }))
-        loaded.push_back(std::move(s));
   }
-  if (loaded.empty()) throw InputError("no sample in the stores matches --backend / --match");
   // The rounds of one configuration (`dtflop sweep --rounds`) become one sample: the median of their medians.
   std::string combine_name = o.rounds_combine;
   if (combine_name.empty()) {
