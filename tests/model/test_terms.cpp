@@ -400,8 +400,10 @@ TEST(Terms, NamesAndFieldsAreUniqueAndThePredictionJsonHasEveryTerm) {
   std::set<std::string_view> names;
   for (const Term& t : terms()) {
     EXPECT_TRUE(names.insert(t.name).second) << t.name;
-    for (const Term& u : terms())
-      if (&u != &t) EXPECT_NE(u.field, t.field) << t.name << " and " << u.name;
+    for (const Term& u : terms()) {
+      if (&u == &t) continue;
+      EXPECT_NE(u.field, t.field) << t.name << " and " << u.name;
+    }
   }
   CostCounts c;
   c.N_G = 1000;
