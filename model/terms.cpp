@@ -17,6 +17,17 @@ std::string_view to_string(Phase p) {
   return "?";
 }
 
+std::string_view describe(Phase p) {
+  switch (p) {
+    case Phase::CG: return "host->device copies";
+    case Phase::GC: return "device->host copies";
+    case Phase::G: return "kernels";
+    case Phase::C: return "CPU work (dt_C)";
+    case Phase::wait: return "host waits for the device";
+  }
+  return "?";
+}
+
 const std::vector<Phase>& all_phases() {
   static const std::vector<Phase> all = {Phase::CG, Phase::GC, Phase::G, Phase::C, Phase::wait};
   return all;

@@ -33,6 +33,8 @@ enum class Phase {
   wait,  // the host waiting for the device: in the total only
 };
 std::string_view to_string(Phase p);
+// What the phase is, for printed tables: "host->device copies", ..., "CPU work (dt_C)".
+std::string_view describe(Phase p);
 const std::vector<Phase>& all_phases();
 
 // How a term adds up with the other terms of its phase.
