@@ -44,14 +44,8 @@ double default_start(Param p) {
 
 // Does a sample's counts exercise component c (so that its prediction can be non-zero)?
 bool exercised(const CostCounts& k, Component c) {
-  switch (c) {
-    case Component::total: return true;
-    case Component::CG: return k.N_CG > 0 || k.transfers_CG > 0;
-    case Component::GC: return k.N_GC > 0 || k.transfers_GC > 0;
-    case Component::G: return k.N_GG > 0 || k.N_G > 0 || k.launches > 0 || k.waves > 0 || k.N_GS > 0 || k.atomics > 0;
-    case Component::C: return k.N_C > 0 || k.N_CC > 0 || k.cpu_syncs > 0;
-  }
-  return false;
+  const auto ph = phase(c);
+  return !ph || counts_phase(k, *ph);
 }
 
 struct Residual {

@@ -37,19 +37,20 @@ std::optional<Component> component_from_string(std::string_view s) {
   return std::nullopt;
 }
 
-double predicted(const Prediction& p, Component c) {
+std::optional<Phase> phase(Component c) {
   switch (c) {
-    case Component::total: return p.total;
-    case Component::CG: return p.dt_CG + p.lat_CG;
-    case Component::GC: return p.dt_GC + p.lat_GC;
-    case Component::G:
-      // Kernels and what each launch costs; the extended variant overlaps a kernel's memory
-      // traffic with its arithmetic.
-      return (p.variant == Variant::extended ? std::max(p.dt_GG, p.dt_G) : p.dt_GG + p.dt_G) + p.device_overheads();
-    // CPU work: arithmetic, its memory traffic (memory, extended) and thread syncs.
-    case Component::C: return p.dt_C;
+    case Component::total: return std::nullopt;
+    case Component::CG: return Phase::CG;
+    case Component::GC: return Phase::GC;
+    case Component::G: return Phase::G;
+    case Component::C: return Phase::C;
   }
-  return 0;
+  return std::nullopt;
+}
+
+double predicted(const Prediction& p, Component c) {
+  const auto ph = phase(c);
+  return ph ? phase_seconds(p, *ph) : p.total;
 }
 
 std::string_view to_string(TimingSource s) { return s == TimingSource::cupti ? "cupti" : "host"; }

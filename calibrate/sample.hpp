@@ -19,25 +19,31 @@
 #include "model/cost_counts.hpp"
 #include "model/predict.hpp"
 #include "model/profile.hpp"
+#include "model/terms.hpp"
 
 namespace dtflop::calib {
 
 inline constexpr const char* kSampleSchema = "dtflop.sample";
 inline constexpr int kSampleSchemaVersion = 1;
 
-// The measured components the model predicts, each tied to model terms:
-//   total - wall time of the run                 <-> Prediction::total
-//   CG    - host->device copies                   <-> dt_CG + lat_CG
-//   GC    - device->host copies                   <-> dt_GC + lat_GC
-//   G     - kernels                               <-> dt_GG + dt_G (extended: max of them) + lat_launch
-//   C     - CPU work, host clock                  <-> dt_C
-// So with the latency variant the components add up to the total. How each is measured (a
-// host clock around the phase, or CUPTI's device-side durations) is in the sample's timing note.
+// The measured components the model predicts: the total (wall time of the run, Prediction::
+// total) and the phases of a step a measurement times apart, each the sum of the model's terms
+// of that phase (model/terms.hpp, docs/model.md section 5):
+//   CG    - host->device copies                   <-> Phase::CG (dt_CG + lat_CG)
+//   GC    - device->host copies                   <-> Phase::GC (dt_GC + lat_GC)
+//   G     - kernels                               <-> Phase::G (dt_GG + dt_G, extended: the
+//                                                     larger, + launches, waves, atomics, tiles)
+//   C     - CPU work, host clock                  <-> Phase::C (Prediction::dt_C)
+// So the components and the host waits (Phase::wait, in the total only) add up to the total.
+// How each is measured (a host clock around the phase, or CUPTI's device-side durations) is in
+// the sample's timing note.
 enum class Component { total, CG, GC, G, C };
 
 std::string_view to_string(Component c);
 std::optional<Component> component_from_string(std::string_view s);
 const std::vector<Component>& all_components();
+// The model's phase a component measures; none for the total.
+std::optional<Phase> phase(Component c);
 // The model's prediction of component `c` (seconds), per the table above.
 double predicted(const Prediction& p, Component c);
 

@@ -5,67 +5,65 @@
 #include <fmt/format.h>
 
 #include "cli/table.hpp"
+#include "model/terms.hpp"
 #include "model/units.hpp"
 
 namespace dtflop::cli {
-namespace {
-
-std::string count_str(std::int64_t v) { return fmt::format("{}", v); }
-
-}  // namespace
 
 void print_counts(const CostCounts& c) {
   Table t({"count", "value", "meaning"}, "lrl");
-  t.row({"P", count_str(c.P), fmt::format("bytes per value ({})", to_string(c.precision))});
-  t.row({"N_CG", count_str(c.N_CG), fmt::format("values host->device in {} copies", c.transfers_CG)});
-  t.row({"N_GC", count_str(c.N_GC), fmt::format("values device->host in {} copies", c.transfers_GC)});
+  t.row({"P", fmt::format("{}", c.P), fmt::format("bytes per value ({})", to_string(c.precision))});
+  for (const CountField& f : count_fields()) {
+    const std::int64_t v = c.*f.member;
+    if (f.part_of && v == 0) continue;  // a part of another count: shown where there is one
+    t.row({std::string(f.name), fmt::format("{}", v), fmt::format("{} {}", f.unit, f.meaning)});
+  }
   if (!c.copies_GC.empty()) {
     std::string sizes;
     for (const CopySize& s : c.copies_GC)
       sizes += fmt::format("{}{} x {}", sizes.empty() ? "" : ", ", s.count, format_bytes(static_cast<double>(s.bytes)));
     t.row({"copies_GC", sizes, "device->host copies by size (pageable ones are staged, docs/model.md 2.1)"});
   }
-  t.row({"N_GG", count_str(c.N_GG), "values through device memory"});
-  t.row({"N_C", count_str(c.N_C), fmt::format("FLOPs on the CPU, on {} thread{}", c.cpu_threads,
-                                              c.cpu_threads == 1 ? "" : "s")});
-  if (c.N_CW > 0) t.row({"N_CW", count_str(c.N_CW), "of N_C, FLOPs of sliding-window loops (one unaligned load per FMA)"});
-  t.row({"N_CC", count_str(c.N_CC), "values through host memory (extended model)"});
-  t.row({"N_G", count_str(c.N_G), "FLOPs on the GPU"});
-  if (c.N_GR > 0) t.row({"N_GR", count_str(c.N_GR), "of N_G, FLOPs whose taps each read another row of device memory"});
-  t.row({"N_GS", count_str(c.N_GS), "values kernels copy into shared-memory tiles (per busiest-SM round x SMs)"});
-  t.row({"launches", count_str(c.launches), "kernel launches"});
-  t.row({"waves", count_str(c.waves), "rounds of thread blocks on the busiest GPU multiprocessor"});
-  t.row({"atomics", count_str(c.atomics), "atomic updates of one device address (serialized)"});
-  t.row({"host_waits", count_str(c.host_waits), "host submits device work and waits for it"});
-  t.row({"cpu_syncs", count_str(c.cpu_syncs), "CPU thread forks/joins and barriers"});
-  t.row({"host memory", std::string(to_string(c.host_memory)), ""});
+  t.row({"cpu_threads", fmt::format("{}", c.cpu_threads),
+         fmt::format("the CPU work runs on {} thread{}", c.cpu_threads, c.cpu_threads == 1 ? "" : "s")});
+  t.row({"host_memory", std::string(to_string(c.host_memory)), "host memory of the copies"});
   fmt::print("{}", t.str());
 }
 
 void print_prediction(const Prediction& p) {
-  Table t({"component", "time", "share"});
+  Table t({"term", "what", "time", "share"}, "llrr");
   auto share = [&p](double v) { return p.total > 0 ? fmt::format("{:.1f}%", 100 * v / p.total) : "-"; };
-  auto add = [&](const char* name, double v) { t.row({name, format_duration(v), share(v)}); };
-  add("dt_CG  host->device", p.dt_CG);
-  add("dt_GC  device->host", p.dt_GC);
-  add("dt_GG  device memory", p.dt_GG);
-  add("dt_C   CPU", p.dt_C);
-  add("dt_G   GPU arithmetic", p.dt_G);
-  if (p.variant != Variant::seed) {
-    add("latency host->device", p.lat_CG);
-    add("latency device->host", p.lat_GC);
-    add("kernel launches", p.lat_launch);
-    add("waves of thread blocks", p.lat_wave);
-    add("serialized atomic updates", p.lat_atomic);
-    add("shared-memory tile fills", p.dt_GS);
-    add("host waits for the device", p.lat_wait);
-    t.row({"  of which CPU thread syncs", format_duration(p.lat_sync), "(in dt_C)"});
+  std::string overlaps;  // extended: "max(dt_GG, dt_G), max(dt_C_arith, dt_CC)"
+  int zero = 0;
+  for (Phase phase : all_phases()) {
+    std::string group;
+    int rows = 0;
+    for (const Term& term : terms()) {
+      if (term.phase != phase || !term.applies(p.variant)) continue;
+      const double v = p.*term.field;
+      if (term.combine == Combine::overlap) group += fmt::format("{}{}", group.empty() ? "" : ", ", term.name);
+      if (v == 0) {
+        ++zero;
+        continue;
+      }
+      t.row({std::string(term.name), std::string(term.label), format_duration(v), share(v)});
+      ++rows;
+    }
+    // A phase of several terms: its time, what a measurement of it compares with.
+    if (rows > 1) {
+      const double v = phase_seconds(p, phase);
+      t.row({fmt::format("= {}", to_string(phase)), std::string(describe(phase)), format_duration(v), share(v)});
+    }
+    if (p.variant == kOverlapVariant && group.find(',') != std::string::npos)
+      overlaps += fmt::format("{}max({})", overlaps.empty() ? "" : " and ", group);
   }
-  t.row({"total", format_duration(p.total), ""});
+  t.row({"total", "", format_duration(p.total), ""});
   fmt::print("{}", t.str());
-  if (p.variant == Variant::extended)
-    fmt::print("(extended variant: device time is max(dt_GG, dt_G), so shares of the total may "
-               "add up to more than 100%)\n");
+  if (zero > 0) fmt::print("({} more term{} of the {} variant cost nothing here)\n", zero, zero == 1 ? "" : "s",
+                           to_string(p.variant));
+  if (!overlaps.empty())
+    fmt::print("({} variant: overlapping terms take {}, so the shares may add up to more than 100%)\n",
+               to_string(p.variant), overlaps);
 }
 
 }  // namespace dtflop::cli

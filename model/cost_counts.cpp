@@ -2,6 +2,10 @@
 
 #include <algorithm>
 
+#include <fmt/format.h>
+
+#include "model/errors.hpp"
+
 namespace dtflop {
 
 std::string_view to_string(HostMemory m) { return m == HostMemory::pinned ? "pinned" : "pageable"; }
@@ -14,47 +18,72 @@ void add_copies(std::vector<CopySize>& sizes, std::int64_t bytes, std::int64_t c
   else sizes.push_back({bytes, count});
 }
 
+const std::vector<CountField>& count_fields() {
+  using C = CostCounts;
+  using A = CountField::Accumulate;
+  static const std::vector<CountField> table = {
+      {"N_CG", &C::N_CG, "values", "host -> device"},
+      {"transfers_CG", &C::transfers_CG, "copies", "host -> device"},
+      {"N_GC", &C::N_GC, "values", "device -> host"},
+      {"transfers_GC", &C::transfers_GC, "copies", "device -> host"},
+      {"N_GG", &C::N_GG, "values", "through device memory (reads + writes)"},
+      {"N_G", &C::N_G, "FLOPs", "on the GPU"},
+      {"N_GR", &C::N_GR, "FLOPs", "of N_G, whose taps each read another row of device memory", A::sum, &C::N_G},
+      {"N_GS", &C::N_GS, "values", "copied into shared-memory tiles (per busiest-SM round x SMs)"},
+      {"launches", &C::launches, "launches", "of kernels"},
+      {"waves", &C::waves, "rounds", "of thread blocks on the busiest GPU multiprocessor"},
+      {"atomics", &C::atomics, "updates", "of one device address, one after another"},
+      {"host_waits", &C::host_waits, "waits", "of the host for device work it submitted"},
+      {"N_C", &C::N_C, "FLOPs", "on the CPU"},
+      {"N_CW", &C::N_CW, "FLOPs", "of N_C, of sliding-window loops (one unaligned load per FMA)", A::sum, &C::N_C},
+      {"N_CC", &C::N_CC, "values", "through host memory by CPU work"},
+      {"cpu_syncs", &C::cpu_syncs, "syncs", "of the CPU threads: forks, joins, barriers"},
+      {"cpu_footprint", &C::cpu_footprint, "bytes", "of host memory the CPU work touches in one step (0: not counted)",
+       A::max},
+  };
+  return table;
+}
+
+const CountField& count_field(std::int64_t CostCounts::*member) {
+  const auto& t = count_fields();
+  auto it = std::find_if(t.begin(), t.end(), [member](const CountField& f) { return f.member == member; });
+  return *it;  // every integer member of CostCounts has a row
+}
+
+void check_consistent(const CostCounts& c) {
+  if (!c.copies_GC.empty()) {
+    std::int64_t bytes = 0, copies = 0;
+    for (const CopySize& s : c.copies_GC) bytes += s.bytes * s.count, copies += s.count;
+    if (bytes != c.P * c.N_GC || copies != c.transfers_GC)
+      throw InputError(fmt::format(
+          "the counts list device->host copies of {} bytes in {} copies, but P N_GC is {} bytes in "
+          "transfers_GC = {} copies; the workload's counts are inconsistent",
+          bytes, copies, c.P * c.N_GC, c.transfers_GC));
+  }
+  for (const CountField& f : count_fields()) {
+    if (!f.part_of) continue;
+    const CountField& whole = count_field(f.part_of);
+    const std::int64_t n = c.*f.member, total = c.*f.part_of;
+    if (n < 0 || n > total)
+      throw InputError(fmt::format("the counts give {} = {}, not between 0 and {} = {} ({} counts {} {}): the "
+                                   "workload's counts are inconsistent",
+                                   f.name, n, whole.name, total, f.name, f.unit, f.meaning));
+  }
+}
+
 CostCounts& CostCounts::operator+=(const CostCounts& o) {
-  N_CG += o.N_CG;
-  N_GC += o.N_GC;
-  N_GG += o.N_GG;
-  N_C += o.N_C;
-  N_G += o.N_G;
-  N_GR += o.N_GR;
-  N_CC += o.N_CC;
-  N_CW += o.N_CW;
-  transfers_CG += o.transfers_CG;
-  transfers_GC += o.transfers_GC;
-  launches += o.launches;
-  waves += o.waves;
-  atomics += o.atomics;
-  host_waits += o.host_waits;
-  N_GS += o.N_GS;
-  cpu_syncs += o.cpu_syncs;
+  for (const CountField& f : count_fields())
+    this->*f.member = f.accumulate == CountField::Accumulate::sum ? this->*f.member + o.*f.member
+                                                                  : std::max(this->*f.member, o.*f.member);
   cpu_threads = std::max(cpu_threads, o.cpu_threads);
-  cpu_footprint = std::max(cpu_footprint, o.cpu_footprint);  // the larger working set
   for (const CopySize& s : o.copies_GC) add_copies(copies_GC, s.bytes, s.count);
   return *this;
 }
 
 CostCounts CostCounts::scaled(std::int64_t steps) const {
   CostCounts c = *this;
-  c.N_CG *= steps;
-  c.N_GC *= steps;
-  c.N_GG *= steps;
-  c.N_C *= steps;
-  c.N_G *= steps;
-  c.N_GR *= steps;
-  c.N_CC *= steps;
-  c.N_CW *= steps;
-  c.transfers_CG *= steps;
-  c.transfers_GC *= steps;
-  c.launches *= steps;
-  c.waves *= steps;
-  c.atomics *= steps;
-  c.host_waits *= steps;
-  c.N_GS *= steps;
-  c.cpu_syncs *= steps;
+  for (const CountField& f : count_fields())
+    if (f.accumulate == CountField::Accumulate::sum) c.*f.member *= steps;
   for (CopySize& s : c.copies_GC) s.count *= steps;
   return c;
 }

@@ -77,4 +77,28 @@ struct CostCounts {
 // Adds `count` copies of `bytes` bytes to `sizes` (merged with those of the same size).
 void add_copies(std::vector<CopySize>& sizes, std::int64_t bytes, std::int64_t count);
 
+// One integer count of CostCounts. The table of them (count_fields()) is what adds, scales,
+// reads, writes, checks and prints counts: a new count is a member above plus a row there
+// (docs/model.md, section 5).
+struct CountField {
+  // How the counts of two computations, or of several steps, combine.
+  enum class Accumulate {
+    sum,  // added, and multiplied by the steps (what one run moves or does)
+    max,  // the larger, whatever the steps (a figure of one step, e.g. a working set)
+  };
+  std::string_view name;                // JSON key and printed name
+  std::int64_t CostCounts::*member;
+  std::string_view unit;                // what one of it is: "values", "FLOPs", "copies", ...
+  std::string_view meaning;
+  Accumulate accumulate = Accumulate::sum;
+  // The count it is a part of (N_CW of N_C), or none: then 0 <= it <= that count.
+  std::int64_t CostCounts::*part_of = nullptr;
+};
+const std::vector<CountField>& count_fields();
+const CountField& count_field(std::int64_t CostCounts::*member);
+
+// Throws InputError when a count that is a part of another (CountField::part_of) is negative
+// or larger than it, or when copies_GC does not add up to P N_GC bytes in transfers_GC copies.
+void check_consistent(const CostCounts& counts);
+
 }  // namespace dtflop

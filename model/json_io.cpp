@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "model/errors.hpp"
+#include "model/terms.hpp"
 
 namespace dtflop {
 
@@ -210,28 +211,13 @@ void save_profile(const MachineProfile& p, const std::filesystem::path& path) {
 json to_json(const CostCounts& c) {
   json copies = json::array();
   for (const CopySize& s : c.copies_GC) copies.push_back({{"bytes", s.bytes}, {"count", s.count}});
-  return {{"P", c.P},
-          {"precision", to_string(c.precision)},
-          {"N_CG", c.N_CG},
-          {"N_GC", c.N_GC},
-          {"N_GG", c.N_GG},
-          {"N_C", c.N_C},
-          {"N_G", c.N_G},
-          {"N_GR", c.N_GR},
-          {"N_CC", c.N_CC},
-          {"N_CW", c.N_CW},
-          {"transfers_CG", c.transfers_CG},
-          {"transfers_GC", c.transfers_GC},
-          {"launches", c.launches},
-          {"waves", c.waves},
-          {"atomics", c.atomics},
-          {"host_waits", c.host_waits},
-          {"cpu_syncs", c.cpu_syncs},
-          {"N_GS", c.N_GS},
-          {"host_memory", to_string(c.host_memory)},
-          {"cpu_threads", c.cpu_threads},
-          {"cpu_footprint", c.cpu_footprint},
-          {"copies_GC", copies}};
+  json out = {{"P", c.P},
+              {"precision", to_string(c.precision)},
+              {"host_memory", to_string(c.host_memory)},
+              {"cpu_threads", c.cpu_threads},
+              {"copies_GC", copies}};
+  for (const CountField& f : count_fields()) out[std::string(f.name)] = c.*f.member;
+  return out;
 }
 
 CostCounts counts_from_json(const json& j) {
@@ -246,27 +232,14 @@ CostCounts counts_from_json(const json& j) {
   if (prec == "fp64") c.precision = Precision::fp64;
   else if (prec.empty() || prec == "fp32") c.precision = Precision::fp32;
   else bad("counts.precision", prec, "\"fp32\" or \"fp64\"");
-  c.N_CG = get_i64(j, "N_CG", 0);
-  c.N_GC = get_i64(j, "N_GC", 0);
-  c.N_GG = get_i64(j, "N_GG", 0);
-  c.N_C = get_i64(j, "N_C", 0);
-  c.N_G = get_i64(j, "N_G", 0);
-  c.N_CC = get_i64(j, "N_CC", 0);
-  c.N_CW = get_i64(j, "N_CW", 0);
-  c.N_GR = get_i64(j, "N_GR", 0);
-  if (c.N_GR > c.N_G)
-    bad("counts.N_GR", c.N_GR, fmt::format("at most N_G = {} (the across-row FLOPs are some of the GPU's FLOPs)", c.N_G));
-  if (c.N_CW > c.N_C)
-    bad("counts.N_CW", c.N_CW, fmt::format("at most N_C = {} (the sliding-window FLOPs are some of the CPU's FLOPs)", c.N_C));
-  c.transfers_CG = get_i64(j, "transfers_CG", 0);
-  c.transfers_GC = get_i64(j, "transfers_GC", 0);
-  c.launches = get_i64(j, "launches", 0);
-  c.waves = get_i64(j, "waves", 0);
-  c.atomics = get_i64(j, "atomics", 0);
-  c.host_waits = get_i64(j, "host_waits", 0);
-  c.cpu_syncs = get_i64(j, "cpu_syncs", 0);
-  c.N_GS = get_i64(j, "N_GS", 0);
-  c.cpu_footprint = get_i64(j, "cpu_footprint", 0);
+  // Every count may be absent (counts written before it existed): zero.
+  for (const CountField& f : count_fields()) c.*f.member = get_i64(j, std::string(f.name), 0);
+  for (const CountField& f : count_fields())
+    if (f.part_of && c.*f.member > c.*f.part_of) {
+      const CountField& whole = count_field(f.part_of);
+      bad(fmt::format("counts.{}", f.name), c.*f.member,
+          fmt::format("at most {} = {} ({} counts {} {})", whole.name, c.*f.part_of, f.name, f.unit, f.meaning));
+    }
   if (auto it = j.find("copies_GC"); it != j.end()) {
     if (!it->is_array()) bad("counts.copies_GC", *it, "an array of {\"bytes\": B, \"count\": n}");
     for (const json& s : *it) {
@@ -286,15 +259,9 @@ CostCounts counts_from_json(const json& j) {
 }
 
 json to_json(const Prediction& p) {
-  return {{"variant", to_string(p.variant)}, {"dt_CG", p.dt_CG},   {"dt_GC", p.dt_GC},
-          {"dt_GG", p.dt_GG},                {"dt_C", p.dt_C},     {"dt_G", p.dt_G},
-          {"lat_CG", p.lat_CG},              {"lat_GC", p.lat_GC}, {"lat_launch", p.lat_launch},
-          {"lat_sync", p.lat_sync},
-          {"lat_wave", p.lat_wave},
-          {"lat_atomic", p.lat_atomic},
-          {"lat_wait", p.lat_wait},
-          {"dt_GS", p.dt_GS},
-          {"dt_trans", p.dt_trans()},        {"total", p.total}};
+  json out = {{"variant", to_string(p.variant)}, {"dt_C", p.dt_C}, {"dt_trans", p.dt_trans()}, {"total", p.total}};
+  for (const Term& t : terms()) out[std::string(t.name)] = p.*t.field;
+  return out;
 }
 
 }  // namespace dtflop

@@ -1,6 +1,7 @@
 // The DTFLOP prediction: per-component times from a machine profile and cost counts.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -22,6 +23,11 @@ namespace dtflop {
 //  extended - latency + overlap: inside the device, memory traffic and arithmetic overlap
 //             (max instead of sum), and on the host, arithmetic (N_CW priced as in memory) and
 //             memory traffic overlap.
+//
+// Each variant but the seed extends one simpler variant: latency the seed, memory and extended
+// the latency variant. memory and extended price the same terms with the same parameters and
+// differ only in how they combine them (sum or overlap), so neither is simpler than the other:
+// the variants form a tree, seed < latency < {memory, extended}, not a chain.
 enum class Variant { seed, latency, memory, extended };
 
 std::string_view to_string(Variant v);
@@ -29,13 +35,17 @@ std::optional<Variant> variant_from_string(std::string_view s);
 const std::vector<Variant>& all_variants();
 // "seed, latency, memory or extended": the names, for help texts and messages.
 std::string variant_names(std::string_view last_separator = " or ");
+// The variant `v` extends (latency for memory and extended), or none for the seed.
+std::optional<Variant> simpler_variant(Variant v);
 
 struct Prediction {
   Variant variant = Variant::seed;
   double dt_CG = 0;      // bandwidth part of host->device  [s]
   double dt_GC = 0;      // bandwidth part of device->host  [s]
   double dt_GG = 0;      // device memory traffic           [s]
-  double dt_C = 0;       // CPU work, lat_sync included     [s]
+  double dt_C = 0;       // CPU work: dt_C_arith and dt_CC (added; extended: the larger) + lat_sync [s]
+  double dt_C_arith = 0; // CPU arithmetic, N_CW priced K_CW (memory, extended) [s]
+  double dt_CC = 0;      // host memory traffic of CPU work (memory, extended) [s]
   double dt_G = 0;       // GPU arithmetic                  [s]
   double lat_CG = 0;     // transfers_CG x per-transfer latency
   double lat_GC = 0;     // transfers_GC x per-transfer latency
@@ -50,7 +60,8 @@ struct Prediction {
   double dt_trans() const { return dt_CG + dt_GC + dt_GG; }  // eq. 3.4
   // What the kernels pay besides their traffic and arithmetic (latency+): launches, rounds of
   // blocks, serialized atomics, tile fills.
-  double device_overheads() const { return lat_launch + lat_wave + lat_atomic + dt_GS; }
+  // The kernels' terms that add to their traffic and arithmetic (model/terms.cpp).
+  double device_overheads() const;
 };
 
 // Which parameters a prediction of `counts` with `variant` needs (only those whose counts
@@ -69,7 +80,27 @@ bool has_staging(const MachineProfile& profile);
 double staged_copy_seconds(const MachineProfile& profile, std::int64_t bytes);
 
 // Throws MissingParameter (naming the parameter and what to do) when the profile lacks one.
+// The terms and how they add up are the table of model/terms.hpp.
 Prediction predict(const MachineProfile& profile, const CostCounts& counts, Variant variant);
+
+// The richest variant at or below `wanted` (walking simpler_variant(): extended or memory, then
+// latency, then seed) whose parameters for `counts` the profile holds; it never fails where
+// the seed variant can predict. `missing` (when given) receives what the profile lacks for
+// `wanted` (empty when it predicts with `wanted`), for a note such as fallback_note(). Throws
+// MissingParameter, as predict() would, when even the seed lacks a parameter (e.g. a GPU
+// computation and a profile of a machine without a GPU).
+Variant richest_supported_variant(const MachineProfile& profile, const CostCounts& counts, Variant wanted,
+                                  std::vector<Param>* missing = nullptr);
+// One line for stderr when richest_supported_variant() fell back from `wanted` to `used`: what
+// was missing and how to get it, e.g. "the machine profile lacks K_CW (...): predicting with
+// the latency variant instead of memory; fit it with `dtflop calibrate` (docs/calibration.md)".
+std::string fallback_note(Variant wanted, Variant used, const std::vector<Param>& missing);
+
+// The metadata key under which `dtflop calibrate` records the variant its cross-validation chose.
+inline constexpr const char* kChosenVariantKey = "model_variant";
+// The variant a fitted profile chose (metadata "model_variant"), or none when the profile does
+// not name one (a probed profile). Throws InputError when it names an unknown variant.
+std::optional<Variant> chosen_variant(const MachineProfile& profile);
 
 // Real-time condition (eq. 3.1): dt <= dt_p.
 inline bool meets_deadline(const Prediction& p, double dt_p) { return p.total <= dt_p; }

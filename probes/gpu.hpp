@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "model/cost_counts.hpp"  // HostMemory: the model's, pinned or pageable
+
 namespace dtflop::probes::gpu {
 
 // A CUDA call failed; the message names the call, where, and CUDA's error string.
@@ -39,7 +41,6 @@ struct DeviceInfo {
 DeviceInfo device_info();
 
 enum class Direction { host_to_device, device_to_host };
-enum class HostMemory { pinned, pageable };
 
 struct SizeTiming {
   std::int64_t bytes = 0;

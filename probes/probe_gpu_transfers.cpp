@@ -43,7 +43,7 @@ Plan plan(Effort e) {
 
 struct Series {
   gpu::Direction dir;
-  gpu::HostMemory mem;
+  HostMemory mem;
   const char* key;    // "h2d_pinned"
   const char* label;  // "host->device, pinned"
   Param bandwidth;
@@ -51,13 +51,13 @@ struct Series {
 };
 
 const Series kSeries[] = {
-    {gpu::Direction::host_to_device, gpu::HostMemory::pinned, "h2d_pinned", "host->device, pinned",
+    {gpu::Direction::host_to_device, HostMemory::pinned, "h2d_pinned", "host->device, pinned",
      Param::B_CG_pinned, Param::L_CG_pinned},
-    {gpu::Direction::device_to_host, gpu::HostMemory::pinned, "d2h_pinned", "device->host, pinned",
+    {gpu::Direction::device_to_host, HostMemory::pinned, "d2h_pinned", "device->host, pinned",
      Param::B_GC_pinned, Param::L_GC_pinned},
-    {gpu::Direction::host_to_device, gpu::HostMemory::pageable, "h2d_pageable",
+    {gpu::Direction::host_to_device, HostMemory::pageable, "h2d_pageable",
      "host->device, pageable", Param::B_CG_pageable, Param::L_CG_pageable},
-    {gpu::Direction::device_to_host, gpu::HostMemory::pageable, "d2h_pageable",
+    {gpu::Direction::device_to_host, HostMemory::pageable, "d2h_pageable",
      "device->host, pageable", Param::B_GC_pageable, Param::L_GC_pageable},
 };
 

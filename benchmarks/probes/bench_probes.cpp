@@ -93,7 +93,7 @@ void BM_Transfer(benchmark::State& st) {
   const std::vector<std::int64_t> size = {st.range(0)};
   const std::vector<int> reps = {static_cast<int>(st.max_iterations)};
   const auto dir = st.range(1) == 0 ? gpu::Direction::host_to_device : gpu::Direction::device_to_host;
-  const auto mem = st.range(2) == 0 ? gpu::HostMemory::pinned : gpu::HostMemory::pageable;
+  const auto mem = st.range(2) == 0 ? HostMemory::pinned : HostMemory::pageable;
   const auto t = gpu::time_transfers(dir, mem, size, reps, 2);
   report(st, t[0].seconds, static_cast<double>(st.range(0)), "median_GBps", 1e9);
   st.SetBytesProcessed(static_cast<std::int64_t>(st.iterations()) * st.range(0));

@@ -206,5 +206,43 @@ TEST(CalibFit, CrossValidationNeedsEnoughSamples) {
   EXPECT_THROW(choose_variant({}), InputError);
 }
 
+// The measured components are the model's phases (model/terms.hpp): the same sums as the
+// formulas written out here before the table of terms, and with the host waits they make the total.
+TEST(CalibSample, PredictedComponentsAreThePhasesOfThePrediction) {
+  CostCounts c;
+  c.N_CG = 1'000'000;
+  c.N_GC = 500'000;
+  c.N_GG = 2'000'000;
+  c.N_G = 1'000'000'000;
+  c.N_GS = 300'000;
+  c.N_C = 6'000'000;
+  c.N_CC = 3'000'000;
+  c.transfers_CG = 3;
+  c.transfers_GC = 2;
+  c.launches = 4;
+  c.waves = 5;
+  c.atomics = 100;
+  c.host_waits = 2;
+  c.cpu_syncs = 3;
+  c.cpu_threads = 8;
+  for (Variant v : all_variants()) {
+    const Prediction p = predict(test::round_profile(), c, v);
+    EXPECT_EQ(predicted(p, Component::total), p.total);
+    EXPECT_NEAR(predicted(p, Component::CG), p.dt_CG + p.lat_CG, 1e-18) << to_string(v);
+    EXPECT_NEAR(predicted(p, Component::GC), p.dt_GC + p.lat_GC, 1e-18) << to_string(v);
+    EXPECT_NEAR(predicted(p, Component::G),
+                (v == Variant::extended ? std::max(p.dt_GG, p.dt_G) : p.dt_GG + p.dt_G) + p.lat_launch + p.lat_wave +
+                    p.lat_atomic + p.dt_GS,
+                1e-18)
+        << to_string(v);
+    EXPECT_EQ(predicted(p, Component::C), p.dt_C) << to_string(v);
+    double sum = p.lat_wait;
+    for (Component k : {Component::CG, Component::GC, Component::G, Component::C}) sum += predicted(p, k);
+    EXPECT_NEAR(sum, p.total, 1e-15 * p.total) << to_string(v);
+  }
+  EXPECT_EQ(phase(Component::total), std::nullopt);
+  EXPECT_EQ(phase(Component::G), Phase::G);
+}
+
 }  // namespace
 }  // namespace dtflop::calib

@@ -31,7 +31,7 @@ TEST(GpuProbes, TransfersMoveTheDataBothWays) {
   const std::vector<std::int64_t> sizes = {4096, 1 << 20, 16 << 20};
   const std::vector<int> reps = {5, 5, 3};
   for (auto dir : {gpu::Direction::host_to_device, gpu::Direction::device_to_host})
-    for (auto mem : {gpu::HostMemory::pinned, gpu::HostMemory::pageable}) {
+    for (auto mem : {HostMemory::pinned, HostMemory::pageable}) {
       // time_transfers checks every word of every size and throws ValidationError otherwise.
       const auto t = gpu::time_transfers(dir, mem, sizes, reps, 1);
       ASSERT_EQ(t.size(), sizes.size());
@@ -56,7 +56,7 @@ TEST(GpuProbes, BlockingCopiesTakeLongerThanTheCopyAlone) {
     const auto blocking = gpu::time_blocking_copies(dir, 4096, 20);
     const std::vector<std::int64_t> size = {4096};
     const std::vector<int> reps = {20};
-    const auto events = gpu::time_transfers(dir, gpu::HostMemory::pinned, size, reps, 2);
+    const auto events = gpu::time_transfers(dir, HostMemory::pinned, size, reps, 2);
     ASSERT_EQ(blocking.size(), 20u);
     // The call, the copy and the wait, against the copy as the device's events see it: the
     // blocking call cannot be much faster (allow 20% for clock granularity).
@@ -68,7 +68,7 @@ TEST(GpuProbes, TransferArgumentsAreChecked) {
   DTFLOP_REQUIRE_GPU();
   const std::vector<std::int64_t> odd = {4097};
   const std::vector<int> one = {1};
-  EXPECT_THROW(gpu::time_transfers(gpu::Direction::host_to_device, gpu::HostMemory::pinned, odd,
+  EXPECT_THROW(gpu::time_transfers(gpu::Direction::host_to_device, HostMemory::pinned, odd,
                                    one, 0),
                std::invalid_argument);
 }

@@ -1,0 +1,264 @@
+#include "model/terms.hpp"
+
+#include <algorithm>
+
+#include <fmt/format.h>
+
+namespace dtflop {
+
+std::string_view to_string(Phase p) {
+  switch (p) {
+    case Phase::CG: return "CG";
+    case Phase::GC: return "GC";
+    case Phase::G: return "G";
+    case Phase::C: return "C";
+    case Phase::wait: return "wait";
+  }
+  return "?";
+}
+
+std::string_view describe(Phase p) {
+  switch (p) {
+    case Phase::CG: return "host->device copies";
+    case Phase::GC: return "device->host copies";
+    case Phase::G: return "kernels";
+    case Phase::C: return "CPU work (dt_C)";
+    case Phase::wait: return "host waits for the device";
+  }
+  return "?";
+}
+
+const std::vector<Phase>& all_phases() {
+  static const std::vector<Phase> all = {Phase::CG, Phase::GC, Phase::G, Phase::C, Phase::wait};
+  return all;
+}
+
+std::string Variants::str() const {
+  bool every = true;
+  std::string out;
+  for (Variant v : all_variants()) {
+    if (!contains(v)) {
+      every = false;
+      continue;
+    }
+    out += fmt::format("{}{}", out.empty() ? "" : ", ", to_string(v));
+  }
+  return every ? std::string("every variant") : out;
+}
+
+Pricing Pricing::of(const MachineProfile& m) { return {m.identity.cpu_llc_bytes, has_staging(m)}; }
+
+namespace {
+
+// ---- Which parameter prices a term, for given counts ----------------------------------------
+
+bool pinned(const CostCounts& c) { return c.host_memory == HostMemory::pinned; }
+Param b_cg(const CostCounts& c) { return pinned(c) ? Param::B_CG_pinned : Param::B_CG_pageable; }
+Param b_gc(const CostCounts& c) { return pinned(c) ? Param::B_GC_pinned : Param::B_GC_pageable; }
+Param l_cg(const CostCounts& c) { return pinned(c) ? Param::L_CG_pinned : Param::L_CG_pageable; }
+Param l_gc(const CostCounts& c) { return pinned(c) ? Param::L_GC_pinned : Param::L_GC_pageable; }
+bool fp64(const CostCounts& c) { return c.precision == Precision::fp64; }
+Param v_c1(const CostCounts& c) { return fp64(c) ? Param::V_C1_fp64 : Param::V_C1_fp32; }
+Param v_c(const CostCounts& c) { return fp64(c) ? Param::V_C_fp64 : Param::V_C_fp32; }
+Param v_g(const CostCounts& c) { return fp64(c) ? Param::V_G_fp64 : Param::V_G_fp32; }
+template <Param P>
+Param only(const CostCounts&) {
+  return P;
+}
+// A CPU figure on cpu_threads threads: the one-thread figure, and for more threads the
+// all-thread one too (cpu_rate() picks between them).
+std::vector<Param> cpu_params(Param one, Param all, int threads) {
+  if (threads <= 1) return {one};
+  return {one, all};
+}
+
+// ---- The shapes of the simple terms ----------------------------------------------------------
+
+using Pick = Param (*)(const CostCounts&);
+
+template <std::int64_t CostCounts::*N>
+bool positive(const CostCounts& c) {
+  return c.*N > 0;
+}
+template <Pick pick>
+std::vector<Param> needs_one(const CostCounts& c, Variant, const Pricing&) {
+  return {pick(c)};
+}
+// P N / B: values moved over a bandwidth.
+template <std::int64_t CostCounts::*N, Pick B>
+double bytes_over_bandwidth(const MachineProfile& m, const CostCounts& c, Variant, const Pricing&) {
+  const double P = c.P;
+  return P * static_cast<double>(c.*N) / m.get(B(c)).value;
+}
+// n L: events that each cost a fixed time.
+template <std::int64_t CostCounts::*N, Pick L>
+double events_times_latency(const MachineProfile& m, const CostCounts& c, Variant, const Pricing&) {
+  return static_cast<double>(c.*N) * m.get(L(c)).value;
+}
+
+// ---- The terms with rules of their own --------------------------------------------------------
+
+// FLOPs of which `part` cost `k` times the others, in FLOPs at the plain rate.
+double priced_flops(std::int64_t all, std::int64_t part, double k) {
+  return static_cast<double>(all) + (k - 1) * static_cast<double>(part);
+}
+
+// dt_GC. A pageable device->host copy is staged through pinned memory: with the copies' sizes
+// counted and the staging figures known, latency+ prices it per copy by its size
+// (docs/model.md 2.1); otherwise P N_GC / B_GC as the seed's eq. 3.6.
+bool staged(const CostCounts& c, Variant v, const Pricing& x) {
+  return x.staging && kLatencyVariants.contains(v) && c.host_memory == HostMemory::pageable && !c.copies_GC.empty();
+}
+std::vector<Param> gc_needs(const CostCounts& c, Variant v, const Pricing& x) {
+  if (staged(c, v, x)) return {b_gc(c), Param::B_GC_staged, Param::S_GC_staged, Param::S_GC_flat};
+  return {b_gc(c)};
+}
+double gc_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing& x) {
+  if (!staged(c, v, x)) return bytes_over_bandwidth<&CostCounts::N_GC, b_gc>(m, c, v, x);
+  double s = 0;
+  for (const CopySize& copy : c.copies_GC) s += static_cast<double>(copy.count) * staged_copy_seconds(m, copy.bytes);
+  return s;
+}
+
+// dt_G. latency+: the FLOPs whose taps read across rows (N_GR) cost K_GR times the others (each
+// tap fetches a new line through the caches: docs/model.md 2.2).
+bool across_rows(const CostCounts& c, Variant v) { return kLatencyVariants.contains(v) && c.N_GR > 0; }
+std::vector<Param> g_needs(const CostCounts& c, Variant v, const Pricing&) {
+  if (across_rows(c, v)) return {v_g(c), Param::K_GR};
+  return {v_g(c)};
+}
+double g_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing&) {
+  return priced_flops(c.N_G, c.N_GR, across_rows(c, v) ? m.get(Param::K_GR).value : 1.0) / m.get(v_g(c)).value;
+}
+
+// dt_C_arith. Over the CPU rate of cpu_threads threads (docs/model.md 2.3); memory and extended:
+// the sliding-window FLOPs (N_CW) cost K_CW times the others (their loads, one per FMA and most
+// of them unaligned, hold the arithmetic back: docs/model.md 2.4).
+bool sliding_window(const CostCounts& c, Variant v) { return kHostMemoryVariants.contains(v) && c.N_CW > 0; }
+std::vector<Param> c_needs(const CostCounts& c, Variant v, const Pricing&) {
+  auto out = cpu_params(v_c1(c), v_c(c), c.cpu_threads);
+  if (sliding_window(c, v)) out.push_back(Param::K_CW);
+  return out;
+}
+double c_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing&) {
+  return priced_flops(c.N_C, c.N_CW, sliding_window(c, v) ? m.get(Param::K_CW).value : 1.0) /
+         cpu_rate(m, c.precision, c.cpu_threads);
+}
+
+// dt_CC. The CPU work's host memory traffic, over the bandwidth of cpu_threads threads; the
+// share the last-level cache serves (cpu_footprint < LLC) at the cache's (docs/model.md 2.4).
+std::vector<Param> cc_needs(const CostCounts& c, Variant, const Pricing& x) {
+  auto out = cpu_params(Param::B_host_1, Param::B_host, c.cpu_threads);
+  if (c.cpu_footprint > 0 && c.cpu_footprint < x.llc_bytes)
+    for (Param p : cpu_params(Param::B_llc_1, Param::B_llc, c.cpu_threads)) out.push_back(p);
+  return out;
+}
+double cc_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing&) {
+  const double P = c.P;
+  return P * static_cast<double>(c.N_CC) * host_seconds_per_byte(m, c);
+}
+
+// The two simple shapes: P N / B, values moved over a bandwidth, and n L, events at a fixed cost.
+template <std::int64_t CostCounts::*N, Pick B>
+constexpr Price per_byte() {
+  return {positive<N>, needs_one<B>, bytes_over_bandwidth<N, B>};
+}
+template <std::int64_t CostCounts::*N, Pick L>
+constexpr Price per_event() {
+  return {positive<N>, needs_one<L>, events_times_latency<N, L>};
+}
+
+}  // namespace
+
+const std::vector<Term>& terms() {
+  using P = Prediction;
+  using C = CostCounts;
+  constexpr auto sum = Combine::sum, overlap = Combine::overlap;
+  static const std::vector<Term> table = {
+      // name, field, phase, variants, combine, count, parameters, label, price
+      {"dt_CG", &P::dt_CG, Phase::CG, kEveryVariant, sum, "P N_CG", "B_CG_pinned or B_CG_pageable (host_memory)",
+       "host->device copies: bandwidth", per_byte<&C::N_CG, b_cg>()},
+      {"lat_CG", &P::lat_CG, Phase::CG, kLatencyVariants, sum, "transfers_CG",
+       "L_CG_pinned or L_CG_pageable (host_memory)", "host->device copies: latency",
+       per_event<&C::transfers_CG, l_cg>()},
+      {"dt_GC", &P::dt_GC, Phase::GC, kEveryVariant, sum,
+       "P N_GC; latency+, pageable, sizes in copies_GC: each copy by its size (2.1)",
+       "B_GC_pinned or B_GC_pageable (host_memory); staged: B_GC_staged, S_GC_staged, S_GC_flat",
+       "device->host copies: bandwidth", {positive<&C::N_GC>, gc_needs, gc_seconds}},
+      {"lat_GC", &P::lat_GC, Phase::GC, kLatencyVariants, sum, "transfers_GC",
+       "L_GC_pinned or L_GC_pageable (host_memory)", "device->host copies: latency",
+       per_event<&C::transfers_GC, l_gc>()},
+      {"dt_GG", &P::dt_GG, Phase::G, kEveryVariant, overlap, "P N_GG", "B_GG", "device memory traffic",
+       per_byte<&C::N_GG, only<Param::B_GG>>()},
+      {"dt_G", &P::dt_G, Phase::G, kEveryVariant, overlap, "N_G + (K_GR - 1) N_GR; seed: N_G",
+       "V_G_fp32 or V_G_fp64 (precision); K_GR (latency+, N_GR > 0)", "GPU arithmetic",
+       {positive<&C::N_G>, g_needs, g_seconds}},
+      {"lat_launch", &P::lat_launch, Phase::G, kLatencyVariants, sum, "launches", "L_launch", "kernel launches",
+       per_event<&C::launches, only<Param::L_launch>>()},
+      {"lat_wave", &P::lat_wave, Phase::G, kLatencyVariants, sum, "waves", "L_wave", "rounds of thread blocks",
+       per_event<&C::waves, only<Param::L_wave>>()},
+      {"lat_atomic", &P::lat_atomic, Phase::G, kLatencyVariants, sum, "atomics", "L_atomic",
+       "serialized atomic updates", per_event<&C::atomics, only<Param::L_atomic>>()},
+      {"dt_GS", &P::dt_GS, Phase::G, kLatencyVariants, sum, "P N_GS", "B_GS", "shared-memory tile fills",
+       per_byte<&C::N_GS, only<Param::B_GS>>()},
+      {"dt_C_arith", &P::dt_C_arith, Phase::C, kEveryVariant, overlap,
+       "N_C + (K_CW - 1) N_CW; seed, latency: N_C",
+       "V_C1_fp32 or V_C1_fp64 (precision), and V_C_fp32 or V_C_fp64 for cpu_threads > 1 (2.3); K_CW (memory, "
+       "extended, N_CW > 0)",
+       "CPU arithmetic", {positive<&C::N_C>, c_needs, c_seconds}},
+      {"dt_CC", &P::dt_CC, Phase::C, kHostMemoryVariants, overlap, "P N_CC",
+       "B_host_1, and B_host for cpu_threads > 1; B_llc_1 (and B_llc) when 0 < cpu_footprint < LLC (2.4)",
+       "host memory traffic", {positive<&C::N_CC>, cc_needs, cc_seconds}},
+      {"lat_sync", &P::lat_sync, Phase::C, kLatencyVariants, sum, "cpu_syncs", "L_sync", "CPU thread syncs",
+       per_event<&C::cpu_syncs, only<Param::L_sync>>()},
+      {"lat_wait", &P::lat_wait, Phase::wait, kLatencyVariants, sum, "host_waits", "L_wait",
+       "host waits for the device", per_event<&C::host_waits, only<Param::L_wait>>()},
+  };
+  return table;
+}
+
+double phase_seconds(const Prediction& p, Phase phase) {
+  const bool max = p.variant == kOverlapVariant;
+  double overlapping = 0, added = 0;
+  for (const Term& t : terms()) {
+    if (t.phase != phase) continue;
+    const double s = p.*t.field;
+    if (t.combine == Combine::sum) added += s;
+    else overlapping = max ? std::max(overlapping, s) : overlapping + s;
+  }
+  return overlapping + added;
+}
+
+bool counts_phase(const CostCounts& c, Phase phase) {
+  return std::any_of(terms().begin(), terms().end(),
+                     [&](const Term& t) { return t.phase == phase && t.price.counted(c); });
+}
+
+double Prediction::device_overheads() const {
+  double s = 0;
+  for (const Term& t : terms())
+    if (t.phase == Phase::G && t.combine == Combine::sum) s += this->*t.field;
+  return s;
+}
+
+std::string terms_markdown() {
+  std::string out =
+      "| term | phase | variants | combines | counts | parameters | what |\n"
+      "| --- | --- | --- | --- | --- | --- | --- |\n";
+  for (const Term& t : terms())
+    out += fmt::format("| {} | {} | {} | {} | {} | {} | {} |\n", t.name, to_string(t.phase), t.variants.str(),
+                       t.combine == Combine::sum ? "sum" : "overlap", t.count, t.params, t.label);
+  return out;
+}
+
+std::string counts_markdown() {
+  std::string out =
+      "| count | unit | meaning | steps and sums |\n"
+      "| --- | --- | --- | --- |\n";
+  for (const CountField& f : count_fields())
+    out += fmt::format("| {} | {} | {} | {} |\n", f.name, f.unit, f.meaning,
+                       f.accumulate == CountField::Accumulate::sum ? "added" : "the larger");
+  return out;
+}
+
+}  // namespace dtflop
