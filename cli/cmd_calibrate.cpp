@@ -170,7 +170,7 @@ void run(const CalibrateOptions& o) {
   MachineProfile out = r.profile;
   std::string stores;
   for (const auto& s : o.stores) stores += (stores.empty() ? "" : ";") + fs::absolute(s).lexically_normal().string();
-  out.metadata["model_variant"] = std::string(to_string(r.variant));
+  out.metadata[kChosenVariantKey] = std::string(to_string(r.variant));
   out.metadata["model_variant_reason"] = choice.reason;
   out.metadata["fit_samples"] = std::to_string(samples.size());
   if (merged.max_rounds > 1) {

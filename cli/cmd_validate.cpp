@@ -82,13 +82,8 @@ int run(const ValidateOptions& o) {
     if (!v) throw InputError(fmt::format("--variant '{}' is unknown; use {}", o.variant, variant_names()));
     variant = *v;
     variant_from = "--variant";
-  } else if (auto it = profile.metadata.find("model_variant"); it != profile.metadata.end()) {
-    auto v = variant_from_string(it->second);
-    if (!v)
-      throw InputError(fmt::format("profile '{}' names model variant '{}', which this dtflop does not know; pass "
-                                   "--variant",
-                                   o.machine, it->second));
-    variant = *v;
+  } else if (const auto chosen = chosen_variant(profile)) {
+    variant = *chosen;
     variant_from = "the profile's fit";
   }
 

@@ -59,41 +59,16 @@ Variant wanted_variant(const PredictArgs& args, const MachineProfile& profile) {
     if (!v) throw InputError(fmt::format("--variant '{}' is unknown; use {}", args.variant, variant_names()));
     return *v;
   }
-  if (auto it = profile.metadata.find("model_variant"); it != profile.metadata.end()) {
-    const auto v = variant_from_string(it->second);
-    if (!v)
-      throw InputError(fmt::format("the profile's metadata.model_variant '{}' is no variant ({}); fix the file or "
-                                   "give --variant",
-                                   it->second, variant_names()));
-    return *v;
-  }
-  return Variant::extended;
+  return chosen_variant(profile).value_or(Variant::extended);
 }
 
 Predicted predict_with_fallback(const MachineProfile& profile, const CostCounts& counts, Variant wanted) {
-  const auto& order = all_variants();  // from the simplest
-  std::string missing_wanted;
-  for (auto it = std::find(order.rbegin(), order.rend(), wanted); it != order.rend(); ++it) {
-    try {
-      Predicted r;
-      r.variant = *it;
-      r.prediction = predict(profile, counts, *it);
-      if (*it != wanted)
-        r.fallback = fmt::format("{}; predicting with the {} variant instead", missing_wanted, to_string(*it));
-      return r;
-    } catch (const MissingParameter& e) {
-      if (*it == Variant::seed) throw;
-      if (missing_wanted.empty()) {
-        std::string names;
-        for (Param p : required_params(counts, wanted, profile.identity.cpu_llc_bytes, has_staging(profile)))
-          if (!profile.has(p)) names += (names.empty() ? "" : ", ") + std::string(info(p).name);
-        missing_wanted = fmt::format("the profile lacks {}, which the {} variant needs (`dtflop calibrate` fits "
-                                     "parameters no probe measures from measured runs: docs/calibration.md)",
-                                     names, to_string(wanted));
-      }
-    }
-  }
-  throw std::logic_error("predict_with_fallback: no variant tried");
+  std::vector<Param> missing;
+  Predicted r;
+  r.variant = richest_supported_variant(profile, counts, wanted, &missing);
+  if (r.variant != wanted) r.fallback = fallback_note(wanted, r.variant, missing);
+  r.prediction = predict(profile, counts, r.variant);
+  return r;
 }
 
 std::optional<double> deadline_of(const PredictArgs& args) {
