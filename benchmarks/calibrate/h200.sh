@@ -32,11 +32,14 @@ part=${1:-}
 mkdir -p "$O"
 log="$O/log-$part.txt"
 say() { echo "== $* ($(date -u +%H:%M:%S))" | tee -a "$log"; }
-sweep() {  # sweep LIMIT_S STORE ARGS...
-  local limit=$1 store=$2
+sweep() {  # sweep LIMIT_S STORE [--seed S] ARGS...
+  # --seed S is the random plan's seed: it goes before the workload (after `rbe`, --seed is the
+  # synthetic problem's seed).
+  local limit=$1 store=$2 plan_seed=()
   shift 2
-  say "sweep $* -> $store"
-  timeout "$limit" $B/dtflop sweep rbe --store "$O/$store" --quiet "$@" 2>&1 | tee -a "$log"
+  if [[ "${1:-}" == --seed ]]; then plan_seed=(--seed "$2"); shift 2; fi
+  say "sweep ${plan_seed[*]:+${plan_seed[*]} }rbe $* -> $store"
+  timeout "$limit" $B/dtflop sweep "${plan_seed[@]}" rbe --store "$O/$store" --quiet "$@" 2>&1 | tee -a "$log"
 }
 
 say machine
@@ -70,11 +73,11 @@ if [[ "$part" == all ]]; then
   gpu_tests
   # Rounds are resumable: `--rounds r` on a store holding rounds 1..r-1 measures round r only.
   for r in 1 2 3 4 5; do
-    for setup in "--backend cuda-seed" "--backend cuda-seed --memory pinned" "--backend cuda-resident"; do
+    for setup in "--backend cuda-seed" "--backend cuda-seed --host-memory pinned" "--backend cuda-resident"; do
       # shellcheck disable=SC2086
       sweep 60 fit.jsonl $setup --plan seed-test2 --rounds $r
       # shellcheck disable=SC2086
-      sweep 60 fit.jsonl $setup --plan random:50 --seed 7 --rounds $r
+      sweep 60 fit.jsonl --seed 7 $setup --plan random:50 --rounds $r
       # shellcheck disable=SC2086
       sweep 60 held.jsonl $setup --plan random:50 --rounds $r
     done
@@ -87,7 +90,7 @@ elif [[ "$part" == resident ]]; then
   probe_quick
   gpu_tests
   sweep 60 fit.jsonl --backend cuda-resident --plan seed-test2 --rounds 3
-  sweep 60 fit.jsonl --backend cuda-resident --plan random:50 --seed 7 --rounds 3
+  sweep 60 fit.jsonl --seed 7 --backend cuda-resident --plan random:50 --rounds 3
   sweep 90 fit.jsonl --backend cuda-resident --plan seed-test1 --rounds 2
   sweep 60 held.jsonl --backend cuda-resident --plan random:50 --rounds 3
 fi

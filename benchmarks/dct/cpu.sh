@@ -19,7 +19,7 @@ sweep_round() {  # backend round
   for plan in seed-support seed-points image-sizes; do
     $D sweep dct --backend "$b" --plan "$plan" --rounds "$r" --store "$O/fit.jsonl" --quiet 2>&1 | tee -a "$log"
   done
-  $D sweep dct --backend "$b" --plan random:30 --seed 7 --rounds "$r" --store "$O/fit.jsonl" --quiet 2>&1 | tee -a "$log"
+  $D sweep --seed 7 dct --backend "$b" --plan random:30 --rounds "$r" --store "$O/fit.jsonl" --quiet 2>&1 | tee -a "$log"
   $D sweep dct --backend "$b" --plan random:50 --rounds "$r" --store "$O/held.jsonl" --quiet 2>&1 | tee -a "$log"
 }
 say probe

@@ -83,7 +83,7 @@ struct CudaLayout {
 //   launches = 9 (+2 with Otsu): init, union, compress, ids, stats-init, stats, centroid,
 //              displacement, fields [+ histogram, otsu]
 //   host_waits = 3 (the count, the component records, the fields)
-// Throws InputError when the uploaded bytes are not whole 4-byte values.
+// A copy of b bytes counts ceil(b / 4) values: an upload that is not whole 4-byte values is counted to the value.
 CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory);
 // Bytes of the frame's upload (the region of interest).
 std::int64_t cuda_upload_bytes(const FrameShape& s);
