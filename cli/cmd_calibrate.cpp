@@ -208,7 +208,7 @@ void add_calibrate_command(CLI::App& root) {
   app->add_option("--variant", o->variant, variant_names(", ") + ", or all (choose by cross-validation)")
       ->capture_default_str();
   app->add_option("--folds", o->folds, "Folds of the cross-validation")->capture_default_str();
-  app->add_option("--match", o->match, "Only samples whose key contains this text, e.g. /pinned/ (repeatable: all must match)");
+  app->add_option("--match", o->match, "Only samples whose key contains this text, e.g. host-memory=pinned (repeatable: all must match)");
   app->add_option("--backend", o->backends, "Fit only samples of these backends (repeatable)");
   app->add_option("--loss", o->loss, "Robust loss: huber, cauchy or none")->capture_default_str();
   app->add_option("--loss-scale", o->loss_scale, "Relative residual where the robust loss bends")

@@ -106,8 +106,8 @@ void run(const RunCommon& o, const WorkloadArgs& a) {
     return;
   }
   fmt::print("{}\n", w.describe(*c.backend, c.config));
-  fmt::print("\nMeasured per {} (median of {} repetitions of {} {}; {}):\n", w.step_name(), s.repetitions(), s.steps,
-             w.step_name(), to_string(s.source));
+  fmt::print("\nMeasured per {} (median of {} repetitions of {} {}{}; {}):\n", w.step_name(), s.repetitions(), s.steps,
+             w.step_name(), s.steps == 1 ? "" : "s", to_string(s.source));
   std::vector<std::string> head = {"component", "measured", "p25..p75"};
   if (pred) head.insert(head.end(), {"predicted", "pred/meas"});
   Table t(head);
@@ -130,8 +130,8 @@ void run(const RunCommon& o, const WorkloadArgs& a) {
   if (!pred) {
     fmt::print("\n(add --machine machine.json for the model's prediction of each component)\n");
   } else {
-    fmt::print("\nPredicted by the DTFLOP model ({} variant) on {}, per repetition of {} {}:\n", to_string(pred->variant),
-               machine_name(*profile), s.steps, w.step_name());
+    fmt::print("\nPredicted by the DTFLOP model ({} variant) on {}, per repetition of {} {}{}:\n",
+               to_string(pred->variant), machine_name(*profile), s.steps, w.step_name(), s.steps == 1 ? "" : "s");
     print_prediction(pred->prediction);
     fmt::print("predicted / measured: {:.2f}\n", pred->prediction.total / total.median);
   }

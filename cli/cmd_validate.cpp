@@ -203,7 +203,7 @@ void add_validate_command(CLI::App& root) {
       ->required()
       ->check(CLI::ExistingFile);
   app->add_option("--variant", o->variant, "Model variant (default: the one the fit chose)");
-  app->add_option("--match", o->match, "Only samples whose key contains this text, e.g. /pinned/ (repeatable: all must match)");
+  app->add_option("--match", o->match, "Only samples whose key contains this text, e.g. host-memory=pinned (repeatable: all must match)");
   app->add_option("--backend", o->backends, "Only samples of these backends (repeatable)");
   app->add_flag("--by-plan", o->by_plan, "Also break the errors down by sweep plan");
   app->add_option("--target-mean", o->target_mean, "Target for the mean relative error of the total [%]")

@@ -26,7 +26,6 @@ sweep_round() {  # backend round
   for plan in seed-test1 seed-test2; do
     $D sweep rbe --backend "$b" --plan "$plan" --rounds "$r" --store "$O/fit.jsonl" --quiet 2>&1 | tee -a "$log"
   done
-  # The random plan's seed goes before the workload (after `rbe`, --seed is the problem's seed).
   $D sweep --seed 7 rbe --backend "$b" --plan random:50 --rounds "$r" --store "$O/fit.jsonl" --quiet 2>&1 | tee -a "$log"
   $D sweep rbe --backend "$b" --plan random:50 --rounds "$r" --store "$O/held.jsonl" --quiet 2>&1 | tee -a "$log"
 }

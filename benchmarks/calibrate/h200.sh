@@ -33,8 +33,7 @@ mkdir -p "$O"
 log="$O/log-$part.txt"
 say() { echo "== $* ($(date -u +%H:%M:%S))" | tee -a "$log"; }
 sweep() {  # sweep LIMIT_S STORE [--seed S] ARGS...
-  # --seed S is the random plan's seed: it goes before the workload (after `rbe`, --seed is the
-  # synthetic problem's seed).
+  # --seed S is the random plan's seed.
   local limit=$1 store=$2 plan_seed=()
   shift 2
   if [[ "${1:-}" == --seed ]]; then plan_seed=(--seed "$2"); shift 2; fi

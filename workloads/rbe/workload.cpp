@@ -47,7 +47,7 @@ class RbeRun final : public workload::Run {
   RbeRun(const BackendInfo& info, const Config& c, std::int64_t steps)
       : shape_(shape_of(c)), steps_(steps), device_(info.needs_gpu) {
     backend_ = make_backend(info.name, options_of(c, nullptr));
-    problem_ = synthetic_problem(shape_, static_cast<std::uint64_t>(workload::get_int(c, "seed")));
+    problem_ = synthetic_problem(shape_, static_cast<std::uint64_t>(workload::get_int(c, "problem-seed")));
     backend_->init(problem_);
     counts_ = backend_->run_counts(shape_, backend_->options(), steps_);
   }
@@ -150,7 +150,7 @@ class RbeWorkload final : public workload::Workload {
         {.name = "prediction", .kind = Kind::choice,
          .help = "auto (separable when the kernel is), separable (5.3-5.4) or full 2D convolution (4.10)",
          .fallback = "auto", .choices = {"auto", "separable", "full"}, .backends = {"cpu-seq", "cpu-par", "cuda-seed"}},
-        {.name = "seed", .kind = Kind::integer, .help = "Seed of the synthetic problem (prior, likelihood)",
+        {.name = "problem-seed", .kind = Kind::integer, .help = "Seed of the synthetic problem (prior, likelihood)",
          .fallback = kDefaultProblemSeed, .min = 0, .max = 9.0e15},
     };
   }
