@@ -26,14 +26,19 @@ std::string round_key(const std::string& key, int round);
 // The configuration's key: `key` without a trailing "/round=N" (N a positive integer).
 std::string base_key(const std::string& key);
 
-// Which round's time stands for a configuration (its Stats' `median`; min, max, quartiles and
-// values still describe all the rounds):
+// Which value of a configuration's rounds stands for it (its Stats' `median`; min, max,
+// quartiles and values still describe all the rounds), each measured component on its own:
 //  median  - the median of the rounds' medians: robust to one disturbed round in three;
 //  fastest - the fastest round's median. Interference from outside (co-tenants of a shared
 //            host, another process) only ever adds time, so on a machine whose slow spells
 //            can cover most of a configuration's rounds the fastest round is the best estimate
-//            of what the machine does undisturbed, which is what the model describes.
-enum class RoundCombine { median, fastest };
+//            of what the machine does undisturbed, which is what the model describes;
+//  p25     - the lower quartile of the rounds' medians (type 7: with 3 rounds halfway between
+//            the fastest and the median, with 5 the second fastest).
+enum class RoundCombine { median, fastest, p25 };
+// The rule calibrate and validate use unless told otherwise (docs/calibration.md, "Combining
+// the rounds", has the evidence: the held-out errors of every stored experiment under each rule).
+inline constexpr RoundCombine kDefaultRoundCombine = RoundCombine::fastest;
 std::string_view to_string(RoundCombine c);
 std::optional<RoundCombine> round_combine_from_string(std::string_view s);
 // The same for a command-line value: throws InputError naming `--rounds-combine` and the choices.
@@ -45,7 +50,7 @@ struct MergedRounds {
   int input = 0;                      // samples given
   int min_rounds = 0;                 // fewest and most rounds of a configuration (0 when none)
   int max_rounds = 0;
-  RoundCombine combine = RoundCombine::median;
+  RoundCombine combine = kDefaultRoundCombine;
 
   // "82 configurations from 246 samples (3 rounds)"; "(1-3 rounds)" when they differ.
   std::string summary() const;
@@ -68,6 +73,6 @@ struct MergedRounds {
 // first round is left out, with a warning (its times are not comparable); rounds whose cost
 // counts differ (measured by different dtflop versions) are merged with the first round's
 // counts, with a warning.
-MergedRounds merge_rounds(std::vector<Sample> samples, RoundCombine combine = RoundCombine::median);
+MergedRounds merge_rounds(std::vector<Sample> samples, RoundCombine combine = kDefaultRoundCombine);
 
 }  // namespace dtflop::calib
