@@ -39,23 +39,35 @@ std::string MergedRounds::summary() const {
                      input, input == 1 ? "" : "s", rounds);
 }
 
-std::string_view to_string(RoundCombine c) { return c == RoundCombine::fastest ? "fastest" : "median"; }
+std::string_view to_string(RoundCombine c) {
+  switch (c) {
+    case RoundCombine::fastest: return "fastest";
+    case RoundCombine::p25: return "p25";
+    case RoundCombine::median: break;
+  }
+  return "median";
+}
 
 std::optional<RoundCombine> round_combine_from_string(std::string_view s) {
   if (s == "median") return RoundCombine::median;
   if (s == "fastest") return RoundCombine::fastest;
+  if (s == "p25") return RoundCombine::p25;
   return std::nullopt;
 }
 
 RoundCombine parse_round_combine(std::string_view s) {
   if (auto c = round_combine_from_string(s)) return *c;
-  throw InputError(fmt::format("--rounds-combine '{}' is unknown; use median or fastest", s));
+  throw InputError(fmt::format("--rounds-combine '{}' is unknown; use fastest, median or p25", s));
 }
 
 std::string MergedRounds::how() const {
   if (max_rounds <= 1) return "";
-  return combine == RoundCombine::fastest ? "; a configuration's time is its fastest round's median"
-                                          : "; a configuration's time is the median of its rounds' medians";
+  switch (combine) {
+    case RoundCombine::fastest: return "; a configuration's time is its fastest round's median";
+    case RoundCombine::p25: return "; a configuration's time is the lower quartile of its rounds' medians";
+    case RoundCombine::median: break;
+  }
+  return "; a configuration's time is the median of its rounds' medians";
 }
 
 MergedRounds merge_rounds(std::vector<Sample> samples, RoundCombine combine) {
@@ -139,7 +151,9 @@ MergedRounds merge_rounds(std::vector<Sample> samples, RoundCombine combine) {
       if (medians.empty()) continue;
       Stats st = summarize(std::move(medians));
       if (c == Component::total) round_spread = st.median > 0 ? (st.max - st.min) / st.median : 0.0;
-      if (combine == RoundCombine::fastest) st.median = st.min;  // the value the model is compared with
+      // The value the model is compared with.
+      if (combine == RoundCombine::fastest) st.median = st.min;
+      if (combine == RoundCombine::p25) st.median = st.p25;
       merged.components[c] = std::move(st);
     }
     if (!merged.detail.is_object()) merged.detail = nlohmann::json::object();

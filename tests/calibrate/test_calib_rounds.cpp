@@ -1,5 +1,6 @@
 // Rounds: `run_sweep` walking a plan R times (keys, round fields, resume, progress) and
-// `merge_rounds` turning the rounds of a configuration into one sample (median of medians).
+// `merge_rounds` turning the rounds of a configuration into one sample (fastest, median or lower
+// quartile of the rounds' medians).
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -82,7 +83,7 @@ TEST(CalibRounds, MergeTakesTheMedianOfTheRoundsMedians) {
       hand_sample("a", 2, {1.3, 1.2, 1.4}),  // median 1.3, no CG in this round
   };
   const Sample round1 = in[2];
-  const MergedRounds m = merge_rounds(in);
+  const MergedRounds m = merge_rounds(in, RoundCombine::median);
   EXPECT_TRUE(m.warnings.empty());
   ASSERT_EQ(m.samples.size(), 2u);
   EXPECT_EQ(m.input, 4);
@@ -120,7 +121,8 @@ TEST(CalibRounds, MergeTakesTheMedianOfTheRoundsMedians) {
   EXPECT_DOUBLE_EQ(back.find(Component::total)->median, 1.0);
 
   // An even number of rounds: the mean of the middle two.
-  const MergedRounds two = merge_rounds({hand_sample("c", 1, {1, 1}), hand_sample("c", 2, {2, 2})});
+  const MergedRounds two =
+      merge_rounds({hand_sample("c", 1, {1, 1}), hand_sample("c", 2, {2, 2})}, RoundCombine::median);
   ASSERT_EQ(two.samples.size(), 1u);
   EXPECT_DOUBLE_EQ(two.samples[0].find(Component::total)->median, 1.5);
   EXPECT_EQ(two.summary(), "1 configuration from 2 samples (2 rounds)");
@@ -153,6 +155,54 @@ TEST(CalibRounds, FastestTakesTheFastestRoundsMedian) {
   EXPECT_EQ(round_combine_from_string("median"), RoundCombine::median);
   EXPECT_FALSE(round_combine_from_string("mean").has_value());
   EXPECT_EQ(to_string(RoundCombine::fastest), "fastest");
+}
+
+TEST(CalibRounds, P25TakesTheLowerQuartileOfTheRoundsMedians) {
+  const std::vector<Sample> in = {
+      hand_sample("a", 1, {1.6, 1.6, 1.6}, {0.50, 0.50}),  // rounds' medians 1.6, 1.0, 1.5, 1.2, 1.1
+      hand_sample("a", 2, {1.0, 0.9, 1.1}, {0.30, 0.30}),
+      hand_sample("a", 3, {1.5, 1.5, 1.5}, {0.40, 0.40}),
+      hand_sample("a", 4, {1.2, 1.2, 1.2}),
+      hand_sample("a", 5, {1.1, 1.1, 1.1}),
+      hand_sample("b", 1, {2.0, 2.0}),  // three rounds: 2.0, 3.0, 2.5
+      hand_sample("b", 2, {3.0, 3.0}),
+      hand_sample("b", 3, {2.5, 2.5}),
+  };
+  const MergedRounds m = merge_rounds(in, RoundCombine::p25);
+  ASSERT_EQ(m.samples.size(), 2u);
+  EXPECT_EQ(m.how(), "; a configuration's time is the lower quartile of its rounds' medians");
+  // Five rounds: the second fastest (type 7: position 0.25 x 4 = 1 of the sorted 1.0 1.1 1.2 1.5 1.6).
+  const Stats& a = m.samples[0].components.at(Component::total);
+  EXPECT_DOUBLE_EQ(a.median, 1.1);
+  EXPECT_DOUBLE_EQ(a.min, 1.0);
+  EXPECT_EQ(a.values, (std::vector<double>{1.6, 1.0, 1.5, 1.2, 1.1}));
+  // CG in three rounds (0.50, 0.30, 0.40): halfway between the fastest and the median.
+  EXPECT_DOUBLE_EQ(m.samples[0].components.at(Component::CG).median, 0.35);
+  // Three rounds: halfway between the fastest (2.0) and the median (2.5).
+  EXPECT_DOUBLE_EQ(m.samples[1].find(Component::total)->median, 2.25);
+  EXPECT_EQ(m.samples[1].detail["rounds_combined_by"], "p25");
+  EXPECT_EQ(round_combine_from_string("p25"), RoundCombine::p25);
+  EXPECT_EQ(to_string(RoundCombine::p25), "p25");
+  EXPECT_EQ(parse_round_combine("p25"), RoundCombine::p25);
+  try {
+    parse_round_combine("mean");
+    ADD_FAILURE() << "'mean' was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--rounds-combine 'mean' is unknown; use fastest, median or p25"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(CalibRounds, DefaultIsTheFastestRound) {
+  // The rule chosen by the held-out errors of the stored experiments (docs/calibration.md).
+  EXPECT_EQ(kDefaultRoundCombine, RoundCombine::fastest);
+  const MergedRounds m = merge_rounds({hand_sample("a", 1, {1.3, 1.3}), hand_sample("a", 2, {1.0, 1.0}),
+                                       hand_sample("a", 3, {1.2, 1.2})});
+  EXPECT_EQ(m.combine, RoundCombine::fastest);
+  EXPECT_DOUBLE_EQ(m.samples.at(0).find(Component::total)->median, 1.0);
+  EXPECT_EQ(m.samples.at(0).detail["rounds_combined_by"], "fastest");
+  EXPECT_EQ(MergedRounds{}.combine, RoundCombine::fastest);
 }
 
 TEST(CalibRounds, OneRoundPassesThroughUnchanged) {
@@ -282,7 +332,7 @@ TEST_F(CalibRoundsSweep, SweepWalksThePlanOncePerRound) {
   EXPECT_NE(text.find("round 3/3 [4/4] config 3:"), std::string::npos) << text;
 
   // Merged, the store is four configurations of three rounds each.
-  const MergedRounds m = merge_rounds(c.samples);
+  const MergedRounds m = merge_rounds(c.samples, RoundCombine::median);
   ASSERT_EQ(m.samples.size(), 4u);
   EXPECT_EQ(m.summary(), "4 configurations from 12 samples (3 rounds)");
   EXPECT_EQ(m.samples[2].key, "cfg2");
