@@ -38,7 +38,7 @@ struct CalibrateOptions {
   std::vector<std::string> match;  // sample keys must contain each
   bool total_only = false;
   std::uint64_t seed = 1;
-  std::string rounds_combine = "median";
+  std::string rounds_combine{to_string(kDefaultRoundCombine)};
 };
 
 std::vector<Sample> loaded_samples(const std::vector<std::string>& stores, const SampleFilter& filter) {
@@ -218,8 +218,8 @@ void add_calibrate_command(CLI::App& root) {
   app->add_flag("--total-only", o->total_only, "Fit totals only, not the measured components");
   app->add_option("--seed", o->seed, "Seed of the fold assignment")->capture_default_str();
   app->add_option("--rounds-combine", o->rounds_combine,
-                  "How the rounds of a configuration (sweep --rounds) give its time: median (of the rounds' "
-                  "medians) or fastest (the fastest round's median: interference only adds time)")
+                  "How the rounds of a configuration (sweep --rounds) give its time: fastest (the fastest round's "
+                  "median: interference only adds time), p25 (the rounds' lower quartile) or median (docs/calibration.md)")
       ->capture_default_str();
   app->callback([o] { run(*o); });
 }

@@ -104,7 +104,7 @@ int run(const ValidateOptions& o) {
   std::string combine_name = o.rounds_combine;
   if (combine_name.empty()) {
     auto it = profile.metadata.find("fit_rounds_combine");
-    combine_name = it != profile.metadata.end() ? it->second : "median";
+    combine_name = it != profile.metadata.end() ? it->second : std::string(to_string(kDefaultRoundCombine));
   }
   const MergedRounds merged = merge_rounds(std::move(loaded), parse_round_combine(combine_name));
   for (const auto& w : merged.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
@@ -214,8 +214,8 @@ void add_validate_command(CLI::App& root) {
   app->add_flag("--strict", o->strict, "Exit with status 3 when a target is missed");
   app->add_flag("--json", o->json, "Print JSON instead of tables");
   app->add_option("--rounds-combine", o->rounds_combine,
-                  "How the rounds of a configuration give its time: median or fastest (default: what the fit "
-                  "used, from the profile; else median)");
+                  "How the rounds of a configuration give its time: fastest, p25 or median (default: what the fit "
+                  "used, from the profile; else fastest)");
   app->callback([o] {
     if (run(*o) != 0) set_exit_status(kExitMissed);  // --strict and a target missed; the tables say which
   });

@@ -272,7 +272,7 @@ TEST_F(CalibCli, CalibrateAndValidateMergeRounds) {
   }
   write_store("rounds.jsonl", rounds);
   save_profile(probed_profile(), path("probed.json"));
-  auto r = test::run_dtflop(fmt::format("calibrate --store {} --machine {} -o {} --variant latency",
+  auto r = test::run_dtflop(fmt::format("calibrate --store {} --machine {} -o {} --variant latency --rounds-combine median",
                                         path("rounds.jsonl"), path("probed.json"), path("fitted.json")));
   ASSERT_EQ(r.status, 0) << r.err << r.out;
   EXPECT_NE(r.out.find(fmt::format("{} configurations from {} samples (3 rounds)", configs, 3 * configs)),
