@@ -68,6 +68,49 @@ class PinnedBuffer {
   std::size_t n_ = 0;
 };
 
+// A host array the device copies to or from: pinned (cudaMallocHost) or pageable, chosen once, so
+// that every copy of a frame uses the host memory its counts declare (the frames' kind).
+template <class T>
+class HostArray {
+ public:
+  explicit HostArray(bool pinned) : pinned_(pinned) {}
+  HostArray(const HostArray&) = delete;
+  HostArray& operator=(const HostArray&) = delete;
+  ~HostArray() { release(); }
+  void resize(std::size_t n) {
+    if (n <= cap_) {
+      n_ = n;
+      return;
+    }
+    release();
+    const std::size_t bytes = std::max<std::size_t>(n, 1) * sizeof(T);
+    if (pinned_) {
+      void* p = nullptr;
+      DCT_CUDA(cudaMallocHost(&p, bytes));
+      p_ = static_cast<T*>(p);
+    } else {
+      p_ = static_cast<T*>(::operator new(bytes));
+    }
+    cap_ = n_ = n;
+  }
+  T* data() { return p_; }
+  std::size_t size() const { return n_; }
+  T& operator[](std::size_t i) { return p_[i]; }
+  const T& operator[](std::size_t i) const { return p_[i]; }
+
+ private:
+  void release() {
+    if (!p_) return;
+    if (pinned_) cudaFreeHost(p_);
+    else ::operator delete(p_);
+    p_ = nullptr;
+    cap_ = n_ = 0;
+  }
+  bool pinned_;
+  T* p_ = nullptr;
+  std::size_t n_ = 0, cap_ = 0;
+};
+
 double host_now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
@@ -282,11 +325,13 @@ class CudaBackend final : public Backend {
     int* d_count = d_count_.ensure(2);
     launch_labels(d_img, wide, r.width, r.height, d_T, T_fixed, dark != 0, L, d_count, bpx, stream_);
     ev_.record(2, stream_);
-    int count = 0, T_used = T_fixed;
-    DCT_CUDA(cudaMemcpyAsync(&count, d_count, sizeof(int), cudaMemcpyDeviceToHost, stream_));
-    if (d_T) DCT_CUDA(cudaMemcpyAsync(&T_used, d_T, sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    h_scalars_.resize(2);
+    h_scalars_[1] = T_fixed;
+    DCT_CUDA(cudaMemcpyAsync(&h_scalars_[0], d_count, sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    if (d_T) DCT_CUDA(cudaMemcpyAsync(&h_scalars_[1], d_T, sizeof(int), cudaMemcpyDeviceToHost, stream_));
     ev_.record(3, stream_);
     DCT_CUDA(cudaStreamSynchronize(stream_));
+    const int count = h_scalars_[0], T_used = h_scalars_[1];
     f.stats.roi_pixels = n;
     f.stats.components = count;
     f.stats.threshold = T_used;
@@ -361,10 +406,13 @@ class CudaBackend final : public Backend {
     template <class Pix>
     Pix* ensure(std::size_t n) { return reinterpret_cast<Pix*>(wide.ensure((n * sizeof(Pix) + 1) / 2)); }
   } d_img_;
-  std::vector<double> h_cx_, h_cy_;
-  std::vector<float> h_w_;
-  std::vector<int> h_status_, h_area_, h_root_, h_pixels_, match_;
-  std::vector<FieldValue<float>> host_fields_;
+  // What the device copies to and from the host, in the frames' kind of host memory.
+  const bool pinned_host_ = options().pinned_frames;
+  HostArray<double> h_cx_{pinned_host_}, h_cy_{pinned_host_};
+  HostArray<float> h_w_{pinned_host_};
+  HostArray<int> h_status_{pinned_host_}, h_area_{pinned_host_}, h_root_{pinned_host_}, h_pixels_{pinned_host_},
+      match_{pinned_host_}, h_scalars_{pinned_host_};
+  HostArray<FieldValue<float>> host_fields_{pinned_host_};
 };
 
 }  // namespace
