@@ -37,6 +37,7 @@ const std::vector<CountField>& count_fields() {
       {"N_C", &C::N_C, "FLOPs", "on the CPU"},
       {"N_CW", &C::N_CW, "FLOPs", "of N_C, of sliding-window loops (one unaligned load per FMA)", A::sum, &C::N_C},
       {"N_CC", &C::N_CC, "values", "through host memory by CPU work"},
+      {"tree_steps", &C::tree_steps, "steps", "of host k-d tree builds and searches"},
       {"cpu_syncs", &C::cpu_syncs, "syncs", "of the CPU threads: forks, joins, barriers"},
       {"cpu_footprint", &C::cpu_footprint, "bytes", "of host memory the CPU work touches in one step (0: not counted)",
        A::max},

@@ -57,6 +57,9 @@ struct CostCounts {
                                   // address lives, one after another (latency+)
   std::int64_t host_waits = 0;    // times the host submits work to the device and waits for it
                                   // to finish (a graph launch and a synchronize)
+  std::int64_t tree_steps = 0;    // steps of the CPU's k-d tree work (a point placed at one level of a build,
+                                  // a level descended or a leaf point examined by a search): irregular
+                                  // host work that no FLOP rate prices (latency+, L_tree each)
   std::int64_t cpu_syncs = 0;     // times the CPU threads start together or wait for each other
                                   // (a parallel region's fork and join, a barrier)
   HostMemory host_memory = HostMemory::pageable;

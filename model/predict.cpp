@@ -107,7 +107,8 @@ bool fitted_only(Param p) {
     case Param::S_GC_staged:
     case Param::S_GC_flat:
     case Param::K_CW:
-    case Param::K_GR: return true;
+    case Param::K_GR:
+    case Param::L_tree: return true;
     default: return false;
   }
 }

@@ -54,6 +54,7 @@ struct Prediction {
   double lat_wave = 0;   // waves x per-wave cost of thread blocks
   double lat_atomic = 0;  // atomics x one serialized atomic update (device component)
   double lat_wait = 0;   // host_waits x host round trip to the device (in the total only)
+  double lat_tree = 0;   // tree_steps x one step of host k-d tree work (CPU component, latency+)
   double dt_GS = 0;      // shared-memory tile fills, P N_GS / B_GS (latency+; device component)
   double total = 0;
 

@@ -211,6 +211,8 @@ const std::vector<Term>& terms() {
        "host memory traffic", {positive<&C::N_CC>, cc_needs, cc_seconds}},
       {"lat_sync", &P::lat_sync, Phase::C, kLatencyVariants, sum, "cpu_syncs", "L_sync", "CPU thread syncs",
        per_event<&C::cpu_syncs, only<Param::L_sync>>()},
+      {"lat_tree", &P::lat_tree, Phase::C, kLatencyVariants, sum, "tree_steps", "L_tree", "host k-d tree steps",
+       per_event<&C::tree_steps, only<Param::L_tree>>()},
       {"lat_wait", &P::lat_wait, Phase::wait, kLatencyVariants, sum, "host_waits", "L_wait",
        "host waits for the device", per_event<&C::host_waits, only<Param::L_wait>>()},
   };

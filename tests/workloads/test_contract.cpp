@@ -48,7 +48,9 @@ TEST_P(Contract, DefaultsValidateAndTheKeyNamesTheConfiguration) {
   EXPECT_EQ(key.rfind(fmt::format("{}/{}/", w->name(), b->name()), 0), 0u) << key;
   // Two configurations that differ in one parameter have different keys.
   const Config small = small_config(*w, *b);
-  if (small != c) EXPECT_NE(w->key(*b, small), key);
+  if (small != c) {
+    EXPECT_NE(w->key(*b, small), key);
+  }
 }
 
 TEST_P(Contract, UnknownOrForeignParametersAreRefusedWithOneLine) {
@@ -83,7 +85,9 @@ TEST_P(Contract, PlansHoldValidConfigurationsWithDistinctKeys) {
       EXPECT_EQ(w->validate(c, *b), c) << spec;
       keys.insert(w->key(*b, c));
     }
-    if (spec.rfind("random:", 0) != 0) EXPECT_EQ(keys.size(), p.configs.size()) << spec << ": a configuration twice";
+    if (spec.rfind("random:", 0) != 0) {
+      EXPECT_EQ(keys.size(), p.configs.size()) << spec << ": a configuration twice";
+    }
     // The same seed gives the same plan.
     EXPECT_EQ(w->plan(spec, *b, 7).configs, p.configs) << spec;
   }

@@ -134,6 +134,7 @@ class CpuBackend final : public Backend {
     s.margin = opt.analysis.margin;
     s.points = static_cast<std::int64_t>(st.points().size());
     s.support_entries = st.support_entries();
+    s.tree_steps = out.matches.tree_steps;
     s.interp = opt.interp;
     s.otsu = opt.analysis.method == ThresholdMethod::otsu;
     out.counts = cpu_counts(s, threads_);

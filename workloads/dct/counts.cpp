@@ -1,4 +1,5 @@
 #include "workloads/dct/counts.hpp"
+#include "workloads/dct/tracking.hpp"
 
 #include <cmath>
 #include <numbers>
@@ -33,6 +34,7 @@ FrameShape estimate_shape(std::int64_t width, std::int64_t height, int bytes_per
   s.points = n_points;
   s.support_entries = interp == Interp::mls ? n_points * dots_per_support : 0;
   s.interp = interp;
+  s.tree_steps = match_tree_steps(n_dots, n_dots);  // every dot found and matched at once
   return s;
 }
 
@@ -68,6 +70,7 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
   c.N_CC = (bytes + 7) / 8;
   c.cpu_footprint = s.roi_pixels * (b + 1 + 4 + (b == 2 ? 2 : 0)) + 8 * field_values(s);
   c.cpu_threads = threads < 1 ? 1 : threads;
+  c.tree_steps = s.tree_steps;  // the matching, on one thread
   return c;
 }
 
@@ -119,6 +122,8 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
   // The host waits for the device three times a frame: for the component count, for the
   // component records, and for the fields.
   c.host_waits = 3;
+  // The host matches the frame's dots to the reference (a k-d tree): its only counted CPU work.
+  c.tree_steps = s.tree_steps;
   return c;
 }
 

@@ -269,6 +269,7 @@ class CudaBackend final : public Backend {
     s.margin = options().analysis.margin;
     s.points = static_cast<std::int64_t>(nm);
     s.support_entries = state().support_entries();
+    s.tree_steps = out.matches.tree_steps;
     s.interp = options().interp;
     s.otsu = options().analysis.method == ThresholdMethod::otsu;
     out.counts = cuda_counts(s, f.pinned ? HostMemory::pinned : HostMemory::pageable);

@@ -82,6 +82,30 @@ std::string Matches::summary() const {
   return s;
 }
 
+namespace {
+constexpr std::int64_t kLeaf = 10;  // nanoflann's leaf size of PointIndex
+std::int64_t tree_depth(std::int64_t n) {
+  std::int64_t d = 1;
+  for (std::int64_t cells = kLeaf; cells < n; cells *= 2) ++d;
+  return d;
+}
+}  // namespace
+
+std::int64_t tree_build_steps(std::int64_t n) { return n * tree_depth(n); }
+std::int64_t tree_search_steps(std::int64_t n, std::int64_t k) { return tree_depth(n) + kLeaf + k; }
+
+std::int64_t match_tree_steps(std::int64_t reference, std::int64_t deformed, std::int64_t refined,
+                              std::int64_t retried, int refine_neighbours, bool radius_given) {
+  std::int64_t s = 0;
+  if (!radius_given && reference >= 2) s += tree_build_steps(reference) + reference * tree_search_steps(reference, 2);
+  if (deformed == 0 || reference == 0) return s;
+  s += tree_build_steps(deformed) + reference * tree_search_steps(deformed, 2);
+  if (refined > 0)
+    s += tree_build_steps(reference) + refined * tree_search_steps(reference, 2 * refine_neighbours + 1) +
+         retried * tree_search_steps(deformed, 2);
+  return s;
+}
+
 Matches match_dots(const std::vector<Vec2>& reference, const std::vector<Vec2>& deformed, const MatchOptions& o,
                    const std::vector<Vec2>& predicted) {
   if (!predicted.empty() && predicted.size() != reference.size())
@@ -92,12 +116,18 @@ Matches match_dots(const std::vector<Vec2>& reference, const std::vector<Vec2>& 
   m.ref_to_def.assign(n, -1);
   m.lost_reason.assign(n, LostReason::nothing_near);
   m.search_radius = o.search_radius > 0 ? o.search_radius : 0.4 * median_spacing(reference);
+  // The search radius given, no tree over the reference is built for it.
+  if (!(o.search_radius > 0) && n >= 2)
+    m.tree_steps = tree_build_steps(static_cast<std::int64_t>(n)) +
+                   static_cast<std::int64_t>(n) * tree_search_steps(static_cast<std::int64_t>(n), 2);
   if (!(m.search_radius > 0)) m.search_radius = 1;  // one dot: nothing to scale by
   if (deformed.empty() || n == 0) {
     for (std::size_t k = 0; k < deformed.size(); ++k) m.appeared.push_back(static_cast<int>(k));
     return m;
   }
   PointIndex def_index(deformed);
+  const auto nd = static_cast<std::int64_t>(deformed.size());
+  m.tree_steps += tree_build_steps(nd);
   std::vector<int> owner(deformed.size(), -1);
   std::vector<double> owner_d(deformed.size(), 0);
   std::vector<std::uint32_t> idx;
@@ -109,6 +139,7 @@ Matches match_dots(const std::vector<Vec2>& reference, const std::vector<Vec2>& 
     for (std::size_t q = 0; q < which.size(); ++q) {
       const int j = which[q];
       def_index.knn(where[q], 2, idx, d2);
+      m.tree_steps += tree_search_steps(nd, 2);
       const double d1 = std::sqrt(d2[0]);
       if (d1 > m.search_radius) { m.lost_reason[j] = LostReason::nothing_near; continue; }
       if (idx.size() > 1 && std::sqrt(d2[1]) < o.ambiguity * d1 && std::sqrt(d2[1]) <= m.search_radius) {
@@ -141,10 +172,12 @@ Matches match_dots(const std::vector<Vec2>& reference, const std::vector<Vec2>& 
     if (m.ref_to_def[j] < 0) lost.push_back(static_cast<int>(j));
   if (!lost.empty() && o.refine_neighbours > 0 && lost.size() < n) {
     PointIndex ref_index(reference);
+    m.tree_steps += tree_build_steps(static_cast<std::int64_t>(n));
     std::vector<Vec2> guess;
     std::vector<int> retry;
     for (int j : lost) {
       ref_index.knn(reference[j], o.refine_neighbours * 2 + 1, idx, d2);
+      m.tree_steps += tree_search_steps(static_cast<std::int64_t>(n), o.refine_neighbours * 2 + 1);
       double sx = 0, sy = 0;
       int c = 0;
       for (auto k : idx) {

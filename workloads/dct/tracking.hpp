@@ -50,8 +50,22 @@ struct Matches {
   std::vector<int> appeared;            // deformed dots no reference dot matched
   int matched = 0;
   double search_radius = 0;             // what was used
+  std::int64_t tree_steps = 0;          // k-d tree work done (match_tree_steps)
   std::string summary() const;          // "1598 of 1600 matched, 2 lost (...), 1 appeared"
 };
+
+// The k-d tree work of match_dots, in steps: a build over n points places each point at each of
+// the tree's depth(n) = 1 + ceil(log2(n / 10)) levels (10 points per leaf, at least one level); a
+// search for the k nearest descends depth(n) levels and examines a leaf, depth(n) + 10 + k steps.
+// match_dots builds a tree over the deformed dots and each reference dot asks it for its 2 nearest;
+// for the `refined` dots lost in that pass it builds a tree over the reference, asks it for each
+// one's 2 refine_neighbours + 1 nearest, and asks again for the 2 nearest deformed dots of the
+// `retried`. Without a search radius given it first finds one: a tree over the reference (2 or
+// more dots), each asking for its 2 nearest.
+std::int64_t tree_build_steps(std::int64_t n);
+std::int64_t tree_search_steps(std::int64_t n, std::int64_t k);
+std::int64_t match_tree_steps(std::int64_t reference, std::int64_t deformed, std::int64_t refined = 0,
+                              std::int64_t retried = 0, int refine_neighbours = 6, bool radius_given = true);
 
 // `predicted` (optional, one per reference dot) is where each dot is expected in the
 // deformed frame, e.g. its position in the previous frame; empty = the reference position.

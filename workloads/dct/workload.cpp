@@ -513,6 +513,8 @@ FrameShape declared_shape(const Backend& pipeline, const cv::Mat& frame) {
   s.margin = o.analysis.margin;
   s.points = static_cast<std::int64_t>(pipeline.points().size());
   s.support_entries = o.interp == Interp::mls ? pipeline.mls_table().entries() : 0;
+  // Every dot of the frame matched in the first pass (the specimen's deformation is small).
+  s.tree_steps = match_tree_steps(s.dots, static_cast<std::int64_t>(a.dots.size()));
   s.interp = o.interp;
   s.otsu = o.analysis.method == ThresholdMethod::otsu;
   return s;
@@ -541,6 +543,7 @@ std::string shape_difference(const FrameShape& d, const FrameShape& m) {
   differ(out, "margin", d.margin, m.margin);
   differ(out, "points", d.points, m.points);
   differ(out, "support entries", d.support_entries, m.support_entries);
+  differ(out, "k-d tree steps", d.tree_steps, m.tree_steps);
   if (d.interp != m.interp) out += fmt::format("{}interp {} (declared {})", out.empty() ? "" : ", ", to_string(m.interp), to_string(d.interp));
   if (d.otsu != m.otsu) out += fmt::format("{}otsu {} (declared {})", out.empty() ? "" : ", ", m.otsu, d.otsu);
   return out;
