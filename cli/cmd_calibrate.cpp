@@ -169,7 +169,8 @@ void run(const CalibrateOptions& o) {
 
   MachineProfile out = r.profile;
   std::string stores;
-  for (const auto& s : o.stores) stores += (stores.empty() ? "" : ";") + fs::absolute(s).lexically_normal().string();
+  // As given (relative paths stay relative, so a fitted profile names no folder of this machine).
+  for (const auto& s : o.stores) stores += (stores.empty() ? "" : ";") + fs::path(s).lexically_normal().string();
   out.metadata[kChosenVariantKey] = std::string(to_string(r.variant));
   out.metadata["model_variant_reason"] = choice.reason;
   out.metadata["fit_samples"] = std::to_string(samples.size());
@@ -180,7 +181,7 @@ void run(const CalibrateOptions& o) {
   out.metadata["fit_stores"] = stores;
   out.metadata["fit_rms_relative"] = fmt::format("{:.4g}", r.rms_relative);
   out.metadata["fit_loss"] = fmt::format("{} (scale {})", to_string(fo.loss), fo.loss_scale);
-  out.metadata["fit_from"] = fs::absolute(o.machine).lexically_normal().string();
+  out.metadata["fit_from"] = fs::path(o.machine).lexically_normal().string();
   out.metadata["fitted_at"] = utc_now();
   std::string kept;
   for (const auto& f : r.params)

@@ -93,13 +93,23 @@ int run(const ValidateOptions& o) {
   LoadedSamples l = load_samples(o.stores, {o.backends, o.match});
   for (const auto& w : l.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
   loaded = std::move(l.samples);
-  for (const auto& path : o.stores) {
-    const std::string abs = fs::absolute(path).lexically_normal().string();
-    if (!fit_stores.empty() && (";" + fit_stores + ";").find(";" + abs + ";") != std::string::npos)
-      fmt::print(stderr,
-                 "dtflop: warning: '{}' was used to fit this profile, so these errors are not held-out errors\n",
-                 path);
+  // A store the profile was fitted to (its metadata names them as given then) gives no held-out errors.
+  std::vector<std::string> fitted_to;
+  for (std::size_t at = 0; !fit_stores.empty() && at != std::string::npos;) {
+    const std::size_t next = fit_stores.find(';', at);
+    fitted_to.push_back(fit_stores.substr(at, next == std::string::npos ? std::string::npos : next - at));
+    at = next == std::string::npos ? next : next + 1;
   }
+  for (const auto& path : o.stores)
+    for (const auto& f : fitted_to) {
+      std::error_code ec;
+      if (fs::exists(f, ec) && fs::equivalent(f, path, ec)) {
+        fmt::print(stderr,
+                   "dtflop: warning: '{}' was used to fit this profile, so these errors are not held-out errors\n",
+                   path);
+        break;
+      }
+    }
   // The rounds of one configuration (`dtflop sweep --rounds`) become one sample: the median of their medians.
   std::string combine_name = o.rounds_combine;
   if (combine_name.empty()) {

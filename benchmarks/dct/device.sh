@@ -1,47 +1,48 @@
 #!/usr/bin/env bash
-# DCT calibration of the cuda backend on a lent GPU, in one device call.
-#   Here:    scripts/device-bundle.sh dtflop test_dct_workload && rm -rf .carry-dct2 && mv .carry .carry-dct2
-#   Device:  bash benchmarks/dct/device.sh [ROUNDS]      (carry [".carry-dct2"]; results in $OUT)
-# The GPU cases of test_dct_workload first (the counts a Run declares before its frames against
-# what the frames did), a quick probe for start values, then the training set (seed-support,
-# seed-points, image-sizes, random:30 --seed 7) and the held-out set (random:50: pinned and
-# pageable frames, 8- and 16-bit, MLS and FE), round by round; then calibrate and validate per
-# host memory kind (a pageable upload is staged by the driver: another bandwidth). Each sweep is
-# resumable and bounded in time; whatever was measured comes back in $OUT.
+# DCT calibration of the cuda backend on a lent GPU, in one device call (about 3 minutes).
+#   Here:    scripts/device-bundle.sh -o .carry-gpu dtflop test_dct_workload test_dct_cuda \
+#              test_workload_contract test_calibrate_gpu
+#   Device:  CARRY=.carry-gpu OUT=$OUT bash benchmarks/dct/device.sh [ROUNDS]   (carry [".carry-gpu"])
+# The GPU tests first (counts a DCT run declares before its frames against what the frames did,
+# and against what CUPTI saw), a quick probe for start values, then ROUNDS rounds (default 3) of
+# the training set (seed-support, seed-points, image-sizes, random:30 drawn with seed 7) and the
+# held-out set (random:50, the default seed: none of its configurations is in the training set);
+# then calibrate and validate per host memory kind of the frames (a pageable upload is another
+# bandwidth). Each sweep is resumable and bounded in time; what was measured lands in $OUT/dct/.
 set -uo pipefail
 cd "$(dirname "$0")/../.."
-C=${CARRY:-.carry-dct2}
-[ -x "$C/bin/dtflop" ] || { echo "no bundle in $C/; build it with scripts/device-bundle.sh and move .carry there" >&2; exit 2; }
+C=${CARRY:-.carry-gpu}
+[ -x "$C/bin/dtflop" ] || { echo "no bundle in $C/; build it with scripts/device-bundle.sh -o $C" >&2; exit 2; }
 export LD_LIBRARY_PATH=$PWD/$C/lib:${LD_LIBRARY_PATH:-}
 B=$C/bin
-O=${OUT:-dct-device-out}
-R=${1:-2}
+O=${OUT:-dct-device-out}/dct
+R=${1:-3}
 mkdir -p "$O"
-log="$O/log.txt"
-say() { echo "== $* ($(date -u +%H:%M:%S))" | tee -a "$log"; }
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
+for t in test_dct_workload test_workload_contract test_calibrate_gpu test_dct_cuda; do
+  [ -x "$B/$t" ] || continue
+  timeout 120 "$B/$t" > "$O/$t.log" 2>&1
+  echo "$t rc=$?"
+done
+timeout 40 "$B/dtflop" probe --quick -o "$O/probed.json" > "$O/probe.txt" 2>&1
+echo "probe rc=$?"
 sweep() {  # LIMIT_S STORE ARGS...
   local limit=$1 store=$2
   shift 2
-  timeout "$limit" $B/dtflop sweep dct --backend cuda --store "$O/$store" --quiet "$@" 2>&1 | tee -a "$log"
+  timeout "$limit" "$B/dtflop" sweep "$@" dct --backend cuda --store "$O/$store" --quiet 2>&1 | tail -n 1
 }
-say machine
-nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm --format=csv 2>&1 | tee -a "$log"
-say "GPU tests"
-timeout 120 $B/test_dct_workload 2>&1 | tail -n 25 | tee -a "$log"
-say probe
-timeout 60 $B/dtflop probe --quick -o "$O/probed.json" > "$O/probe.txt" 2>&1
 for r in $(seq 1 "$R"); do
-  say "round $r"
-  for plan in seed-support seed-points image-sizes; do sweep 90 fit.jsonl --plan "$plan" --rounds "$r"; done
-  sweep 120 fit.jsonl --plan random:30 --seed 7 --rounds "$r"
+  sweep 60 fit.jsonl --plan seed-support --rounds "$r"
+  sweep 60 fit.jsonl --plan seed-points --rounds "$r"
+  sweep 70 fit.jsonl --plan image-sizes --rounds "$r"
+  sweep 110 fit.jsonl --seed 7 --plan random:30 --rounds "$r"
   sweep 150 held.jsonl --plan random:50 --rounds "$r"
 done
 for m in pinned pageable; do
-  say "calibrate and validate cuda, $m frames"
-  timeout 60 $B/dtflop calibrate --store "$O/fit.jsonl" --backend cuda --match "/host-memory=$m/" \
-    --machine "$O/probed.json" -o "$O/fitted-cuda-$m.json" > "$O/calibrate-cuda-$m.txt" 2>&1
-  timeout 60 $B/dtflop validate --store "$O/held.jsonl" --backend cuda --match "/host-memory=$m/" \
-    --machine "$O/fitted-cuda-$m.json" --by-plan > "$O/validate-cuda-$m.txt" 2>&1
-  grep -E "^total:|model variant" "$O/validate-cuda-$m.txt" | tee -a "$log"
+  timeout 90 "$B/dtflop" calibrate --store "$O/fit.jsonl" --match "host-memory=$m" --machine "$O/probed.json" \
+    -o "$O/fitted-cuda-$m.json" > "$O/calibrate-cuda-$m.txt" 2>&1
+  echo "calibrate $m rc=$?"
+  timeout 40 "$B/dtflop" validate --store "$O/held.jsonl" --match "host-memory=$m" --machine "$O/fitted-cuda-$m.json" \
+    --by-plan > "$O/validate-cuda-$m.txt" 2>&1
+  grep -E "^total|variant|^dt_" "$O/validate-cuda-$m.txt" | head -n 7
 done
-say done
