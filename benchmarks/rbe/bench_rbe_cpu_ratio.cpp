@@ -67,7 +67,7 @@ int main(int argc, char** argv) {
     std::vector<double> t_par, t_cv;
     for (int r = 0; r < rounds; ++r) {
       const auto run = par->run(reps);
-      for (const auto& st : run.samples) t_par.push_back(st.part(rbe::Component::predict));
+      for (const auto& st : run.samples) t_par.push_back(st.part(rbe::StepPart::predict));
       for (int i = 0; i < reps; ++i) {
         const double t0 = rbe::detail::seconds_now();
         opencv();

@@ -178,16 +178,16 @@ Problem synthetic_problem(const Shape& s, std::uint64_t seed) {
 
 // ---- Timing -------------------------------------------------------------------------------
 
-std::string_view to_string(Component c) {
+std::string_view to_string(StepPart c) {
   switch (c) {
-    case Component::to_device: return "to_device";
-    case Component::to_host: return "to_host";
-    case Component::predict: return "predict";
-    case Component::correct: return "correct";
-    case Component::normalize: return "normalize";
-    case Component::host_sum: return "host_sum";
-    case Component::device_step: return "device_step";
-    case Component::kCount: break;
+    case StepPart::to_device: return "to_device";
+    case StepPart::to_host: return "to_host";
+    case StepPart::predict: return "predict";
+    case StepPart::correct: return "correct";
+    case StepPart::normalize: return "normalize";
+    case StepPart::host_sum: return "host_sum";
+    case StepPart::device_step: return "device_step";
+    case StepPart::kCount: break;
   }
   return "?";
 }
@@ -216,12 +216,12 @@ StepTimes RunResult::median() const {
   return m;
 }
 
-std::vector<Component> RunResult::components() const {
-  std::vector<Component> out;
-  for (int c = 0; c < kComponentCount; ++c)
+std::vector<StepPart> RunResult::components() const {
+  std::vector<StepPart> out;
+  for (int c = 0; c < kStepPartCount; ++c)
     for (const auto& s : samples)
       if (s.parts[static_cast<std::size_t>(c)] != 0) {
-        out.push_back(static_cast<Component>(c));
+        out.push_back(static_cast<StepPart>(c));
         break;
       }
   return out;
@@ -293,13 +293,13 @@ std::vector<double> masked_likelihood(std::span<const double> l, std::span<const
   return out;
 }
 
-Prediction resolve_prediction(const BackendOptions& o, const MotionKernel& k, bool supports_full,
+Convolution resolve_prediction(const BackendOptions& o, const MotionKernel& k, bool supports_full,
                               std::string_view backend) {
-  const Prediction p = o.prediction.value_or(k.is_separable() ? Prediction::separable : Prediction::full);
-  if (p == Prediction::separable && !k.is_separable())
+  const Convolution p = o.prediction.value_or(k.is_separable() ? Convolution::separable : Convolution::full);
+  if (p == Convolution::separable && !k.is_separable())
     throw InputError("the separable prediction needs a separable (axis-aligned) motion kernel; this "
                      "kernel is a full 2D one: use the full prediction");
-  if (p == Prediction::full && !supports_full)
+  if (p == Convolution::full && !supports_full)
     throw InputError(fmt::format("{} computes only the separable prediction (5.3-5.4) and needs an "
                                  "axis-aligned motion kernel; run a full 2D kernel on cpu-seq or cpu-par",
                                  backend));

@@ -11,7 +11,7 @@
 //                                                           // (no device needed to make one)
 //   b->init(problem);                                       // prior belief, kernel, likelihood
 //   rbe::RunResult r = b->run(1000);                        // steps, timed
-//   r.median().total, r.median().part(Component::predict), b->step_counts(shape, options) ...
+//   r.median().total, r.median().part(StepPart::predict), b->step_counts(shape, options) ...
 //   std::vector<double> belief = b->belief();               // normalized density, float64
 #pragma once
 
@@ -91,8 +91,8 @@ struct Layout {
 Layout parse_layout(std::string_view text);
 std::string to_string(const Layout& layout);
 
-// Which prediction a backend computes.
-enum class Prediction {
+// How a backend computes the prediction step: the convolution with the motion model.
+enum class Convolution {
   separable,  // two 1D passes (5.3-5.4); needs a separable kernel
   full,       // the conventional 2D convolution (4.10), any kernel
 };
@@ -106,7 +106,7 @@ struct BackendOptions {
   // there is one, else kDefaultGpuSms. `dtflop predict` sets it from the profile's identity.
   int gpu_sms = 0;
   // The prediction to use; empty: separable when the kernel is separable, else full.
-  std::optional<Prediction> prediction;
+  std::optional<Convolution> prediction;
   // cuda-resident: capture the step loop in a CUDA graph (default) or launch kernel by kernel.
   bool graph = true;
   // Fill every buffer a step writes with NaN at init, so that a cell a step fails to write
@@ -141,8 +141,8 @@ Problem synthetic_problem(const Shape& shape, std::uint64_t seed);
 
 // ---- Timing -------------------------------------------------------------------------------
 
-// The components a step's time is split into, each tied to a term of the DTFLOP model.
-enum class Component {
+// The parts a step's time is split into, each tied to a term of the DTFLOP model.
+enum class StepPart {
   to_device,   // host -> device copies                       (dt_CG)
   to_host,     // device -> host copies                       (dt_GC)
   predict,     // prediction                                  (dt_G/dt_GG on device, dt_C on host)
@@ -152,15 +152,15 @@ enum class Component {
   device_step, // a fused device step that is not split further (cuda-resident)
   kCount
 };
-inline constexpr int kComponentCount = static_cast<int>(Component::kCount);
-std::string_view to_string(Component c);
+inline constexpr int kStepPartCount = static_cast<int>(StepPart::kCount);
+std::string_view to_string(StepPart c);
 
 // Times of one step (or the mean step of a chunk of steps), in seconds.
 struct StepTimes {
   double total = 0;                                // wall time of the step
-  std::array<double, kComponentCount> parts{};     // components measured (0 when not present)
-  double part(Component c) const { return parts[static_cast<std::size_t>(c)]; }
-  double& part(Component c) { return parts[static_cast<std::size_t>(c)]; }
+  std::array<double, kStepPartCount> parts{};     // components measured (0 when not present)
+  double part(StepPart c) const { return parts[static_cast<std::size_t>(c)]; }
+  double& part(StepPart c) { return parts[static_cast<std::size_t>(c)]; }
 };
 
 struct RunResult {
@@ -175,7 +175,7 @@ struct RunResult {
   // Median of each field over the samples (component by component).
   StepTimes median() const;
   // Components that the backend measured (non-zero in some sample).
-  std::vector<Component> components() const;
+  std::vector<StepPart> components() const;
 };
 
 // ---- Backend ----------------------------------------------------------------------------

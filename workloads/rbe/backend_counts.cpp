@@ -15,7 +15,7 @@ std::int64_t edge_taps(std::int64_t I) {
   return s;
 }
 
-CostCounts cpu_seq_counts(const Shape& s, Prediction prediction) {
+CostCounts cpu_seq_counts(const Shape& s, Convolution prediction) {
   validate(s);
   const std::int64_t ng = s.cells();
   const std::int64_t row_taps = s.Ix * s.nx - edge_taps(s.Ix);  // full 2D: valid (output, tap) pairs, one row
@@ -25,7 +25,7 @@ CostCounts cpu_seq_counts(const Shape& s, Prediction prediction) {
   c.precision = Precision::fp64;
   c.cpu_threads = 1;
   const std::int64_t correction = 3 * ng + 1;  // multiply, sum, A_c x sum, divide
-  if (prediction == Prediction::separable) {
+  if (prediction == Convolution::separable) {
     // Zero-padded lines, every output taking every tap, rows in whole groups of
     // reference::kGroup outputs: the x-pass runs n_y rows of n_x, the y-pass n_x of n_y.
     auto whole = [](std::int64_t n) { return (n + reference::kGroup - 1) / reference::kGroup * reference::kGroup; };
@@ -43,7 +43,7 @@ CostCounts cpu_seq_counts(const Shape& s, Prediction prediction) {
   return c;
 }
 
-CostCounts cpu_par_counts(const Shape& s, Prediction prediction, int threads) {
+CostCounts cpu_par_counts(const Shape& s, Convolution prediction, int threads) {
   validate(s);
   if (threads < 1) throw InputError(fmt::format("cpu-par needs at least one thread, got {}", threads));
   const std::int64_t ng = s.cells();
@@ -57,7 +57,7 @@ CostCounts cpu_par_counts(const Shape& s, Prediction prediction, int threads) {
   // Prediction: read q, write the intermediate (u or the zero-padded copy); read it, write the
   // prediction. Correction: read the prediction and l, write q. Kernels once.
   c.cpu_syncs = threads > 1 ? 3 : 0;
-  if (prediction == Prediction::separable) {
+  if (prediction == Convolution::separable) {
     auto round_up = [](std::int64_t n, std::int64_t m) { return (n + m - 1) / m * m; };
     c.N_C = 2 * s.ny * (s.Ix * round_up(s.nx, kCpuParXBlock) + s.Iy * round_up(s.nx, kCpuParYStrip)) + correction;
     // The x-pass slides along its row: one unaligned load per FMA. (The y-pass loads aligned row

@@ -27,7 +27,7 @@ std::int64_t edge_taps(std::int64_t kernel_size);
 //   (multiply by l: n_g, sum: n_g, A_c x sum: 1, divide: n_g)
 // N_CW = 0: each output's taps are one chain of dependent additions, bound by their latency
 // rather than by the loads.
-CostCounts cpu_seq_counts(const Shape& s, Prediction prediction);
+CostCounts cpu_seq_counts(const Shape& s, Convolution prediction);
 
 // cpu-par, float32, `threads` threads, zero-padded buffers so every output takes every tap. The
 // separable passes compute whole blocks of kCpuParXBlock outputs along a row (x-pass) and whole
@@ -45,7 +45,7 @@ CostCounts cpu_seq_counts(const Shape& s, Prediction prediction);
 // (the previous step's normalization 1 / (A_c S) is folded into this step's multiply by l).
 inline constexpr int kCpuParXBlock = 64;
 inline constexpr int kCpuParYStrip = 32;
-CostCounts cpu_par_counts(const Shape& s, Prediction prediction, int threads);
+CostCounts cpu_par_counts(const Shape& s, Convolution prediction, int threads);
 
 // cuda-seed: eqs. 5.10-5.16 (seed_gpu_counts) plus the one multiplication A_c x sum on the CPU
 // that the seed folds into its n_g summations: N_C = n_g + 1. Of N_G, the row kernel's taps

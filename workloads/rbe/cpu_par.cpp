@@ -209,7 +209,7 @@ class CpuPar final : public Backend {
   int threads() const { return threads_; }
 
   CostCounts step_counts(const Shape& s, const BackendOptions& o) const override {
-    return cpu_par_counts(s, o.prediction.value_or(Prediction::separable), threads_);
+    return cpu_par_counts(s, o.prediction.value_or(Convolution::separable), threads_);
   }
 
   void init(const Problem& problem) override {
@@ -231,7 +231,7 @@ class CpuPar final : public Backend {
     const float fill = options_.poison ? std::numeric_limits<float>::quiet_NaN() : 0.0f;
     pred_.assign(n, fill);
     // Flipped kernels: out[x] = sum_a kf[a] in[x + a] over the zero-padded input.
-    if (prediction_ == Prediction::separable) {
+    if (prediction_ == Convolution::separable) {
       kx_.resize(static_cast<std::size_t>(Ix_));
       ky_.resize(static_cast<std::size_t>(Iy_));
       for (std::int64_t a = 0; a < Ix_; ++a) kx_[std::size_t(a)] = float(problem.kernel.kx()[std::size_t(Ix_ - 1 - a)]);
@@ -285,7 +285,7 @@ class CpuPar final : public Backend {
 
   void predict() {
     const std::int64_t nx = nx_, ny = ny_;
-    if (prediction_ == Prediction::separable) {
+    if (prediction_ == Convolution::separable) {
       // Both loops hand out their work a piece at a time (dynamic schedule), so a thread whose
       // core runs slower for a while (another tenant on a shared host, an interrupt) takes
       // fewer pieces instead of holding up the region's end. Every output is computed the same
@@ -354,9 +354,9 @@ class CpuPar final : public Backend {
     scale_ = 1.0 / (grid_.cell_area() * sum);  // folded into the next step's correction
     const double t3 = seconds_now();
     ++steps_;
-    t.part(Component::predict) = t1 - t0;
-    t.part(Component::correct) = t2 - t1;
-    t.part(Component::normalize) = t3 - t2;
+    t.part(StepPart::predict) = t1 - t0;
+    t.part(StepPart::correct) = t2 - t1;
+    t.part(StepPart::normalize) = t3 - t2;
     t.total = t3 - t0;
     return t;
   }
@@ -365,7 +365,7 @@ class CpuPar final : public Backend {
   int threads_ = 1;
   Grid grid_;
   std::vector<std::uint8_t> mask_;
-  Prediction prediction_ = Prediction::separable;
+  Convolution prediction_ = Convolution::separable;
   std::int64_t nx_ = 0, ny_ = 0, Ix_ = 0, Iy_ = 0, hx_ = 0, hy_ = 0;
   std::vector<float> q_, l_, pred_, kx_, ky_, kfull_, upad_, rows_, spill_, ppad_;
   YPieces pieces_;  // the y-pass's strips of u and the pieces the threads take

@@ -24,7 +24,7 @@ class CpuSeq final : public Backend {
   const BackendOptions& options() const override { return options_; }
 
   CostCounts step_counts(const Shape& s, const BackendOptions& o) const override {
-    return cpu_seq_counts(s, o.prediction.value_or(Prediction::separable));
+    return cpu_seq_counts(s, o.prediction.value_or(Convolution::separable));
   }
 
   void init(const Problem& problem) override {
@@ -39,7 +39,7 @@ class CpuSeq final : public Backend {
     const auto n = p_.size();
     const double fill = options_.poison ? std::numeric_limits<double>::quiet_NaN() : 0.0;
     u_.assign(n, fill);
-    if (prediction_ == Prediction::separable) work_.assign(2 * n, fill);  // the y-pass's transposes
+    if (prediction_ == Convolution::separable) work_.assign(2 * n, fill);  // the y-pass's transposes
     else work_.clear();
     pred_.assign(n, fill);
     q_.assign(n, fill);
@@ -71,7 +71,7 @@ class CpuSeq final : public Backend {
     const double t0 = seconds_now();
     {
       Range range("rbe/predict");
-      if (prediction_ == Prediction::separable) {
+      if (prediction_ == Convolution::separable) {
         reference::pass_x(nx, ny, kernel_.kx().data(), kernel_.Ix(), p_.data(), u_.data());
         reference::pass_y(nx, ny, kernel_.ky().data(), kernel_.Iy(), u_.data(), pred_.data(), work_.data());
       } else {
@@ -93,9 +93,9 @@ class CpuSeq final : public Backend {
     }
     const double t3 = seconds_now();
     ++steps_;
-    t.part(Component::predict) = t1 - t0;
-    t.part(Component::correct) = t2 - t1;
-    t.part(Component::normalize) = t3 - t2;
+    t.part(StepPart::predict) = t1 - t0;
+    t.part(StepPart::correct) = t2 - t1;
+    t.part(StepPart::normalize) = t3 - t2;
     t.total = t3 - t0;
     return t;
   }
@@ -104,7 +104,7 @@ class CpuSeq final : public Backend {
   Grid grid_;
   MotionKernel kernel_;
   std::vector<double> dense_;
-  Prediction prediction_ = Prediction::separable;
+  Convolution prediction_ = Convolution::separable;
   std::vector<std::uint8_t> mask_;
   std::vector<double> p_, l_, u_, pred_, q_, work_;
   std::int64_t steps_ = 0;

@@ -713,7 +713,7 @@ class CudaResident final : public Backend {
         const std::int64_t m = std::min(chunk, n - c * chunk);
         StepTimes t;
         t.total = events_->seconds(std::size_t(c), std::size_t(c + 1)) / double(m);
-        t.part(Component::device_step) = t.total;
+        t.part(StepPart::device_step) = t.total;
         r.samples.push_back(t);
       }
       for (std::int64_t k = 0; k < n; ++k) {
@@ -744,9 +744,9 @@ class CudaResident final : public Backend {
     double S = 0;
     DTFLOP_CUDA(cudaMemcpy(&S, sums_.get() + 1, sizeof(double), cudaMemcpyDeviceToHost));
     const double t3 = seconds_now();
-    t.part(Component::to_device) = t1 - t0;
-    t.part(Component::device_step) = events_->seconds(0, 1);
-    t.part(Component::to_host) = t3 - t2;
+    t.part(StepPart::to_device) = t1 - t0;
+    t.part(StepPart::device_step) = events_->seconds(0, 1);
+    t.part(StepPart::to_host) = t3 - t2;
     t.total = t3 - t0;
     cur_ ^= 1;
     if (!(S > 0 && std::isfinite(S))) {

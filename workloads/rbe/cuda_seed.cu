@@ -150,7 +150,7 @@ class CudaSeed final : public Backend {
     StepTimes t;
     double c0 = seconds_now();
     const double start = c0;
-    auto lap = [&](Component c) {
+    auto lap = [&](StepPart c) {
       stream_->sync();
       const double c1 = seconds_now();
       t.part(c) += c1 - c0;
@@ -162,7 +162,7 @@ class CudaSeed final : public Backend {
       to_device(d_kx_, h_kx_);  // column kernel     I_x
       to_device(d_ky_, h_ky_);  // row kernel        I_y
       to_device(d_l_, h_l_);    // likelihood        n_g
-      lap(Component::to_device);
+      lap(StepPart::to_device);
     }
     {
       Range r("rbe/predict");
@@ -172,19 +172,19 @@ class CudaSeed final : public Backend {
       rbe_seed_row_multiply<<<grid, block, 0, s>>>(d_u_.get(), d_ky_.get(), int(shape_.Iy),
                                                    int(kernel_centre(shape_.Iy)), d_l_.get(), nx, ny, d_q_.get());
       DTFLOP_CUDA_LAUNCHED();
-      lap(Component::predict);
+      lap(StepPart::predict);
     }
     {
       Range r("rbe/to_host");
       to_host(h_q_, d_q_);  // q  n_g
-      lap(Component::to_host);
+      lap(StepPart::to_host);
     }
     {
       Range r("rbe/host_sum");
       sum = 0;
       for (std::int64_t i = 0; i < n; ++i) sum += h_q_[std::size_t(i)];  // n_g additions on the CPU
       h_z_[0] = float(grid_.cell_area() * sum);
-      lap(Component::host_sum);
+      lap(StepPart::host_sum);
     }
     if (!(sum > 0 && std::isfinite(sum)) || !(h_z_[0] > 0 && std::isfinite(h_z_[0]))) {
       failed_ = true;
@@ -193,18 +193,18 @@ class CudaSeed final : public Backend {
     {
       Range r("rbe/to_device");
       to_device(d_z_, h_z_);  // A_c x sum  1
-      lap(Component::to_device);
+      lap(StepPart::to_device);
     }
     {
       Range r("rbe/normalize");
       rbe_seed_divide<<<unsigned((n + 255) / 256), 256, 0, s>>>(d_q_.get(), d_z_.get(), n, d_p_.get());
       DTFLOP_CUDA_LAUNCHED();
-      lap(Component::normalize);
+      lap(StepPart::normalize);
     }
     {
       Range r("rbe/to_host");
       to_host(h_p_, d_p_);  // belief  n_g
-      lap(Component::to_host);
+      lap(StepPart::to_host);
     }
     t.total = c0 - start;
     ++steps_;

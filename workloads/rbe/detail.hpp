@@ -68,7 +68,7 @@ std::vector<double> masked_likelihood(std::span<const double> likelihood,
                                       std::span<const std::uint8_t> mask, std::int64_t cells);
 // The prediction a backend computes for `kernel`; throws InputError when the options ask for
 // the separable one with a full kernel, or when the backend supports only separable kernels.
-Prediction resolve_prediction(const BackendOptions& options, const MotionKernel& kernel,
+Convolution resolve_prediction(const BackendOptions& options, const MotionKernel& kernel,
                               bool supports_full, std::string_view backend);
 // Throws NumericalError for a correction whose sum (of q, before A_c) is zero or not finite.
 void check_sum(double sum, std::int64_t step, std::string_view backend);

@@ -33,8 +33,8 @@ BackendOptions options_of(const Config& c, const MachineIdentity* target) {
   if (workload::has(c, "graph")) o.graph = workload::get_flag(c, "graph");
   if (workload::has(c, "prediction")) {
     const std::string p = workload::get_text(c, "prediction");
-    if (p == "separable") o.prediction = Prediction::separable;
-    else if (p == "full") o.prediction = Prediction::full;
+    if (p == "separable") o.prediction = Convolution::separable;
+    else if (p == "full") o.prediction = Convolution::full;
   }
   if (target && target->gpu_sms > 0) o.gpu_sms = target->gpu_sms;
   return o;
@@ -54,7 +54,7 @@ class RbeRun final : public workload::Run {
   CostCounts counts() const override { return counts_; }
   workload::PhaseTimes repeat() override {
     const RunResult r = run_checked();
-    using C = Component;
+    using C = StepPart;
     auto sum = [&r](std::initializer_list<C> parts) {
       double s = 0;
       for (const auto& st : r.samples)

@@ -27,7 +27,7 @@ struct Counted {
 };
 
 // One cpu-seq step through the reference algorithms with counted scalars.
-std::int64_t counted_step(const Shape& s, Prediction prediction) {
+std::int64_t counted_step(const Shape& s, Convolution prediction) {
   const std::int64_t n = s.cells();
   const auto N = static_cast<std::size_t>(n);
   std::vector<Counted> kx(static_cast<std::size_t>(s.Ix), Counted(0.1));
@@ -35,7 +35,7 @@ std::int64_t counted_step(const Shape& s, Prediction prediction) {
   std::vector<Counted> k2(static_cast<std::size_t>(s.Ix * s.Iy), Counted(0.1));
   std::vector<Counted> p(N, Counted(1)), l(N, Counted(0.5)), u(N), pred(N), q(N), work(2 * N);
   Ops::reset();
-  if (prediction == Prediction::separable) {
+  if (prediction == Convolution::separable) {
     reference::pass_x(s.nx, s.ny, kx.data(), s.Ix, p.data(), u.data());
     reference::pass_y(s.nx, s.ny, ky.data(), s.Iy, u.data(), pred.data(), work.data());
   } else {
@@ -49,7 +49,7 @@ std::int64_t counted_step(const Shape& s, Prediction prediction) {
 
 TEST(RbeBackendCounts, CpuSeqCountsAreTheOperationsItsCodeDoes) {
   for (const Shape s : {Shape{1, 1, 1, 1}, Shape{17, 12, 5, 3}, Shape{16, 9, 4, 6}, Shape{30, 30, 30, 1}}) {
-    for (const auto pr : {Prediction::separable, Prediction::full}) {
+    for (const auto pr : {Convolution::separable, Convolution::full}) {
       SCOPED_TRACE(fmt::format("{}x{} kernel {}x{} {}", s.nx, s.ny, s.Ix, s.Iy, int(pr)));
       EXPECT_EQ(cpu_seq_counts(s, pr).N_C, counted_step(s, pr));
     }
@@ -63,7 +63,7 @@ TEST(RbeBackendCounts, CpuSeqByHand) {
   EXPECT_EQ(edge_taps(3), 2);
   EXPECT_EQ(edge_taps(4), 4);
   const Shape s{10, 8, 3, 4};
-  const auto c = cpu_seq_counts(s, Prediction::separable);
+  const auto c = cpu_seq_counts(s, Convolution::separable);
   // Zero-padded lines in whole groups of 8 outputs: 8 rows of 16 (10 rounded up) with 3 taps,
   // 10 columns of 8 with 4 taps.
   EXPECT_EQ(c.N_C, 2 * (8 * 16 * 3 + 10 * 8 * 4) + 3 * 80 + 1);
@@ -72,15 +72,15 @@ TEST(RbeBackendCounts, CpuSeqByHand) {
   EXPECT_EQ(c.cpu_syncs, 0);
   EXPECT_EQ(c.P, 8);
   EXPECT_EQ(c.cpu_threads, 1);
-  EXPECT_EQ(cpu_seq_counts(s, Prediction::full).N_C, 2 * 28 * 28 + 3 * 80 + 1);
+  EXPECT_EQ(cpu_seq_counts(s, Convolution::full).N_C, 2 * 28 * 28 + 3 * 80 + 1);
   // Working set: 7 arrays of 80 doubles (p, l, u, prediction, q, two transpose buffers); 5 full.
   EXPECT_EQ(c.cpu_footprint, 7 * 80 * 8);
-  EXPECT_EQ(cpu_seq_counts(s, Prediction::full).cpu_footprint, 5 * 80 * 8);
+  EXPECT_EQ(cpu_seq_counts(s, Convolution::full).cpu_footprint, 5 * 80 * 8);
 }
 
 TEST(RbeBackendCounts, CpuParByHand) {
   const Shape s{1000, 1000, 33, 33};
-  const auto c = cpu_par_counts(s, Prediction::separable, 2);
+  const auto c = cpu_par_counts(s, Convolution::separable, 2);
   // 5.5 plus the correction, over rows rounded up to whole x-pass blocks (1024 = 16 x 64) and
   // whole y-pass strips (1024 = 32 x 32).
   EXPECT_EQ(c.N_C, 2LL * 1000 * (33 * 1024 + 33 * 1024) + 3LL * 1000000 + 2);
@@ -90,18 +90,18 @@ TEST(RbeBackendCounts, CpuParByHand) {
   // Working set: q, l, prediction (10^6 floats each) and u: 32 strips of 32 columns, 1032 rows.
   EXPECT_EQ(c.cpu_footprint, 4LL * (3 * 1000000 + 1032 * 1024));
   // 100 columns: 128 in x-pass blocks, 128 in y-pass strips; 96 columns: 128 and 96.
-  EXPECT_EQ(cpu_par_counts({100, 10, 3, 5}, Prediction::separable, 2).N_C, 2LL * 10 * (3 * 128 + 5 * 128) + 3 * 1000 + 2);
-  EXPECT_EQ(cpu_par_counts({96, 10, 3, 5}, Prediction::separable, 2).N_C, 2LL * 10 * (3 * 128 + 5 * 96) + 3 * 960 + 2);
-  EXPECT_EQ(cpu_par_counts(s, Prediction::separable, 1).cpu_syncs, 0);  // nothing to wait for
+  EXPECT_EQ(cpu_par_counts({100, 10, 3, 5}, Convolution::separable, 2).N_C, 2LL * 10 * (3 * 128 + 5 * 128) + 3 * 1000 + 2);
+  EXPECT_EQ(cpu_par_counts({96, 10, 3, 5}, Convolution::separable, 2).N_C, 2LL * 10 * (3 * 128 + 5 * 96) + 3 * 960 + 2);
+  EXPECT_EQ(cpu_par_counts(s, Convolution::separable, 1).cpu_syncs, 0);  // nothing to wait for
   EXPECT_EQ(c.P, 4);
   EXPECT_EQ(c.cpu_threads, 2);
   EXPECT_EQ(c.N_CG + c.N_GC + c.N_GG + c.N_G, 0);
-  EXPECT_EQ(cpu_par_counts({100, 50, 5, 7}, Prediction::full, 1).N_C, 2LL * 5000 * 35 + 3 * 5000 + 2);
-  EXPECT_EQ(cpu_par_counts({100, 50, 5, 7}, Prediction::full, 1).N_CW, 2LL * 5000 * 35);
+  EXPECT_EQ(cpu_par_counts({100, 50, 5, 7}, Convolution::full, 1).N_C, 2LL * 5000 * 35 + 3 * 5000 + 2);
+  EXPECT_EQ(cpu_par_counts({100, 50, 5, 7}, Convolution::full, 1).N_CW, 2LL * 5000 * 35);
   // The backend declares the same counts, with the threads it runs on.
   BackendOptions o;
   o.threads = 3;
-  EXPECT_EQ(step_counts("cpu-par", s, o), cpu_par_counts(s, Prediction::separable, 3));
+  EXPECT_EQ(step_counts("cpu-par", s, o), cpu_par_counts(s, Convolution::separable, 3));
 }
 
 TEST(RbeBackendCounts, CudaSeedIsEquations5_10To5_16) {

@@ -66,7 +66,7 @@ TEST(RbeCpuSeq, SeparableAndFullPredictionAgreeOnASeparableKernel) {
   SCOPED_TRACE(describe(r, seed));
   const Problem p = random_problem(r, seed);
   BackendOptions full;
-  full.prediction = Prediction::full;
+  full.prediction = Convolution::full;
   auto a = make_backend("cpu-seq"), b = make_backend("cpu-seq", full);
   a->init(p);
   b->init(p);
@@ -139,14 +139,14 @@ TEST(RbeBackends, StepWithNewLikelihoodsAndTimings) {
     const auto l = likelihood(p.grid, NegativeObservation{p.grid.centre(10, 10), 0.8, 1.0});
     const StepTimes t = b->step(l);
     EXPECT_GT(t.total, 0);
-    EXPECT_GT(t.part(Component::predict), 0);
-    EXPECT_LE(t.part(Component::predict), t.total);
+    EXPECT_GT(t.part(StepPart::predict), 0);
+    EXPECT_LE(t.part(StepPart::predict), t.total);
     const auto r = b->run(5);
     EXPECT_EQ(r.samples.size(), 5u);
     EXPECT_GT(r.median().total, 0);
     EXPECT_GT(r.wall_seconds, 0);
     const auto comps = r.components();
-    EXPECT_NE(std::find(comps.begin(), comps.end(), Component::correct), comps.end());
+    EXPECT_NE(std::find(comps.begin(), comps.end(), StepPart::correct), comps.end());
     EXPECT_THROW(b->step(std::vector<double>(3, 1.0)), InputError);  // wrong size
     EXPECT_THROW(b->run(0), InputError);
   }
@@ -264,7 +264,7 @@ TEST(RbeRegistry, SeparableOnlyBackendsRejectFullKernels) {
     }
   }
   BackendOptions sep;
-  sep.prediction = Prediction::separable;
+  sep.prediction = Convolution::separable;
   EXPECT_THROW(make_backend("cpu-seq", sep)->init(p), InputError);
 }
 

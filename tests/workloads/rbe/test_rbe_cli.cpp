@@ -21,7 +21,7 @@ TEST(RbeCli, RunsCpuSeqAndReportsTimesAndExactCounts) {
   EXPECT_GT(j["measured_per_step"]["C"]["median"].get<double>(), 0);
   // A CPU step is all CPU work: the component cannot exceed the total.
   EXPECT_LE(j["measured_per_step"]["C"]["median"].get<double>(), j["measured_per_step"]["total"]["median"].get<double>());
-  const auto step = rbe::cpu_seq_counts({40, 30, 5, 3}, rbe::Prediction::separable);
+  const auto step = rbe::cpu_seq_counts({40, 30, 5, 3}, rbe::Convolution::separable);
   EXPECT_EQ(j["counts_per_step"]["N_C"].get<std::int64_t>(), step.N_C);
   EXPECT_EQ(j["counts_per_repetition"]["N_C"].get<std::int64_t>(), 20 * step.N_C);
 }

@@ -104,7 +104,7 @@ TEST(RbeCudaResident, LongRunsAcrossGraphSegmentsMatchCpuSeq) {
   const auto rg = gpu->run(2501);
   EXPECT_EQ(rg.sums.size(), 2501u);
   EXPECT_EQ(rg.steps_per_sample, 50);
-  EXPECT_GT(rg.median().part(Component::device_step), 0);
+  EXPECT_GT(rg.median().part(StepPart::device_step), 0);
   EXPECT_LT(relative_l1(gpu->belief(), ref->belief()), 1e-4);  // float32 both, 2501 steps
 }
 
@@ -137,7 +137,7 @@ TEST(RbeCuda, StepWithNewLikelihoodsAndTimings) {
       const StepTimes t = b->step(l);
       ref->step(l);
       EXPECT_GT(t.total, 0);
-      EXPECT_GT(t.part(Component::to_device), 0);
+      EXPECT_GT(t.part(StepPart::to_device), 0);
     }
     EXPECT_LT(relative_l1(b->belief(), ref->belief()), 1e-5);
   }
