@@ -39,6 +39,7 @@ struct CalibrateOptions {
   bool total_only = false;
   std::uint64_t seed = 1;
   std::string rounds_combine{to_string(kDefaultRoundCombine)};
+  bool json = false;
 };
 
 std::vector<Sample> loaded_samples(const std::vector<std::string>& stores, const SampleFilter& filter) {
@@ -127,20 +128,45 @@ void run(const CalibrateOptions& o) {
   fo.variant = choice.chosen;
   FitResult r = fit(samples, probed, fo);
 
-  // Report.
+  // Report: tables, or with --json the same as one object.
+  std::FILE* tables = o.json ? nullptr : stdout;
+  auto print = [tables](const std::string& text) {
+    if (tables) std::fputs(text.c_str(), tables);
+  };
   std::map<std::string, int> per_backend;
   for (const auto& s : samples) per_backend[s.backend] += 1;
   std::string backends;
   for (const auto& [b, n] : per_backend) backends += fmt::format("{}{} {}", backends.empty() ? "" : ", ", n, b);
-  fmt::print("Samples: {}{}.\n", merged.summary(), merged.how());
-  fmt::print("Fitted {} samples ({}) from {} to the {} variant: {} residuals, {} free parameters, "
-             "rms relative residual {:.2f}%, {} iterations.\n",
-             samples.size(), backends, describe(probed.identity), to_string(r.variant), r.residuals,
-             r.free_parameters, 100 * r.rms_relative, r.iterations);
-  fmt::print("Solver: {}\n", r.termination);
+  print(fmt::format("Samples: {}{}.\n", merged.summary(), merged.how()));
+  print(fmt::format("Fitted {} samples ({}) from {} to the {} variant: {} residuals, {} free parameters, "
+                    "rms relative residual {:.2f}%, {} iterations.\n",
+                    samples.size(), backends, describe(probed.identity), to_string(r.variant), r.residuals,
+                    r.free_parameters, 100 * r.rms_relative, r.iterations));
+  print(fmt::format("Solver: {}\n", r.termination));
+  nlohmann::json result = {{"samples", samples.size()},
+                           {"stored_samples", merged.input},
+                           {"rounds", {{"min", merged.min_rounds}, {"max", merged.max_rounds}}},
+                           {"rounds_combine", std::string(to_string(merged.combine))},
+                           {"backends", per_backend},
+                           {"variant", std::string(to_string(r.variant))},
+                           {"variant_reason", choice.reason},
+                           {"residuals", r.residuals},
+                           {"free_parameters", r.free_parameters},
+                           {"rms_relative", r.rms_relative},
+                           {"iterations", r.iterations},
+                           {"solver", r.termination},
+                           {"output", o.output}};
+  nlohmann::json cv_json = nlohmann::json::array();
+  for (const auto& c : cv)
+    cv_json.push_back({{"variant", std::string(to_string(c.variant))},
+                       {"mean_rel", c.mean_rel},
+                       {"se", c.se},
+                       {"max_rel", c.max_rel},
+                       {"failed_folds", c.failed_folds}});
+  result["cross_validation"] = cv_json;
   if (!cv.empty()) {
-    fmt::print("\nModel variants by {}-fold cross-validation (relative error of the total on held-out folds):\n",
-               o.folds);
+    print(fmt::format("\nModel variants by {}-fold cross-validation (relative error of the total on held-out folds):\n",
+                      o.folds));
     Table t({"variant", "mean", "std. error", "max", "note"}, "lrrrl");
     for (const auto& c : cv)
       t.row({std::string(to_string(c.variant)), c.failed_folds ? "-" : fmt::format("{:.2f}%", 100 * c.mean_rel),
@@ -148,9 +174,10 @@ void run(const CalibrateOptions& o) {
              c.failed_folds ? "-" : fmt::format("{:.1f}%", 100 * c.max_rel),
              c.failed_folds ? fmt::format("fit failed in {} fold(s): {}", c.failed_folds, c.failure)
                             : (c.variant == choice.chosen ? "chosen" : "")});
-    fmt::print("{}", t.str());
+    print(t.str());
   }
-  fmt::print("{}\n\nParameters:\n", choice.reason);
+  print(fmt::format("{}\n\nParameters:\n", choice.reason));
+  nlohmann::json params_json = nlohmann::json::array();
   Table t({"parameter", "probed", "fitted", "95% interval", "fitted/probed", "note"}, "lrrrrl");
   int flagged = 0;
   for (const auto& f : r.params) {
@@ -160,12 +187,18 @@ void run(const CalibrateOptions& o) {
            f.has_interval ? fmt::format("{} .. {}", value_text(f.lo95, f.id), value_text(f.hi95, f.id)) : "-",
            f.fitted && f.probed ? fmt::format("{:.2f}", f.value / *f.probed) : "-",
            (f.flagged ? "FLAG: " : "") + f.note});
+    nlohmann::json pj = {{"name", std::string(info(f.id).name)}, {"unit", std::string(info(f.id).unit)},
+                         {"fitted", f.fitted}, {"value", f.value}, {"flagged", f.flagged}, {"note", f.note}};
+    if (f.probed) pj["probed"] = *f.probed;
+    if (f.has_interval) pj["interval95"] = {f.lo95, f.hi95};
+    params_json.push_back(pj);
   }
-  fmt::print("{}", t.str());
-  if (!r.covariance_ok) fmt::print("No intervals: {}\n", r.covariance_note);
+  result["parameters"] = params_json;
+  print(t.str());
+  if (!r.covariance_ok) print(fmt::format("No intervals: {}\n", r.covariance_note));
   if (flagged)
-    fmt::print("{} parameter{} disagree with the probed value by more than {:.2f}x (flagged above).\n", flagged,
-               flagged == 1 ? "" : "s", o.flag_ratio);
+    print(fmt::format("{} parameter{} disagree with the probed value by more than {:.2f}x (flagged above).\n", flagged,
+                      flagged == 1 ? "" : "s", o.flag_ratio));
 
   MachineProfile out = r.profile;
   std::string stores;
@@ -188,7 +221,8 @@ void run(const CalibrateOptions& o) {
     if (!f.fitted) kept += (kept.empty() ? "" : ", ") + std::string(info(f.id).name);
   if (!kept.empty()) out.metadata["fit_not_identifiable"] = kept;
   save_profile(out, o.output);
-  fmt::print("\nWrote {} (model variant {}).\n", o.output, to_string(r.variant));
+  print(fmt::format("\nWrote {} (model variant {}).\n", o.output, to_string(r.variant)));
+  if (o.json) fmt::print("{}\n", result.dump(2));
 }
 
 }  // namespace
@@ -208,6 +242,7 @@ void add_calibrate_command(CLI::App& root) {
       ->required();
   app->add_option("--variant", o->variant, variant_names(", ") + ", or all (choose by cross-validation)")
       ->capture_default_str();
+  app->add_flag("--json", o->json, "Print the fit's result as JSON instead of tables");
   app->add_option("--folds", o->folds, "Folds of the cross-validation")->capture_default_str();
   app->add_option("--match", o->match, "Only samples whose key contains this text, e.g. host-memory=pinned (repeatable: all must match)");
   app->add_option("--backend", o->backends, "Fit only samples of these backends (repeatable)");

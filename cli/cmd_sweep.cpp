@@ -28,6 +28,7 @@ struct SweepOptions {
   std::uint64_t seed = 20261121;
   bool no_cupti = false;
   bool quiet = false;
+  bool json = false;
 };
 
 void run(const SweepOptions& o, const WorkloadArgs& a) {
@@ -70,6 +71,16 @@ void run(const SweepOptions& o, const WorkloadArgs& a) {
       o.quiet ? nullptr : stderr, o.rounds);
   if (o.quiet)
     for (const auto& warning : r.warnings) fmt::print(stderr, "dtflop: warning: {}\n", warning);
+  if (o.json) {
+    const nlohmann::json out = {{"workload", std::string(w.name())}, {"backend", b.name()},
+                                {"plan", plan.name},                 {"description", plan.description},
+                                {"store", o.store},                  {"configurations", r.configurations},
+                                {"rounds", r.rounds},                {"planned", r.planned},
+                                {"measured", r.measured},            {"already", r.already},
+                                {"warnings", r.warnings}};
+    fmt::print("{}\n", out.dump(2));
+    return;
+  }
   if (r.rounds == 1)
     fmt::print("{}: {} configurations, {} measured now, {} already in {}\n", plan.name, r.planned, r.measured,
                r.already, o.store);
@@ -111,6 +122,7 @@ void add_sweep_command(CLI::App& root) {
   app->add_option("--seed", o->seed, "Seed of random plans")->capture_default_str();
   app->add_flag("--no-cupti", o->no_cupti, "Time device work with host clocks only");
   app->add_flag("--quiet,-q", o->quiet, "No progress on stderr (warnings still)");
+  app->add_flag("--json", o->json, "Print the sweep's report as JSON");
   for (const workload::Workload* w : workload::all()) {
     std::string plans;
     for (const auto& [name, what] : w->plan_names()) plans += fmt::format("\n  {}: {}", name, what);

@@ -190,6 +190,16 @@ TEST_F(CalibCli, SweepRoundsStoreEveryRoundAndResume) {
   EXPECT_EQ(c.keys().size(), 9u);
   EXPECT_EQ(c.samples[8].round, 3);
 
+  // Once more with --json: nothing left to measure, said as one object.
+  r = test::run_dtflop(base + " --rounds 3 --quiet --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto report = nlohmann::json::parse(r.out);
+  EXPECT_EQ(report["workload"], "rbe");
+  EXPECT_EQ(report["configurations"], 3);
+  EXPECT_EQ(report["rounds"], 3);
+  EXPECT_EQ(report["measured"], 0);
+  EXPECT_EQ(report["already"], 9);
+
   r = test::run_dtflop("sweep --help");
   EXPECT_NE(r.out.find("--rounds"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("slow spell"), std::string::npos) << r.out;
@@ -281,6 +291,15 @@ TEST_F(CalibCli, CalibrateAndValidateMergeRounds) {
   EXPECT_TRUE(r.err.empty()) << r.err;
   const MachineProfile fitted = load_profile(path("fitted.json"));
   EXPECT_EQ(fitted.metadata.at("fit_samples"), std::to_string(configs));
+  // --json: the same fit as one object (the output file is replaced, being a regular file).
+  auto rj = test::run_dtflop(fmt::format("calibrate --store {} --machine {} -o {} --variant latency --rounds-combine median --json",
+                                         path("rounds.jsonl"), path("probed.json"), path("fitted.json")));
+  ASSERT_EQ(rj.status, 0) << rj.err;
+  const auto fit_json = nlohmann::json::parse(rj.out);
+  EXPECT_EQ(fit_json["samples"], configs);
+  EXPECT_EQ(fit_json["stored_samples"], 3 * configs);
+  EXPECT_EQ(fit_json["variant"], "latency");
+  EXPECT_FALSE(fit_json["parameters"].empty());
   // The slow round is left out by the median of the rounds: the fit recovers the truth.
   EXPECT_NEAR(fitted.get(Param::B_CG_pageable).value / truth.get(Param::B_CG_pageable).value, 1, 0.04);
 
