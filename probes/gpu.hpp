@@ -12,15 +12,14 @@
 #include <string>
 #include <vector>
 
+#include "cuda/error.hpp"
 #include "model/cost_counts.hpp"  // HostMemory: the model's, pinned or pageable
 
 namespace dtflop::probes::gpu {
 
-// A CUDA call failed; the message names the call, where, and CUDA's error string.
-class GpuError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
+// A CUDA call failed; the message names the call, where, and CUDA's error string (the error type
+// every CUDA path of dtflop throws: cuda/error.hpp).
+using GpuError = cuda::Error;
 
 struct DeviceInfo {
   bool usable = false;

@@ -8,20 +8,12 @@
 
 #include <cuda_runtime.h>
 
+#include "cuda/check.hpp"  // DTFLOP_CUDA, DTFLOP_CUDA_LAUNCHED
 #include "probes/gpu.hpp"
 #include "probes/gpu_errors.hpp"
 
 namespace dtflop::probes::gpu::detail {
 
-#define DTFLOP_CUDA(call)                                                      \
-  do {                                                                         \
-    const cudaError_t dtflop_e_ = (call);                                      \
-    if (dtflop_e_ != cudaSuccess)                                              \
-      ::dtflop::probes::gpu::detail::fail(static_cast<int>(dtflop_e_), #call, __FILE__, __LINE__); \
-  } while (0)
-
-// After every kernel launch: a bad configuration shows up here, not at the next sync.
-#define DTFLOP_CUDA_LAUNCHED() DTFLOP_CUDA(cudaGetLastError())
 
 class DeviceBuffer {
  public:

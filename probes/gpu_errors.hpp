@@ -6,9 +6,6 @@
 
 namespace dtflop::probes::gpu::detail {
 
-// Throws GpuError naming the call, where it was made, and CUDA's error (code: a cudaError_t).
-[[noreturn]] void fail(int code, const char* call, const char* file, int line);
-
 // Throws ValidationError: `bad` of `total` values of a `bytes`-byte result were wrong.
 [[noreturn]] void mismatch(const char* what, std::uint64_t bytes, std::uint64_t bad,
                            std::uint64_t total);

@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "cuda/check.hpp"
 #include "probes/gpu.hpp"
 #include "probes/gpu_errors.hpp"
 #include "probes/identity.hpp"
@@ -16,13 +17,6 @@
 namespace dtflop::probes::gpu {
 
 namespace detail {
-
-void fail(int code, const char* call, const char* file, int line) {
-  const auto e = static_cast<cudaError_t>(code);
-  cudaGetLastError();  // clear a non-sticky error so that a later probe starts clean
-  throw GpuError(fmt::format("CUDA call {} failed at {}:{}: {} ({})", call, file, line,
-                             cudaGetErrorString(e), cudaGetErrorName(e)));
-}
 
 void mismatch(const char* what, std::uint64_t bytes, std::uint64_t bad, std::uint64_t total) {
   throw ValidationError(fmt::format("{} of {} bytes: {} of {} values differ from what was expected",
@@ -42,7 +36,7 @@ void use_device() {
   }
   if (n == 0) throw GpuError("no CUDA device found");
   const cudaError_t s = cudaSetDevice(0);
-  if (s != cudaSuccess) fail(s, "cudaSetDevice(0)", __FILE__, __LINE__);
+  if (s != cudaSuccess) cuda::fail(s, "cudaSetDevice(0)", __FILE__, __LINE__);
 }
 
 }  // namespace detail
@@ -59,7 +53,7 @@ std::string kernel_module_version() {
 }
 
 void check(cudaError_t e, const char* call) {
-  if (e != cudaSuccess) detail::fail(e, call, __FILE__, __LINE__);
+  if (e != cudaSuccess) cuda::fail(e, call, __FILE__, __LINE__);
 }
 
 }  // namespace

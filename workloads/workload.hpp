@@ -30,6 +30,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cuda/error.hpp"
 #include "model/cost_counts.hpp"
 #include "model/errors.hpp"
 #include "model/profile.hpp"
@@ -63,10 +64,7 @@ struct ParamSpec {
 };
 
 // A GPU backend asked for where no CUDA device can be used (or dtflop was built without CUDA).
-class DeviceUnavailable : public InputError {
- public:
-  using InputError::InputError;
-};
+using DeviceUnavailable = cuda::Unavailable;
 
 // ---- Measuring ----------------------------------------------------------------------------
 

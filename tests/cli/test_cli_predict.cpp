@@ -2,6 +2,8 @@
 #include <filesystem>
 
 #include <gtest/gtest.h>
+
+#include "cuda/device.hpp"
 #include <nlohmann/json.hpp>
 
 #include "model/json_io.hpp"
@@ -146,7 +148,7 @@ TEST_F(PredictCli, CudaResidentWavesOnTheProfilesMultiprocessors) {
   r = test::run_dtflop("predict --machine " + path("m.json") + args + " --json");
   ASSERT_EQ(r.status, 0) << r.err;
   j = nlohmann::json::parse(r.out);
-  const int here = rbe::cuda_device_sms() > 0 ? rbe::cuda_device_sms() : rbe::kDefaultGpuSms;
+  const int here = cuda::device_sms() > 0 ? cuda::device_sms() : rbe::kDefaultGpuSms;
   EXPECT_EQ(counts_from_json(j.at("counts")),
             rbe::cuda_resident_counts({1000, 1000, 33, 33}, rbe::parse_layout("32x8x8"), here));
 }

@@ -1,5 +1,7 @@
 #include "workloads/dct/backend.hpp"
 
+#include "cuda/device.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <thread>
@@ -198,13 +200,7 @@ std::vector<std::string> backend_names() {
   return out;
 }
 
-std::string cuda_unavailable_reason() {
-#ifdef DTFLOP_HAVE_CUDA
-  return cuda_device_check();
-#else
-  return "dtflop was built without CUDA (nvcc was not found at configure time)";
-#endif
-}
+std::string cuda_unavailable_reason() { return cuda::unavailable_reason(); }
 
 std::unique_ptr<Backend> make_backend(const std::string& name, const PipelineOptions& o) {
   return backend_kind(name).make(o);

@@ -148,7 +148,6 @@ std::string cuda_unavailable_reason();
 
 #ifdef DTFLOP_HAVE_CUDA
 std::unique_ptr<Backend> make_cuda_backend(const PipelineOptions& o);  // cuda_backend.cpp
-std::string cuda_device_check();                                     // cuda_backend.cpp
 #endif
 
 }  // namespace dtflop::dct

@@ -32,9 +32,9 @@ class DeviceBuffer {
   ~DeviceBuffer() { if (p_) cudaFree(p_); }
   T* ensure(std::size_t n) {
     if (n > n_) {
-      if (p_) DCT_CUDA(cudaFree(p_));
+      if (p_) DTFLOP_CUDA(cudaFree(p_));
       p_ = nullptr;
-      DCT_CUDA(cudaMalloc(&p_, std::max<std::size_t>(n, 1) * sizeof(T)));
+      DTFLOP_CUDA(cudaMalloc(&p_, std::max<std::size_t>(n, 1) * sizeof(T)));
       n_ = n;
     }
     return p_;
@@ -54,9 +54,9 @@ class PinnedBuffer {
   ~PinnedBuffer() { if (p_) cudaFreeHost(p_); }
   void* ensure(std::size_t bytes) {
     if (bytes > n_) {
-      if (p_) DCT_CUDA(cudaFreeHost(p_));
+      if (p_) DTFLOP_CUDA(cudaFreeHost(p_));
       p_ = nullptr;
-      DCT_CUDA(cudaMallocHost(&p_, bytes));
+      DTFLOP_CUDA(cudaMallocHost(&p_, bytes));
       n_ = bytes;
     }
     return p_;
@@ -86,7 +86,7 @@ class HostArray {
     const std::size_t bytes = std::max<std::size_t>(n, 1) * sizeof(T);
     if (pinned_) {
       void* p = nullptr;
-      DCT_CUDA(cudaMallocHost(&p, bytes));
+      DTFLOP_CUDA(cudaMallocHost(&p, bytes));
       p_ = static_cast<T*>(p);
     } else {
       p_ = static_cast<T*>(::operator new(bytes));
@@ -118,17 +118,17 @@ double host_now() {
 class Events {
  public:
   Events() {
-    for (auto& e : e_) DCT_CUDA(cudaEventCreate(&e));
+    for (auto& e : e_) DTFLOP_CUDA(cudaEventCreate(&e));
   }
   ~Events() {
     for (auto& e : e_) cudaEventDestroy(e);
   }
   Events(const Events&) = delete;
   Events& operator=(const Events&) = delete;
-  void record(int k, cudaStream_t s) { DCT_CUDA(cudaEventRecord(e_[k], s)); }
+  void record(int k, cudaStream_t s) { DTFLOP_CUDA(cudaEventRecord(e_[k], s)); }
   double between(int a, int b) const {
     float ms = 0;
-    DCT_CUDA(cudaEventElapsedTime(&ms, e_[a], e_[b]));
+    DTFLOP_CUDA(cudaEventElapsedTime(&ms, e_[a], e_[b]));
     return ms * 1e-3;
   }
 
@@ -147,7 +147,7 @@ class CudaBackend final : public Backend {
       if (b < 32 || b > 1024 || b % 32 != 0)
         throw InputError(fmt::format("CUDA block sizes must be multiples of 32 in 32..1024 (got {}, {}, {})",
                                      l.block_pixels, l.block_points, l.block_dots));
-    DCT_CUDA(cudaStreamCreate(&stream_));
+    DTFLOP_CUDA(cudaStreamCreate(&stream_));
   }
   ~CudaBackend() override { if (stream_) cudaStreamDestroy(stream_); }
 
@@ -190,7 +190,7 @@ class CudaBackend final : public Backend {
       upload(d_Ny_, std::vector<float>(fe.Ny.begin(), fe.Ny.end()));
     }
     upload(d_geom_, geom);
-    DCT_CUDA(cudaStreamSynchronize(stream_));
+    DTFLOP_CUDA(cudaStreamSynchronize(stream_));
   }
 
   FrameOutput process(const cv::Mat& frame) override {
@@ -215,7 +215,7 @@ class CudaBackend final : public Backend {
     }
     const double t_host_match = host_now() - t2;
     ev_.record(6, stream_);
-    DCT_CUDA(cudaMemcpyAsync(d_match_.ensure(nf), match_.data(), nf * sizeof(int), cudaMemcpyHostToDevice, stream_));
+    DTFLOP_CUDA(cudaMemcpyAsync(d_match_.ensure(nf), match_.data(), nf * sizeof(int), cudaMemcpyHostToDevice, stream_));
     ev_.record(7, stream_);
     launch_displacement(static_cast<int>(nf), d_ref_.get(), d_cx_.get(), d_cy_.get(), d_match_.get(), d_U_.ensure(nf),
                         d_valid_.ensure(nf), stream_);
@@ -231,9 +231,9 @@ class CudaBackend final : public Backend {
     }
     host_fields_.resize(nm);
     ev_.record(8, stream_);
-    DCT_CUDA(cudaMemcpyAsync(host_fields_.data(), d_out, nm * sizeof(FieldValue<float>), cudaMemcpyDeviceToHost, stream_));
+    DTFLOP_CUDA(cudaMemcpyAsync(host_fields_.data(), d_out, nm * sizeof(FieldValue<float>), cudaMemcpyDeviceToHost, stream_));
     ev_.record(9, stream_);
-    DCT_CUDA(cudaStreamSynchronize(stream_));
+    DTFLOP_CUDA(cudaStreamSynchronize(stream_));
     const double t3 = host_now();
     out.fields.resize(nm);
     for (std::size_t m = 0; m < nm; ++m) {
@@ -288,8 +288,8 @@ class CudaBackend final : public Backend {
 
   template <class T>
   void upload(DeviceBuffer<T>& d, const std::vector<T>& h) {
-    DCT_CUDA(cudaMemcpyAsync(d.ensure(h.size()), h.data(), h.size() * sizeof(T), cudaMemcpyHostToDevice, stream_));
-    DCT_CUDA(cudaStreamSynchronize(stream_));  // h may go out of scope
+    DTFLOP_CUDA(cudaMemcpyAsync(d.ensure(h.size()), h.data(), h.size() * sizeof(T), cudaMemcpyHostToDevice, stream_));
+    DTFLOP_CUDA(cudaStreamSynchronize(stream_));  // h may go out of scope
   }
 
   Found find_dots(const cv::Mat& image, FrameOutput* out) {
@@ -309,7 +309,7 @@ class CudaBackend final : public Backend {
     const std::uint8_t* lo = static_cast<const std::uint8_t*>(pinned_.get());
     f.pinned = lo && image.data >= lo && image.data < lo + static_cast<std::ptrdiff_t>(image.total() * image.elemSize());
     ev_.record(0, stream_);
-    DCT_CUDA(cudaMemcpy2DAsync(d_img, r.width * sizeof(Pix), image.ptr<Pix>(r.y) + r.x, image.step[0],
+    DTFLOP_CUDA(cudaMemcpy2DAsync(d_img, r.width * sizeof(Pix), image.ptr<Pix>(r.y) + r.x, image.step[0],
                                r.width * sizeof(Pix), r.height, cudaMemcpyHostToDevice, stream_));
     ev_.record(1, stream_);
     int* L = d_labels_.ensure(static_cast<std::size_t>(n));
@@ -328,10 +328,10 @@ class CudaBackend final : public Backend {
     ev_.record(2, stream_);
     h_scalars_.resize(2);
     h_scalars_[1] = T_fixed;
-    DCT_CUDA(cudaMemcpyAsync(&h_scalars_[0], d_count, sizeof(int), cudaMemcpyDeviceToHost, stream_));
-    if (d_T) DCT_CUDA(cudaMemcpyAsync(&h_scalars_[1], d_T, sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    DTFLOP_CUDA(cudaMemcpyAsync(&h_scalars_[0], d_count, sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    if (d_T) DTFLOP_CUDA(cudaMemcpyAsync(&h_scalars_[1], d_T, sizeof(int), cudaMemcpyDeviceToHost, stream_));
     ev_.record(3, stream_);
-    DCT_CUDA(cudaStreamSynchronize(stream_));
+    DTFLOP_CUDA(cudaStreamSynchronize(stream_));
     const int count = h_scalars_[0], T_used = h_scalars_[1];
     f.stats.roi_pixels = n;
     f.stats.components = count;
@@ -351,15 +351,15 @@ class CudaBackend final : public Backend {
     ev_.record(4, stream_);
     h_cx_.resize(nc); h_cy_.resize(nc); h_w_.resize(nc); h_status_.resize(nc); h_area_.resize(nc);
     h_root_.resize(nc); h_pixels_.resize(3 * nc);
-    DCT_CUDA(cudaMemcpyAsync(h_cx_.data(), dout.x, nc * sizeof(double), cudaMemcpyDeviceToHost, stream_));
-    DCT_CUDA(cudaMemcpyAsync(h_cy_.data(), dout.y, nc * sizeof(double), cudaMemcpyDeviceToHost, stream_));
-    DCT_CUDA(cudaMemcpyAsync(h_w_.data(), dout.weight, nc * sizeof(float), cudaMemcpyDeviceToHost, stream_));
-    DCT_CUDA(cudaMemcpyAsync(h_status_.data(), dout.status, nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
-    DCT_CUDA(cudaMemcpyAsync(h_area_.data(), cs.area, nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
-    DCT_CUDA(cudaMemcpyAsync(h_root_.data(), cs.root, nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
-    DCT_CUDA(cudaMemcpyAsync(h_pixels_.data(), dout.pixels, 3 * nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    DTFLOP_CUDA(cudaMemcpyAsync(h_cx_.data(), dout.x, nc * sizeof(double), cudaMemcpyDeviceToHost, stream_));
+    DTFLOP_CUDA(cudaMemcpyAsync(h_cy_.data(), dout.y, nc * sizeof(double), cudaMemcpyDeviceToHost, stream_));
+    DTFLOP_CUDA(cudaMemcpyAsync(h_w_.data(), dout.weight, nc * sizeof(float), cudaMemcpyDeviceToHost, stream_));
+    DTFLOP_CUDA(cudaMemcpyAsync(h_status_.data(), dout.status, nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    DTFLOP_CUDA(cudaMemcpyAsync(h_area_.data(), cs.area, nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    DTFLOP_CUDA(cudaMemcpyAsync(h_root_.data(), cs.root, nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    DTFLOP_CUDA(cudaMemcpyAsync(h_pixels_.data(), dout.pixels, 3 * nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
     ev_.record(5, stream_);
-    DCT_CUDA(cudaStreamSynchronize(stream_));
+    DTFLOP_CUDA(cudaStreamSynchronize(stream_));
     const double th = host_now();
     std::vector<int> kept;
     for (std::size_t k = 0; k < nc; ++k) {
@@ -420,15 +420,5 @@ class CudaBackend final : public Backend {
 
 std::unique_ptr<Backend> make_cuda_backend(const PipelineOptions& o) { return std::make_unique<CudaBackend>(o); }
 
-std::string cuda_device_check() {
-  int n = 0;
-  const cudaError_t e = cudaGetDeviceCount(&n);
-  if (e != cudaSuccess) {
-    cudaGetLastError();
-    return std::string("no usable CUDA device (") + cudaGetErrorString(e) + ")";
-  }
-  if (n == 0) return "no CUDA device found";
-  return {};
-}
 
 }  // namespace dtflop::dct

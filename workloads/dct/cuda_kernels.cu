@@ -10,12 +10,6 @@
 
 namespace dtflop::dct::gpu {
 
-void check(cudaError_t e, const char* what, const char* file, int line) {
-  if (e != cudaSuccess)
-    throw std::runtime_error(std::string("CUDA error '") + cudaGetErrorString(e) + "' in " + what + " (" + file + ":" +
-                             std::to_string(line) + ")");
-}
-#define DCT_LAUNCHED(name) check(cudaGetLastError(), "launch of " name, __FILE__, __LINE__)
 
 namespace {
 
@@ -372,13 +366,13 @@ int grid_for(long long n, int block) {
 
 void launch_otsu(const void* img, bool wide, int w, int h, unsigned int* hist, int* T, int block, cudaStream_t s) {
   const long long n = static_cast<long long>(w) * h;
-  DCT_CUDA(cudaMemsetAsync(hist, 0, 256 * sizeof(unsigned int), s));
+  DTFLOP_CUDA(cudaMemsetAsync(hist, 0, 256 * sizeof(unsigned int), s));
   const int g = std::min(grid_for(n, block), 1024);
   if (wide) k_histogram<std::uint16_t><<<g, block, 0, s>>>(static_cast<const std::uint16_t*>(img), w, h, hist);
   else k_histogram<std::uint8_t><<<g, block, 0, s>>>(static_cast<const std::uint8_t*>(img), w, h, hist);
-  DCT_LAUNCHED("k_histogram");
+  DTFLOP_CUDA_LAUNCHED();
   k_otsu<<<1, 1, 0, s>>>(hist, wide ? 1 : 0, T);
-  DCT_LAUNCHED("k_otsu");
+  DTFLOP_CUDA_LAUNCHED();
 }
 
 void launch_labels(const void* img, bool wide, int w, int h, const int* T_dev, int T_fixed, bool dark, int* L,
@@ -387,23 +381,23 @@ void launch_labels(const void* img, bool wide, int w, int h, const int* T_dev, i
   const int g = grid_for(n, block);
   if (wide) k_init<std::uint16_t><<<g, block, 0, s>>>(static_cast<const std::uint16_t*>(img), w, h, T_dev, T_fixed, dark, L);
   else k_init<std::uint8_t><<<g, block, 0, s>>>(static_cast<const std::uint8_t*>(img), w, h, T_dev, T_fixed, dark, L);
-  DCT_LAUNCHED("k_init");
+  DTFLOP_CUDA_LAUNCHED();
   k_union<<<g, block, 0, s>>>(L, w, h);
-  DCT_LAUNCHED("k_union");
+  DTFLOP_CUDA_LAUNCHED();
   k_compress<<<g, block, 0, s>>>(L, n);
-  DCT_LAUNCHED("k_compress");
-  DCT_CUDA(cudaMemsetAsync(count, 0, sizeof(int), s));
+  DTFLOP_CUDA_LAUNCHED();
+  DTFLOP_CUDA(cudaMemsetAsync(count, 0, sizeof(int), s));
   k_ids<<<g, block, 0, s>>>(L, n, count);
-  DCT_LAUNCHED("k_ids");
+  DTFLOP_CUDA_LAUNCHED();
 }
 
 void launch_stats(const int* L, int w, int h, CompStats cs, int n, int block, cudaStream_t s) {
   k_stats_init<<<grid_for(n, 256), 256, 0, s>>>(cs, n);
-  DCT_LAUNCHED("k_stats_init");
+  DTFLOP_CUDA_LAUNCHED();
   const dim3 sb(32, static_cast<unsigned>(block / 32));
   const dim3 sg(static_cast<unsigned>((w + 31) / 32), static_cast<unsigned>((h + sb.y - 1) / sb.y));
   k_stats<<<sg, sb, 0, s>>>(L, w, h, cs);
-  DCT_LAUNCHED("k_stats");
+  DTFLOP_CUDA_LAUNCHED();
 }
 
 void launch_centroids(const void* img, bool wide, const int* L, int w, int h, Roi roi, CompStats cs, DotParams p,
@@ -411,14 +405,14 @@ void launch_centroids(const void* img, bool wide, const int* L, int w, int h, Ro
   if (n <= 0) return;
   if (wide) k_centroid<std::uint16_t><<<n, block, 0, s>>>(static_cast<const std::uint16_t*>(img), L, w, h, roi, cs, p, out);
   else k_centroid<std::uint8_t><<<n, block, 0, s>>>(static_cast<const std::uint8_t*>(img), L, w, h, roi, cs, p, out);
-  DCT_LAUNCHED("k_centroid");
+  DTFLOP_CUDA_LAUNCHED();
 }
 
 void launch_displacement(int n, const double2* ref, const double* cx, const double* cy, const int* match, float2* U,
                          unsigned char* valid, cudaStream_t s) {
   if (n <= 0) return;
   k_displacement<<<grid_for(n, 128), 128, 0, s>>>(n, ref, cx, cy, match, U, valid);
-  DCT_LAUNCHED("k_displacement");
+  DTFLOP_CUDA_LAUNCHED();
 }
 
 void launch_mls(int n, const double2* pts, const float* rho, const unsigned char* geometry, const int* offsets,
@@ -427,14 +421,14 @@ void launch_mls(int n, const double2* pts, const float* rho, const unsigned char
   if (n <= 0) return;
   k_mls<<<grid_for(n, block), block, 0, s>>>(n, pts, rho, geometry, offsets, dots, ref, U, valid, weight, min_dots,
                                              min_pivot, out);
-  DCT_LAUNCHED("k_mls");
+  DTFLOP_CUDA_LAUNCHED();
 }
 
 void launch_fe(int n, const int* tri, const float* N, const float* Nx, const float* Ny, const unsigned char* geometry,
                const float2* U, const unsigned char* valid, FieldValue<float>* out, int block, cudaStream_t s) {
   if (n <= 0) return;
   k_fe<<<grid_for(n, block), block, 0, s>>>(n, tri, N, Nx, Ny, geometry, U, valid, out);
-  DCT_LAUNCHED("k_fe");
+  DTFLOP_CUDA_LAUNCHED();
 }
 
 }  // namespace dtflop::dct::gpu

@@ -3,6 +3,8 @@
 // compiler. Every launcher checks the launch and throws std::runtime_error on failure.
 #pragma once
 
+#include "cuda/check.hpp"
+
 #include <cuda_runtime.h>
 
 #include "workloads/dct/kernels.hpp"
@@ -33,9 +35,6 @@ struct DotOut {
   int* pixels;  // window, ring, weighted pixels per component (3 ints)
 };
 
-// Throws std::runtime_error naming the call when `e` is not cudaSuccess.
-void check(cudaError_t e, const char* what, const char* file, int line);
-#define DCT_CUDA(x) ::dtflop::dct::gpu::check((x), #x, __FILE__, __LINE__)
 
 // 256-bin histogram (8-bit scale) of a w x h image and Otsu's threshold in native levels.
 void launch_otsu(const void* img, bool wide, int w, int h, unsigned int* hist, int* T, int block, cudaStream_t s);

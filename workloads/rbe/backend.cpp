@@ -7,9 +7,7 @@
 
 #include <fmt/format.h>
 
-#ifdef DTFLOP_HAVE_CUDA
-#include <cuda_runtime_api.h>
-#endif
+#include "cuda/device.hpp"
 
 #include "workloads/rbe/backend_counts.hpp"
 #include "workloads/rbe/detail.hpp"
@@ -19,57 +17,13 @@ namespace dtflop::rbe {
 // ---- Device -------------------------------------------------------------------------------
 
 std::string cuda_unavailable_reason() {
-#ifdef DTFLOP_HAVE_CUDA
-  int n = 0;
-  const cudaError_t e = cudaGetDeviceCount(&n);
-  if (e != cudaSuccess) {
-    cudaGetLastError();
-    return fmt::format("no usable CUDA device ({}); run a cpu-seq or cpu-par backend, or run on a "
-                       "machine with an NVIDIA GPU and its driver",
-                       cudaGetErrorString(e));
-  }
-  if (n == 0) return "no CUDA device found; run a cpu-seq or cpu-par backend instead";
-  return {};
-#else
-  return "dtflop was built without CUDA (nvcc not found at configure time); rebuild with CUDA "
-         "or run a cpu-seq or cpu-par backend";
-#endif
-}
-
-std::string cuda_device_name() {
-#ifdef DTFLOP_HAVE_CUDA
-  if (!cuda_unavailable_reason().empty()) return {};
-  cudaDeviceProp prop{};
-  if (cudaGetDeviceProperties(&prop, 0) != cudaSuccess) {
-    cudaGetLastError();
-    return {};
-  }
-  return prop.name;
-#else
-  return {};
-#endif
-}
-
-int cuda_device_sms() {
-#ifdef DTFLOP_HAVE_CUDA
-  static const int sms = [] {  // device 0 of this process does not change
-    if (!cuda_unavailable_reason().empty()) return 0;
-    int n = 0;
-    if (cudaDeviceGetAttribute(&n, cudaDevAttrMultiProcessorCount, 0) != cudaSuccess) {
-      cudaGetLastError();
-      return 0;
-    }
-    return n;
-  }();
-  return sms;
-#else
-  return 0;
-#endif
+  const std::string why = cuda::unavailable_reason();
+  return why.empty() ? why : why + "; run a cpu-seq or cpu-par backend, or run on a machine with an NVIDIA GPU and its driver";
 }
 
 int counted_gpu_sms(const BackendOptions& o) {
   if (o.gpu_sms > 0) return o.gpu_sms;
-  const int here = cuda_device_sms();
+  const int here = cuda::device_sms();
   return here > 0 ? here : kDefaultGpuSms;
 }
 

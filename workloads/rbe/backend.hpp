@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "model/cost_counts.hpp"
+#include "cuda/error.hpp"
 #include "model/errors.hpp"
 #include "workloads/rbe/counts.hpp"
 #include "workloads/rbe/grid.hpp"
@@ -50,17 +51,10 @@ class NumericalError : public std::runtime_error {
 
 // A CUDA backend asked for where no CUDA device can be used (or dtflop was built without
 // CUDA). An InputError: the CLI prints it on one line and exits non-zero.
-class DeviceUnavailable : public InputError {
- public:
-  using InputError::InputError;
-};
+using DeviceUnavailable = cuda::Unavailable;
 
 // Empty when a CUDA device is usable; otherwise one line saying why not and what to do.
 std::string cuda_unavailable_reason();
-// Name of device 0 ("NVIDIA H200"), empty without a device.
-std::string cuda_device_name();
-// Multiprocessors (SMs) of device 0 (132 on an H200), 0 without a device.
-int cuda_device_sms();
 
 // ---- Options ------------------------------------------------------------------------------
 
@@ -114,7 +108,7 @@ struct BackendOptions {
   bool poison = false;
 };
 // The multiprocessors cuda-resident's counts are for with `options`: gpu_sms when set (> 0),
-// else this machine's GPU (cuda_device_sms()), else kDefaultGpuSms.
+// else this machine's GPU (cuda::device_sms()), else kDefaultGpuSms.
 int counted_gpu_sms(const BackendOptions& options);
 
 // ---- Problem ----------------------------------------------------------------------------

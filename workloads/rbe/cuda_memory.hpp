@@ -8,7 +8,7 @@
 #include <utility>
 #include <vector>
 
-#include "workloads/rbe/cuda_check.hpp"
+#include "cuda/check.hpp"
 
 namespace dtflop::rbe::detail {
 

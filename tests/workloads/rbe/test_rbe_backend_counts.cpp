@@ -2,6 +2,8 @@
 // against the operations its code really performs (an operation-counting scalar).
 #include <gtest/gtest.h>
 
+#include "cuda/device.hpp"
+
 #include "model/errors.hpp"
 #include "tests/workloads/rbe/support.hpp"
 #include "workloads/rbe/backend_counts.hpp"
@@ -310,7 +312,7 @@ TEST(RbeBackendCounts, CudaResidentWavesByHand) {
   o.gpu_sms = 100;
   EXPECT_EQ(step_counts("cuda-resident", {224, 608, 33, 33}, o).N_G, 2 * 100 * per_block);
   o.gpu_sms = 0;
-  const int here = cuda_device_sms() > 0 ? cuda_device_sms() : kDefaultGpuSms;
+  const int here = cuda::device_sms() > 0 ? cuda::device_sms() : kDefaultGpuSms;
   EXPECT_EQ(counted_gpu_sms(o), here);
   EXPECT_EQ(step_counts("cuda-resident", {224, 608, 33, 33}, o).N_G, ((133 + here - 1) / here) * here * per_block);
 }
