@@ -3,6 +3,7 @@
 // apart, the counts a backend declares without a device are those a prepared run declares, and
 // every backend that can run here is measured through the shared protocol with its declared work
 // matching what it did. A workload or backend added later is checked by this file unchanged.
+#include <ostream>
 #include <set>
 #include <string>
 
@@ -29,6 +30,9 @@ struct Case {
   const Workload* workload;
   const Backend* backend;
 };
+// gtest prints a parameter with this (the failure names the workload and backend, not bytes).
+void PrintTo(const Case& c, std::ostream* os) { *os << c.workload->name() << "/" << c.backend->name(); }
+
 std::vector<Case> every_backend() {
   std::vector<Case> out;
   for (const Workload* w : all())

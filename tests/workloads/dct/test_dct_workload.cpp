@@ -131,6 +131,7 @@ struct Case {
   std::string backend;
   json given;
 };
+void PrintTo(const Case& c, std::ostream* os) { *os << c.backend << " " << c.given.dump(); }
 
 class CountsBeforeFrame : public ::testing::TestWithParam<Case> {};
 
