@@ -223,5 +223,38 @@ TEST_F(Store, OneWriterAtATime) {
   }
 }
 
+// A fit or a validation takes one workload's samples: stores that mix workloads are refused with
+// one line saying what to do, and filters pick what is kept.
+TEST_F(Store, LoadingKeepsWhatTheFilterKeepsAndRefusesMixedWorkloads) {
+  std::vector<std::string> warnings;
+  {
+    StoreWriter w(path_, warnings);
+    for (int i = 0; i < 3; ++i) w.append(sample(i));
+  }
+  LoadedSamples l = load_samples({path_.string()}, {});
+  EXPECT_EQ(l.samples.size(), 3u);
+  l = load_samples({path_.string()}, {{}, {"k1"}});
+  ASSERT_EQ(l.samples.size(), 1u);
+  EXPECT_EQ(l.samples[0].key, "k1");
+  EXPECT_THROW(load_samples({path_.string()}, {{"cuda-nothing"}, {}}), InputError);
+  EXPECT_THROW(load_samples({(dir_ / "absent.jsonl").string()}, {}), InputError);
+
+  Sample other = sample(7);
+  other.workload = "dct";
+  {
+    StoreWriter w(path_, warnings);
+    w.append(other);
+  }
+  try {
+    (void)load_samples({path_.string()}, {});
+    FAIL() << "a store mixing workloads was loaded";
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("more than one workload"), std::string::npos) << m;
+    EXPECT_NE(m.find("dct"), std::string::npos) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  }
+}
+
 }  // namespace
 }  // namespace dtflop::calib
