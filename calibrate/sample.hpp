@@ -15,7 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "calibrate/stats.hpp"
+#include "model/stats.hpp"
 #include "model/cost_counts.hpp"
 #include "model/predict.hpp"
 #include "model/profile.hpp"

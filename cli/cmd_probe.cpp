@@ -15,6 +15,7 @@
 #include "cli/table.hpp"
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
+#include "model/stats.hpp"
 #include "model/units.hpp"
 #include "probes/machine.hpp"
 
@@ -35,8 +36,8 @@ std::string value_str(double v, const std::string& unit) {
   return format_quantity(v, unit);
 }
 
-std::string spread_str(const probes::Summary& s) {
-  return s.n > 1 ? fmt::format("{:.1f}%", 100 * s.spread) : "-";
+std::string spread_str(const Stats& s) {
+  return s.n > 1 ? fmt::format("{:.1f}%", 100 * s.spread()) : "-";
 }
 
 void print_identity(const probes::MachineReport& r) {

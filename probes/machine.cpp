@@ -93,7 +93,7 @@ MachineProfile make_profile(const MachineReport& report) {
       par.value = m.value;
       par.provenance = Provenance::probed;
       par.uncertainty = m.uncertainty;
-      if (m.stats.n > 1) par.spread = m.stats.spread;
+      if (m.stats.n > 1) par.spread = m.stats.spread();
       par.note = fmt::format("dtflop probe {}: {}", r.probe, m.note);
       prof.set(*m.param, std::move(par));
     }

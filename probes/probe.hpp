@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "model/profile.hpp"
-#include "probes/stats.hpp"
+#include "model/stats.hpp"
 
 namespace dtflop::probes {
 
@@ -44,7 +44,7 @@ struct Measurement {
   double value = 0;
   // Statistics of the repetitions behind the value, in the unit the repetitions were timed
   // in (seconds). Empty (n = 0) for derived figures such as a fit or a ratio.
-  Summary stats;
+  Stats stats;
   std::optional<Param> param;          // the model parameter this value is, if any
   std::optional<double> uncertainty;   // 95% half-width, in `unit`, when known (fits)
   std::string note;                    // how it was obtained

@@ -19,7 +19,7 @@
 
 #include "probes/cpu_kernels.hpp"
 #include "probes/gpu.hpp"
-#include "probes/stats.hpp"
+#include "model/stats.hpp"
 #include "probes/team.hpp"
 
 namespace dtflop::probes {

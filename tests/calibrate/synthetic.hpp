@@ -37,7 +37,7 @@ inline calib::Sample synthetic_sample(const std::string& key, const CostCounts& 
     if (!(v > 0)) continue;
     std::vector<double> reps;
     for (int r = 0; r < 5; ++r) reps.push_back(v * (1 + (rel_noise > 0 ? n(rng) : 0.0)));
-    s.components[c] = calib::summarize(reps);
+    s.components[c] = summarize(reps);
   }
   return s;
 }

@@ -6,7 +6,6 @@
 
 #include <gtest/gtest.h>
 
-#include "calibrate/stats.hpp"
 #include "calibrate/store.hpp"
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
@@ -24,22 +23,6 @@ namespace dtflop::calib {
 namespace {
 
 namespace fs = std::filesystem;
-
-TEST(CalibStats, QuartilesInterpolate) {
-  const Stats s = summarize({4, 1, 3, 2, 5});
-  EXPECT_DOUBLE_EQ(s.median, 3);
-  EXPECT_DOUBLE_EQ(s.p25, 2);
-  EXPECT_DOUBLE_EQ(s.p75, 4);
-  EXPECT_DOUBLE_EQ(s.min, 1);
-  EXPECT_DOUBLE_EQ(s.max, 5);
-  EXPECT_DOUBLE_EQ(s.spread(), 2.0 / 3.0);
-  EXPECT_EQ(s.values, (std::vector<double>{4, 1, 3, 2, 5}));  // measured order kept
-  const Stats even = summarize({1, 2, 3, 4});
-  EXPECT_DOUBLE_EQ(even.median, 2.5);
-  EXPECT_DOUBLE_EQ(even.p25, 1.75);
-  EXPECT_THROW(summarize({}), std::invalid_argument);
-  EXPECT_THROW(summarize({1.0, std::nan("")}), std::invalid_argument);
-}
 
 class Store : public ::testing::Test {
  protected:

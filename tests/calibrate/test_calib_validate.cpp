@@ -20,8 +20,8 @@ TEST(CalibValidate, ErrorsPerComponentAndGroup) {
   b.key = "b";
   b.backend = "cpu-par";
   // Measured 8 ms and 12.5 ms: relative errors +25% and -20%.
-  a.components[Component::total] = summarize({8e-3});
-  b.components[Component::total] = summarize({12.5e-3});
+  a.components[Component::total] = summarize(std::vector<double>{8e-3});
+  b.components[Component::total] = summarize(std::vector<double>{12.5e-3});
   b.components.erase(Component::C);
   b.steps = 2;  // per-step absolute errors halve
   b.counts = c.scaled(2);

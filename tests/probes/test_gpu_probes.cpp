@@ -9,7 +9,7 @@
 #include "probes/fit.hpp"
 #include "probes/gpu.hpp"
 #include "probes/probe.hpp"
-#include "probes/stats.hpp"
+#include "model/stats.hpp"
 #include "tests/support/gpu.hpp"
 
 namespace dtflop::probes {

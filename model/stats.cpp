@@ -1,4 +1,4 @@
-#include "probes/stats.hpp"
+#include "model/stats.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,9 @@
 
 #include <fmt/format.h>
 
-namespace dtflop::probes {
+namespace dtflop {
+
+double Stats::spread() const { return median != 0.0 ? (p75 - p25) / std::fabs(median) : 0.0; }
 
 double quantile_sorted(std::span<const double> sorted, double p) {
   if (sorted.empty()) throw std::invalid_argument("quantile of an empty sample");
@@ -20,23 +22,23 @@ double quantile_sorted(std::span<const double> sorted, double p) {
   return sorted[lo] + frac * (sorted[hi] - sorted[lo]);
 }
 
-Summary summarize(std::span<const double> samples) {
-  if (samples.empty()) throw std::invalid_argument("summary of an empty sample");
-  std::vector<double> s(samples.begin(), samples.end());
-  for (double v : s)
+Stats summarize(std::span<const double> values) {
+  if (values.empty()) throw std::invalid_argument("summary of an empty sample");
+  for (double v : values)
     if (!std::isfinite(v))
       throw std::invalid_argument(fmt::format("sample holds a non-finite value ({})", v));
+  Stats r;
+  r.values.assign(values.begin(), values.end());
+  std::vector<double> s = r.values;
   std::sort(s.begin(), s.end());
-  Summary r;
   r.n = s.size();
   r.min = s.front();
   r.max = s.back();
   r.mean = std::accumulate(s.begin(), s.end(), 0.0) / static_cast<double>(s.size());
   r.median = quantile_sorted(s, 0.5);
-  r.q1 = quantile_sorted(s, 0.25);
-  r.q3 = quantile_sorted(s, 0.75);
-  r.spread = r.median != 0.0 ? (r.q3 - r.q1) / std::fabs(r.median) : 0.0;
+  r.p25 = quantile_sorted(s, 0.25);
+  r.p75 = quantile_sorted(s, 0.75);
   return r;
 }
 
-}  // namespace dtflop::probes
+}  // namespace dtflop
