@@ -11,6 +11,17 @@ namespace dtflop {
 std::string_view to_string(HostMemory m) { return m == HostMemory::pinned ? "pinned" : "pageable"; }
 std::string_view to_string(Precision p) { return p == Precision::fp64 ? "fp64" : "fp32"; }
 
+namespace {
+std::int64_t tree_depth(std::int64_t n) {
+  std::int64_t d = 1;
+  for (std::int64_t cells = kKdTreeLeaf; cells < n; cells *= 2) ++d;
+  return d;
+}
+}  // namespace
+
+std::int64_t tree_build_steps(std::int64_t n) { return n * tree_depth(n); }
+std::int64_t tree_search_steps(std::int64_t n, std::int64_t k) { return tree_depth(n) + kKdTreeLeaf + k; }
+
 void add_copies(std::vector<CopySize>& sizes, std::int64_t bytes, std::int64_t count) {
   if (count == 0) return;
   auto it = std::find_if(sizes.begin(), sizes.end(), [bytes](const CopySize& s) { return s.bytes == bytes; });

@@ -77,6 +77,15 @@ struct CostCounts {
   bool operator==(const CostCounts&) const = default;
 };
 
+// The counting convention of tree_steps, shared by the workloads that count them and the probe
+// that measures L_tree: a 2D k-d tree with kKdTreeLeaf points per leaf has depth(n) =
+// 1 + ceil(log2(n / kKdTreeLeaf)) levels (at least one); a build over n points is n x depth(n)
+// steps (each point placed at each level), a search for the k nearest depth(n) + kKdTreeLeaf + k
+// (the levels descended, a leaf examined, the k kept).
+inline constexpr std::int64_t kKdTreeLeaf = 10;
+std::int64_t tree_build_steps(std::int64_t n);
+std::int64_t tree_search_steps(std::int64_t n, std::int64_t k);
+
 // Adds `count` copies of `bytes` bytes to `sizes` (merged with those of the same size).
 void add_copies(std::vector<CopySize>& sizes, std::int64_t bytes, std::int64_t count);
 

@@ -107,8 +107,7 @@ bool fitted_only(Param p) {
     case Param::S_GC_staged:
     case Param::S_GC_flat:
     case Param::K_CW:
-    case Param::K_GR:
-    case Param::L_tree: return true;
+    case Param::K_GR: return true;
     default: return false;
   }
 }

@@ -24,7 +24,7 @@ using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<do
 struct PointIndex::Impl {
   Cloud cloud;
   Tree tree;
-  explicit Impl(const std::vector<Vec2>& p) : cloud{&p}, tree(2, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10)) {
+  explicit Impl(const std::vector<Vec2>& p) : cloud{&p}, tree(2, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(kKdTreeLeaf)) {
     tree.buildIndex();
   }
 };
@@ -81,18 +81,6 @@ std::string Matches::summary() const {
   if (!appeared.empty()) s += fmt::format(", {} unmatched dot(s) appeared", appeared.size());
   return s;
 }
-
-namespace {
-constexpr std::int64_t kLeaf = 10;  // nanoflann's leaf size of PointIndex
-std::int64_t tree_depth(std::int64_t n) {
-  std::int64_t d = 1;
-  for (std::int64_t cells = kLeaf; cells < n; cells *= 2) ++d;
-  return d;
-}
-}  // namespace
-
-std::int64_t tree_build_steps(std::int64_t n) { return n * tree_depth(n); }
-std::int64_t tree_search_steps(std::int64_t n, std::int64_t k) { return tree_depth(n) + kLeaf + k; }
 
 std::int64_t match_tree_steps(std::int64_t reference, std::int64_t deformed, std::int64_t refined,
                               std::int64_t retried, int refine_neighbours, bool radius_given) {

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "model/cost_counts.hpp"  // tree_build_steps, tree_search_steps
 #include "workloads/dct/specimen.hpp"
 
 namespace dtflop::dct {
@@ -62,8 +63,7 @@ struct Matches {
 // one's 2 refine_neighbours + 1 nearest, and asks again for the 2 nearest deformed dots of the
 // `retried`. Without a search radius given it first finds one: a tree over the reference (2 or
 // more dots), each asking for its 2 nearest.
-std::int64_t tree_build_steps(std::int64_t n);
-std::int64_t tree_search_steps(std::int64_t n, std::int64_t k);
+// (tree_build_steps and tree_search_steps: model/cost_counts.hpp; PointIndex has 10 points per leaf.)
 std::int64_t match_tree_steps(std::int64_t reference, std::int64_t deformed, std::int64_t refined = 0,
                               std::int64_t retried = 0, int refine_neighbours = 6, bool radius_given = true);
 
