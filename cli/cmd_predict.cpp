@@ -89,23 +89,12 @@ void add_predict_command(CLI::App& root) {
       "predict",
       "Print a workload configuration's cost counts and, with --machine, the DTFLOP model's predicted time per step, "
       "component by component, and whether it meets a deadline (exit status 3 when it does not).");
-  // An unknown workload is rejected by the parser as an unexpected argument, named in its message;
-  // no workload at all is caught here.
-  app->callback([app] {
-    if (app->get_subcommands().empty())
-      throw InputError(fmt::format("name the workload to predict: {} (e.g. `dtflop predict rbe --help`)", workload::names()));
-  });
   auto o = std::make_shared<PredictCommon>();
   add_predict_options(*app, o->predict);
   app->add_flag("--json", o->json, "Print JSON instead of tables");
   app->add_option("--output,-o", o->output, "Also write the JSON result to this file (replaced only if it is a "
                                              "regular file)");
-  for (const workload::Workload* w : workload::all()) {
-    auto* sub = app->add_subcommand(std::string(w->name()), std::string(w->description()));
-    sub->fallthrough();
-    auto a = add_workload_options(*sub, *w);
-    sub->callback([o, a] { run(*o, *a); });
-  }
+  add_workload_subcommands(*app, [o](const WorkloadArgs& a) { run(*o, a); });
 }
 
 }  // namespace dtflop::cli

@@ -149,30 +149,13 @@ void add_run_command(CLI::App& root) {
       "run", "Measure one configuration of a workload on one backend (warm-up, timed repetitions, CUPTI on a GPU) "
              "and print the measured time per step and its components, the cost counts and, with --machine, the "
              "model's prediction beside each.");
-  // An unknown workload is rejected by the parser as an unexpected argument, named in its message;
-  // no workload at all is caught here.
-  app->callback([app] {
-    if (app->get_subcommands().empty())
-      throw InputError(fmt::format("name the workload to run: {} (e.g. `dtflop run rbe --help`)", workload::names()));
-  });
   auto o = std::make_shared<RunCommon>();
   add_predict_options(*app, o->predict);
-  app->add_option("--steps", o->measure.steps, "Steps (frames) per repetition (default: the workload's for the backend)")
-      ->check(CLI::Range(std::int64_t{1}, std::int64_t{1} << 30));
-  app->add_option("--reps", o->measure.repetitions, "Timed repetitions (default: the workload's for the backend)")
-      ->check(CLI::Range(2, 100000));
-  app->add_option("--warmup", o->measure.warmup, "Untimed repetitions first (default: the workload's)")
-      ->check(CLI::Range(0, 100000));
-  app->add_flag("--no-cupti", o->no_cupti, "Time device work with host clocks only");
+  add_measure_options(*app, o->measure, o->no_cupti);
   app->add_flag("--json", o->json, "Print JSON instead of tables");
   app->add_option("--output,-o", o->output, "Also write the JSON result to this file (replaced only if it is a "
                                              "regular file)");
-  for (const workload::Workload* w : workload::all()) {
-    auto* sub = app->add_subcommand(std::string(w->name()), std::string(w->description()));
-    sub->fallthrough();
-    auto a = add_workload_options(*sub, *w);
-    sub->callback([o, a] { run(*o, *a); });
-  }
+  add_workload_subcommands(*app, [o](const WorkloadArgs& a) { run(*o, a); });
 }
 
 }  // namespace dtflop::cli

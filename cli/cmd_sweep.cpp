@@ -96,22 +96,11 @@ void add_sweep_command(CLI::App& root) {
       "sweep", "Measure a workload over a plan of configurations on one backend, one sample per configuration (and "
                "round, with --rounds), into a resumable sample store (JSON lines): rerunning the same command "
                "measures only what is missing.");
-  // An unknown workload is rejected by the parser as an unexpected argument, named in its message;
-  // no workload at all is caught here.
-  app->callback([app] {
-    if (app->get_subcommands().empty())
-      throw InputError(fmt::format("name the workload to sweep: {} (e.g. `dtflop sweep rbe --help`)", workload::names()));
-  });
   auto o = std::make_shared<SweepOptions>();
   app->add_option("--plan,-p", o->plan, "A plan of the workload (see its --help), random:N, or a plan file (JSON)")
       ->required();
   app->add_option("--store,-s", o->store, "Sample store to append to (JSON lines; created if missing)")->required();
-  app->add_option("--steps", o->measure.steps, "Steps (frames) per repetition (default: the workload's for the backend)")
-      ->check(CLI::Range(std::int64_t{1}, std::int64_t{1} << 30));
-  app->add_option("--reps", o->measure.repetitions, "Timed repetitions per configuration (default: the workload's)")
-      ->check(CLI::Range(2, 100000));
-  app->add_option("--warmup", o->measure.warmup, "Untimed repetitions first (default: the workload's)")
-      ->check(CLI::Range(0, 100000));
+  add_measure_options(*app, o->measure, o->no_cupti);
   app->add_option("--rounds", o->rounds,
                   "Measure the whole plan this many times, round after round: a sample's repetitions run back "
                   "to back, so a slow spell of the machine (seconds to a minute) moves a whole sample; rounds "
@@ -120,20 +109,17 @@ void add_sweep_command(CLI::App& root) {
                   "the missing rounds")
       ->capture_default_str();
   app->add_option("--seed", o->seed, "Seed of random plans")->capture_default_str();
-  app->add_flag("--no-cupti", o->no_cupti, "Time device work with host clocks only");
   app->add_flag("--quiet,-q", o->quiet, "No progress on stderr (warnings still)");
   app->add_flag("--json", o->json, "Print the sweep's report as JSON");
-  for (const workload::Workload* w : workload::all()) {
-    std::string plans;
-    for (const auto& [name, what] : w->plan_names()) plans += fmt::format("\n  {}: {}", name, what);
-    auto* sub = app->add_subcommand(std::string(w->name()),
-                                    fmt::format("Sweep {} ({}). Plans:{}\n  FILE.json: {{\"description\": ..., "
-                                                "\"configs\": [{{parameter: value, ...}}, ...]}}",
-                                                w->name(), w->description(), plans));
-    sub->fallthrough();
-    auto a = add_workload_options(*sub, *w);
-    sub->callback([o, a] { run(*o, *a); });
-  }
+  add_workload_subcommands(
+      *app, [o](const WorkloadArgs& a) { run(*o, a); },
+      [](const workload::Workload& w) {
+        std::string plans;
+        for (const auto& [name, what] : w.plan_names()) plans += fmt::format("\n  {}: {}", name, what);
+        return fmt::format("Sweep {} ({}). Plans:{}\n  FILE.json: {{\"description\": ..., \"configs\": [{{parameter: "
+                           "value, ...}}, ...]}}",
+                           w.name(), w.description(), plans);
+      });
 }
 
 }  // namespace dtflop::cli

@@ -36,6 +36,34 @@ std::shared_ptr<WorkloadArgs> add_workload_options(CLI::App& app, const workload
   return a;
 }
 
+void add_workload_subcommands(CLI::App& verb, const std::function<void(const WorkloadArgs&)>& action,
+                              const std::function<std::string(const workload::Workload&)>& describe) {
+  // An unknown workload is rejected by the parser as an unexpected argument, named in its message;
+  // no workload at all is caught here.
+  CLI::App* app = &verb;
+  verb.callback([app] {
+    if (app->get_subcommands().empty())
+      throw InputError(fmt::format("name the workload to {}: {} (e.g. `dtflop {} rbe --help`)", app->get_name(),
+                                   workload::names(), app->get_name()));
+  });
+  for (const workload::Workload* w : workload::all()) {
+    auto* sub = verb.add_subcommand(std::string(w->name()), describe ? describe(*w) : std::string(w->description()));
+    sub->fallthrough();
+    auto a = add_workload_options(*sub, *w);
+    sub->callback([action, a] { action(*a); });
+  }
+}
+
+void add_measure_options(CLI::App& app, calib::MeasureSettings& settings, bool& no_cupti) {
+  app.add_option("--steps", settings.steps, "Steps (frames) per repetition (default: the workload's for the backend)")
+      ->check(CLI::Range(std::int64_t{1}, std::int64_t{1} << 30));
+  app.add_option("--reps", settings.repetitions, "Timed repetitions (default: the workload's for the backend)")
+      ->check(CLI::Range(2, 100000));
+  app.add_option("--warmup", settings.warmup, "Untimed repetitions first (default: the workload's for the backend)")
+      ->check(CLI::Range(0, 100000));
+  app.add_flag("--no-cupti", no_cupti, "Time device work with host clocks only");
+}
+
 Chosen choose(const WorkloadArgs& a) {
   const workload::Backend& b = a.workload->backend(a.backend);
   nlohmann::json given = nlohmann::json::object();

@@ -5,6 +5,7 @@
 // says so on stderr).
 #pragma once
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -14,6 +15,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "calibrate/measure.hpp"
 #include "model/predict.hpp"
 #include "model/profile.hpp"
 #include "workloads/workload.hpp"
@@ -29,6 +31,16 @@ struct WorkloadArgs {
 // Adds --backend and one option per parameter of `w` to `app`.
 std::shared_ptr<WorkloadArgs> add_workload_options(CLI::App& app, const workload::Workload& w,
                                                    const std::string& default_backend = {});
+
+// Adds one sub-command per registered workload to `verb` (its parameters as options, the verb's own
+// options before or after it), each calling `action` with its parsed arguments; and refuses the
+// verb without a workload, naming the workloads. Every verb that takes a workload is set up so.
+// `describe` gives a workload's sub-command its help text (default: the workload's description).
+void add_workload_subcommands(CLI::App& verb, const std::function<void(const WorkloadArgs&)>& action,
+                              const std::function<std::string(const workload::Workload&)>& describe = {});
+
+// --steps, --reps, --warmup and --no-cupti: how `run` and `sweep` measure (calibrate/measure.hpp).
+void add_measure_options(CLI::App& app, calib::MeasureSettings& settings, bool& no_cupti);
 
 struct Chosen {
   const workload::Backend* backend = nullptr;

@@ -247,6 +247,21 @@ PlanConfigs Workload::plan_from_file(const std::string& path, const Backend& b) 
   return p;
 }
 
+std::int64_t Workload::random_plan_size(const std::string& spec) {
+  const std::string text = spec.rfind("random:", 0) == 0 ? spec.substr(7) : std::string();
+  std::int64_t n = 0;
+  try {
+    std::size_t used = 0;
+    n = std::stoll(text, &used);
+    if (used != text.size()) n = 0;
+  } catch (...) {
+    n = 0;
+  }
+  if (n < 1 || n > 100000)
+    throw InputError(fmt::format("--plan '{}': N must be a whole number in 1..100000 (e.g. random:50)", spec));
+  return n;
+}
+
 // ---- Typed access --------------------------------------------------------------------------
 
 namespace {

@@ -186,6 +186,8 @@ class Workload {
   virtual void check(const Config& /*config*/, const Backend& /*backend*/) const {}
   // Plans from a file, validated against the parameter space (shared by every workload).
   PlanConfigs plan_from_file(const std::string& path, const Backend& backend) const;
+  // N of a "random:N" spec, 1..100000; throws InputError naming the spec otherwise.
+  static std::int64_t random_plan_size(const std::string& spec);
 };
 
 // ---- Registry -----------------------------------------------------------------------------

@@ -337,17 +337,7 @@ class DctWorkload final : public wl::Workload {
                          {"support", 60}});
       }
     } else if (spec.rfind("random:", 0) == 0) {
-      const std::string n_text = spec.substr(7);
-      std::int64_t n = 0;
-      try {
-        std::size_t used = 0;
-        n = std::stoll(n_text, &used);
-        if (used != n_text.size()) n = 0;
-      } catch (...) {
-        n = 0;
-      }
-      if (n < 1 || n > 100000)
-        throw InputError(fmt::format("--plan '{}': N must be a whole number in 1..100000 (e.g. random:50)", spec));
+      const std::int64_t n = random_plan_size(spec);
       p.description = fmt::format(
           "{} configurations drawn from seed {}: 0.3..24 MP (aspect 1..1.8), 100..1611 dots of radius 4..24 px "
           "(fewer or smaller where the image cannot hold them), 384..2048 points, 10..100 dots per support, "

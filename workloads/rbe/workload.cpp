@@ -202,9 +202,9 @@ class RbeWorkload final : public workload::Workload {
       p.description = fmt::format(
           "seed Test 2 (5.3.5.2): kernel 16x16 and 32x32, grid nxn for n = 100..1000 in steps of {}", step);
     } else if (spec.rfind("random:", 0) == 0) {
-      const long long n = random_count(spec);
+      const std::int64_t n = random_plan_size(spec);
       std::mt19937_64 rng(seed);
-      for (long long i = 0; i < n; ++i) {
+      for (std::int64_t i = 0; i < n; ++i) {
         const std::int64_t nx = uniform(rng, 100, 1000), ny = uniform(rng, 100, 1000);
         const std::int64_t ix = uniform(rng, 1, std::min<std::int64_t>(200, nx));
         const std::int64_t iy = uniform(rng, 1, std::min<std::int64_t>(200, ny));
@@ -240,21 +240,6 @@ class RbeWorkload final : public workload::Workload {
   }
 
  private:
-  static long long random_count(const std::string& spec) {
-    const std::string text = spec.substr(7);
-    long long n = 0;
-    try {
-      std::size_t used = 0;
-      n = std::stoll(text, &used);
-      if (used != text.size()) n = 0;
-    } catch (...) {
-      n = 0;
-    }
-    if (n < 1 || n > 100000)
-      throw InputError(fmt::format("--plan '{}': the count after random: must be an integer in [1, 100000]", spec));
-    return n;
-  }
-
   std::vector<ParamSpec> params_;
   std::vector<std::unique_ptr<workload::Backend>> backends_;
 };
