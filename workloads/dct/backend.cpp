@@ -26,6 +26,28 @@ std::string rejection_summary(const AnalysisStats& st) {
 
 }  // namespace
 
+FrameShape PipelineState::frame_shape(const cv::Mat& frame, const AnalysisStats& stats,
+                                     std::int64_t tree_steps) const {
+  FrameShape s;
+  s.image_pixels = static_cast<std::int64_t>(frame.total());
+  s.bytes_per_pixel = frame.depth() == CV_16U ? 2 : 1;
+  s.roi_pixels = stats.roi_pixels;
+  s.foreground_pixels = stats.foreground_pixels;
+  s.components = stats.components;
+  s.dots = static_cast<std::int64_t>(ref_pos_.size());
+  s.window_pixels = stats.window_pixels;
+  s.ring_pixels = stats.ring_pixels;
+  s.weighted_pixels = stats.weighted_pixels;
+  s.scanned_pixels = stats.scanned_pixels;
+  s.margin = opt_.analysis.margin;
+  s.points = static_cast<std::int64_t>(points_.size());
+  s.support_entries = support_entries();
+  s.tree_steps = tree_steps;
+  s.interp = opt_.interp;
+  s.otsu = opt_.analysis.method == ThresholdMethod::otsu;
+  return s;
+}
+
 void PipelineState::check_frame(const cv::Mat& frame) const {
   if (ref_pos_.empty()) throw InputError("no reference frame was set before processing a frame");
   if (frame.empty()) throw InputError("the frame is empty (unreadable image?)");
@@ -122,24 +144,8 @@ class CpuBackend final : public Backend {
                      : evaluate_fe(st.fe_table(), out.displacement, out.tracked, threads_);
     out.seconds["fields"] = now() - t2;
     out.seconds["total"] = now() - t0;
-    FrameShape& s = out.shape;
-    s.image_pixels = static_cast<std::int64_t>(frame.total());
-    s.bytes_per_pixel = frame.depth() == CV_16U ? 2 : 1;
-    s.roi_pixels = r.stats.roi_pixels;
-    s.foreground_pixels = r.stats.foreground_pixels;
-    s.components = r.stats.components;
-    s.dots = static_cast<std::int64_t>(st.reference_positions().size());
-    s.window_pixels = r.stats.window_pixels;
-    s.ring_pixels = r.stats.ring_pixels;
-    s.weighted_pixels = r.stats.weighted_pixels;
-    s.scanned_pixels = r.stats.scanned_pixels;
-    s.margin = opt.analysis.margin;
-    s.points = static_cast<std::int64_t>(st.points().size());
-    s.support_entries = st.support_entries();
-    s.tree_steps = out.matches.tree_steps;
-    s.interp = opt.interp;
-    s.otsu = opt.analysis.method == ThresholdMethod::otsu;
-    out.counts = cpu_counts(s, threads_);
+    out.shape = st.frame_shape(frame, r.stats, out.matches.tree_steps);
+    out.counts = cpu_counts(out.shape, threads_);
     return out;
   }
 

@@ -77,6 +77,9 @@ class PipelineState {
   double match_radius() const { return match_radius_; }
   // MLS support entries of the table (0 for FE): what the field stage reads per frame.
   std::int64_t support_entries() const { return opt_.interp == Interp::mls ? mls_.entries() : 0; }
+  // The shape of a frame analysed into `stats` and matched with `tree_steps` of k-d tree work,
+  // against this reference: what the frame's counts are computed from (counts.hpp).
+  FrameShape frame_shape(const cv::Mat& frame, const AnalysisStats& stats, std::int64_t tree_steps) const;
 
  private:
   PipelineOptions opt_;
@@ -111,6 +114,9 @@ class Backend {
   const PipelineOptions& options() const { return state_.options(); }
   const MlsTable& mls_table() const { return state_.mls_table(); }
   const FeTable& fe_table() const { return state_.fe_table(); }
+  FrameShape frame_shape(const cv::Mat& frame, const AnalysisStats& stats, std::int64_t tree_steps) const {
+    return state_.frame_shape(frame, stats, tree_steps);
+  }
 
  protected:
   explicit Backend(PipelineOptions o) : state_(std::move(o)) {}

@@ -256,23 +256,12 @@ class CudaBackend final : public Backend {
     out.seconds["device_centroids"] = ev_.between(3, 4);
     out.seconds["device_fields"] = ev_.between(7, 8);
     out.seconds["device_kernels"] = ev_.between(1, 2) + ev_.between(3, 4) + ev_.between(7, 8);
-    FrameShape& s = out.shape;
-    s.image_pixels = static_cast<std::int64_t>(frame.total());
-    s.bytes_per_pixel = frame.depth() == CV_16U ? 2 : 1;
-    s.roi_pixels = f.stats.roi_pixels;
-    s.foreground_pixels = f.foreground;
-    s.components = f.stats.components;
-    s.dots = static_cast<std::int64_t>(nf);
-    s.window_pixels = f.stats.window_pixels;
-    s.ring_pixels = f.stats.ring_pixels;
-    s.weighted_pixels = f.stats.weighted_pixels;
-    s.margin = options().analysis.margin;
-    s.points = static_cast<std::int64_t>(nm);
-    s.support_entries = state().support_entries();
-    s.tree_steps = out.matches.tree_steps;
-    s.interp = options().interp;
-    s.otsu = options().analysis.method == ThresholdMethod::otsu;
-    out.counts = cuda_counts(s, f.pinned ? HostMemory::pinned : HostMemory::pageable);
+    // The device classifies without scanning (no scanned pixels); the foreground is its components' areas.
+    AnalysisStats stats = f.stats;
+    stats.foreground_pixels = f.foreground;
+    stats.scanned_pixels = 0;
+    out.shape = state().frame_shape(frame, stats, out.matches.tree_steps);
+    out.counts = cuda_counts(out.shape, f.pinned ? HostMemory::pinned : HostMemory::pageable);
     return out;
   }
 

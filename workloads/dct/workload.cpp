@@ -488,26 +488,13 @@ std::int64_t host_bytes(const wl::Config& c, const std::string& backend) {
 FrameShape declared_shape(const Backend& pipeline, const cv::Mat& frame) {
   const PipelineOptions& o = pipeline.options();
   const AnalysisResult a = analyze(frame, o.analysis, 1);
-  FrameShape s;
-  s.image_pixels = static_cast<std::int64_t>(frame.total());
-  s.bytes_per_pixel = frame.depth() == CV_16U ? 2 : 1;
-  s.roi_pixels = a.stats.roi_pixels;
-  s.foreground_pixels = a.stats.foreground_pixels;
-  s.components = a.stats.components;
-  s.dots = static_cast<std::int64_t>(pipeline.reference_positions().size());
-  s.window_pixels = a.stats.window_pixels;
-  s.ring_pixels = a.stats.ring_pixels;
-  s.weighted_pixels = a.stats.weighted_pixels;
+  AnalysisStats stats = a.stats;
   // The cuda backend does not classify by scanning: it reports no scanned pixels.
-  s.scanned_pixels = pipeline.name() == "cuda" ? 0 : a.stats.scanned_pixels;
-  s.margin = o.analysis.margin;
-  s.points = static_cast<std::int64_t>(pipeline.points().size());
-  s.support_entries = o.interp == Interp::mls ? pipeline.mls_table().entries() : 0;
+  if (pipeline.name() == "cuda") stats.scanned_pixels = 0;
   // Every dot of the frame matched in the first pass (the specimen's deformation is small).
-  s.tree_steps = match_tree_steps(s.dots, static_cast<std::int64_t>(a.dots.size()));
-  s.interp = o.interp;
-  s.otsu = o.analysis.method == ThresholdMethod::otsu;
-  return s;
+  return pipeline.frame_shape(frame, stats,
+                              match_tree_steps(static_cast<std::int64_t>(pipeline.reference_positions().size()),
+                                               static_cast<std::int64_t>(a.dots.size())));
 }
 
 namespace {
