@@ -21,18 +21,14 @@ namespace {
 
 struct PredictCommon {
   PredictArgs predict;
-  bool json = false;
-  std::string output;  // also write the JSON result here
+  ResultArgs result;
 };
 
 void run(const PredictCommon& o, const WorkloadArgs& a) {
   const workload::Workload& w = *a.workload;
   const Chosen c = choose(a);
-  check_output(o.output, {o.predict.machine});
+  check_output(o.result.output, {o.predict.machine});
   const std::optional<double> deadline = deadline_of(o.predict);
-  if (deadline && o.predict.machine.empty())
-    throw InputError("--deadline needs a machine profile to predict against; add --machine machine.json (try "
-                     "docs/examples/h200.json)");
   std::optional<MachineProfile> profile;
   if (!o.predict.machine.empty()) profile = load_profile(o.predict.machine);
   const CostCounts counts = c.backend->counts(c.config, profile ? &profile->identity : nullptr);
@@ -58,8 +54,8 @@ void run(const PredictCommon& o, const WorkloadArgs& a) {
     }
   }
   if (deadline && !meets_deadline(pred->prediction, *deadline)) set_exit_status(kExitMissed);
-  if (!o.output.empty()) write_file_atomically(o.output, out.dump(2) + "\n");
-  if (o.json) {
+  if (!o.result.output.empty()) write_file_atomically(o.result.output, out.dump(2) + "\n");
+  if (o.result.json) {
     fmt::print("{}\n", out.dump(2));
     return;
   }
@@ -91,9 +87,7 @@ void add_predict_command(CLI::App& root) {
       "component by component, and whether it meets a deadline (exit status 3 when it does not).");
   auto o = std::make_shared<PredictCommon>();
   add_predict_options(*app, o->predict);
-  app->add_flag("--json", o->json, "Print JSON instead of tables");
-  app->add_option("--output,-o", o->output, "Also write the JSON result to this file (replaced only if it is a "
-                                             "regular file)");
+  add_result_options(*app, o->result);
   add_workload_subcommands(*app, [o](const WorkloadArgs& a) { run(*o, a); });
 }
 

@@ -29,17 +29,14 @@ struct RunCommon {
   PredictArgs predict;
   MeasureSettings measure;
   bool no_cupti = false;
-  bool json = false;
-  std::string output;  // also write the JSON result here
+  ResultArgs result;
 };
 
 void run(const RunCommon& o, const WorkloadArgs& a) {
   const workload::Workload& w = *a.workload;
   const Chosen c = choose(a);
-  check_output(o.output, {o.predict.machine});
+  check_output(o.result.output, {o.predict.machine});
   const std::optional<double> deadline = deadline_of(o.predict);
-  if (deadline && o.predict.machine.empty())
-    throw InputError("--deadline needs a machine profile to predict against; add --machine machine.json");
   // Everything that can be wrong with the profile is found before anything is measured.
   std::optional<MachineProfile> profile;
   std::optional<Variant> wanted;
@@ -100,8 +97,8 @@ void run(const RunCommon& o, const WorkloadArgs& a) {
   }
   // The deadline is judged on what was measured.
   if (deadline && total.median / steps > *deadline) set_exit_status(kExitMissed);
-  if (!o.output.empty()) write_file_atomically(o.output, out.dump(2) + "\n");
-  if (o.json) {
+  if (!o.result.output.empty()) write_file_atomically(o.result.output, out.dump(2) + "\n");
+  if (o.result.json) {
     fmt::print("{}\n", out.dump(2));
     return;
   }
@@ -152,9 +149,7 @@ void add_run_command(CLI::App& root) {
   auto o = std::make_shared<RunCommon>();
   add_predict_options(*app, o->predict);
   add_measure_options(*app, o->measure, o->no_cupti);
-  app->add_flag("--json", o->json, "Print JSON instead of tables");
-  app->add_option("--output,-o", o->output, "Also write the JSON result to this file (replaced only if it is a "
-                                             "regular file)");
+  add_result_options(*app, o->result);
   add_workload_subcommands(*app, [o](const WorkloadArgs& a) { run(*o, a); });
 }
 

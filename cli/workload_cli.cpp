@@ -71,6 +71,12 @@ Chosen choose(const WorkloadArgs& a) {
   return {&b, a.workload->validate(given, b)};
 }
 
+void add_result_options(CLI::App& app, ResultArgs& args) {
+  app.add_flag("--json", args.json, "Print JSON instead of tables");
+  app.add_option("--output,-o", args.output,
+                 "Also write the JSON result to this file (replaced only if it is a regular file)");
+}
+
 void add_predict_options(CLI::App& app, PredictArgs& args) {
   app.add_option("--machine,-m", args.machine, "Machine profile (JSON) written by `dtflop probe` or `dtflop calibrate`")
       ->check(CLI::ExistingFile);
@@ -101,7 +107,11 @@ Predicted predict_with_fallback(const MachineProfile& profile, const CostCounts&
 
 std::optional<double> deadline_of(const PredictArgs& args) {
   if (args.deadline.empty()) return std::nullopt;
-  return parse_duration(args.deadline, "--deadline");
+  const double d = parse_duration(args.deadline, "--deadline");
+  if (args.machine.empty())
+    throw InputError("--deadline needs a machine profile to predict against; add --machine machine.json (try "
+                     "docs/examples/h200.json)");
+  return d;
 }
 
 void check_output(const std::string& output, const std::vector<std::string>& inputs) {

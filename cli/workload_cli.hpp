@@ -50,6 +50,13 @@ struct Chosen {
 // Throws InputError for an unknown backend, an option that does not apply to it, a bad value.
 Chosen choose(const WorkloadArgs& args);
 
+// --json and -o: how `predict` and `run` give their result (tables or JSON; JSON also to a file).
+struct ResultArgs {
+  bool json = false;
+  std::string output;
+};
+void add_result_options(CLI::App& app, ResultArgs& args);
+
 // --machine, --variant and --deadline, as `predict` and `run` take them.
 struct PredictArgs {
   std::string machine;
@@ -69,7 +76,8 @@ Variant wanted_variant(const PredictArgs& args, const MachineProfile& profile);
 // parameters the profile holds (saying why in `fallback`). Throws MissingParameter only when not
 // even the seed variant can be computed (e.g. a GPU backend on a profile without a GPU).
 Predicted predict_with_fallback(const MachineProfile& profile, const CostCounts& counts, Variant wanted);
-// The deadline of --deadline (seconds), if given. Throws InputError for a bad duration.
+// The deadline of --deadline (seconds), if given. Throws InputError for a bad duration, and for a
+// deadline without --machine (there is nothing to judge it against).
 std::optional<double> deadline_of(const PredictArgs& args);
 
 // Checks, before any work, that `output` can take a result: not a link, device file or folder, and
