@@ -29,12 +29,17 @@ experiments() {
   for e in d e f g i; do echo "h200-2026-11-21$e $R/h200-2026-11-21$e fit held pinned,pageable,resident"; done
   for e in h j r1; do echo "h200-2026-11-21$e $R/h200-2026-11-21$e fit held resident"; done
 }
+# Stores are kept xz-compressed for the current runs; the earlier runs' gzip stores are in the
+# history (results/README.md): restore one beside its summaries to include it.
+unpack() {  # STORE-PATH-WITHOUT-EXTENSION -> stdout
+  if [[ -f "$1.jsonl.xz" ]]; then xz -dc "$1.jsonl.xz"; else gzip -dc "$1.jsonl.gz"; fi
+}
 jobs=()
 while read -r exp dir fit held setups; do
   [[ "$ONLY" == "  " || "$ONLY" == *" $exp "* ]] || continue
-  [[ -f "$dir/$fit.jsonl.gz" ]] || { echo "skipped $exp: no $dir/$fit.jsonl.gz"; continue; }
+  [[ -f "$dir/$fit.jsonl.xz" || -f "$dir/$fit.jsonl.gz" ]] || { echo "skipped $exp: no stores in $dir (results/README.md: restore them from the history)"; continue; }
   mkdir -p "$O/stores/$exp" "$O/$exp"
-  for s in "$fit" "$held"; do gunzip -c "$dir/$s.jsonl.gz" > "$O/stores/$exp/$s.jsonl"; done
+  for s in "$fit" "$held"; do unpack "$dir/$s" > "$O/stores/$exp/$s.jsonl"; done
   for setup in ${setups//,/ }; do
     for rule in $RULES; do jobs+=("$exp $dir $fit $held $setup $rule"); done
   done
