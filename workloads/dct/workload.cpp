@@ -123,8 +123,8 @@ class Run final : public wl::Run {
     if (kind_.needs_gpu) {
       // Copies and kernels are not bracketed from the host (they interleave on the stream): the
       // protocol takes CG, GC and G from CUPTI; G_events is the kernels' time between events.
-      // C is the host's own work (matching, the component records, the fields' conversion),
-      // which the counts do not price (N_C = 0).
+      // C is the host's own work (matching, the component records, the fields' conversion), of
+      // which the counts price the matching's k-d tree steps (tree_steps; N_C = 0).
       t.C = host;
       t.G_events = kernels;
     } else {
