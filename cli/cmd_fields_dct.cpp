@@ -1,7 +1,9 @@
 // `dtflop fields`: the DCT full-field measurement on image files or on a rendered specimen.
 // Per frame it writes a CSV of the points (u_x, u_y, e_xx, e_yy, e_xy, validity) and a
 // colour-mapped PNG overlay of each field on the image, with a colour bar and units.
+#include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <sstream>
@@ -14,6 +16,8 @@
 #include "cli/command.hpp"
 #include "workloads/workload.hpp"
 #include "cli/table.hpp"
+#include "cli/workload_cli.hpp"
+#include "model/json_io.hpp"
 #include "model/errors.hpp"
 #include "model/units.hpp"
 #include "workloads/dct/backend.hpp"
@@ -67,13 +71,27 @@ std::vector<std::filesystem::path> expand_frames(const std::string& pattern) {
   return out;
 }
 
+// x,y,width,height, each a whole number within the largest image dtflop reads (16384 a side), so the
+// rectangle's corners and area never overflow.
 cv::Rect parse_roi(const std::string& s) {
-  int x, y, w, h;
-  char c1, c2, c3;
-  std::istringstream in(s);
-  if (!(in >> x >> c1 >> y >> c2 >> w >> c3 >> h) || c1 != ',' || c2 != ',' || c3 != ',' || w <= 0 || h <= 0)
-    throw InputError(fmt::format("--roi '{}' is not x,y,width,height with positive sizes", s));
-  return {x, y, w, h};
+  constexpr std::int64_t kSide = 16384;
+  std::int64_t v[4] = {0, 0, 0, 0};
+  const char* p = s.data();
+  const char* end = p + s.size();
+  bool ok = true;
+  for (int i = 0; i < 4 && ok; ++i) {
+    const auto r = std::from_chars(p, end, v[i]);
+    ok = r.ec == std::errc() && (i == 3 ? r.ptr == end : (r.ptr != end && *r.ptr == ','));
+    p = r.ptr + 1;
+  }
+  if (!ok)
+    throw InputError(fmt::format("--roi '{}' is not x,y,width,height (whole numbers, e.g. 100,50,800,600)",
+                                 s.substr(0, 60)));
+  if (v[0] < 0 || v[1] < 0 || v[2] < 1 || v[3] < 1 || v[0] + v[2] > kSide || v[1] + v[3] > kSide)
+    throw InputError(fmt::format("--roi '{}' must lie within 0..{} px with width and height >= 1; give a region "
+                                 "inside the image",
+                                 s, kSide));
+  return {static_cast<int>(v[0]), static_cast<int>(v[1]), static_cast<int>(v[2]), static_cast<int>(v[3])};
 }
 
 void run(const RunDctOptions& o) {
@@ -82,6 +100,8 @@ void run(const RunDctOptions& o) {
     throw InputError("give either --reference (with --frames) or --specimen, not both and not neither");
   if (!o.reference.empty() && o.frames.empty())
     throw InputError("--reference needs --frames 'def_%04d.png' (the deformed images)");
+  const std::filesystem::path dir(o.out);
+  make_output_folder(dir, fmt::format("-o '{}'", o.out));
   PipelineOptions p;
   p.interp = interp_from_string(o.interp);
   p.mls.support = parse_support(o.support);
@@ -122,8 +142,6 @@ void run(const RunDctOptions& o) {
   }
   auto backend = make_backend(o.backend, p);
   backend->set_reference(reference);
-  const std::filesystem::path dir(o.out);
-  std::filesystem::create_directories(dir);
   fmt::print("backend {}: {} reference dots, {} points ({}x{}), {} {}, support {}\n", backend->name(),
              backend->reference_dots().size(), backend->points().size(), grid.x, grid.y, to_string(p.interp),
              p.interp == Interp::mls ? to_string(p.mls.weight) : "", p.mls.support.str());
@@ -210,10 +228,10 @@ void add_fields_command(CLI::App& root) {
   app->add_option("--threshold", o->threshold, "otsu, adaptive or fixed:128 (8-bit scale)")->capture_default_str();
   app->add_option("--polarity", o->polarity, "dark (dark dots on light ground) or light")->capture_default_str();
   app->add_option("--roi", o->roi, "Region of interest x,y,width,height (px)");
-  app->add_option("--min-area", o->min_area, "Smallest dot, px (the seed's Area2)")->capture_default_str();
-  app->add_option("--max-area", o->max_area, "Largest dot, px (the seed's Area1)")->capture_default_str();
-  app->add_option("--search-radius", o->search_radius, "Matching radius, px (0: 0.4 x dot spacing)")->capture_default_str();
-  app->add_option("--threads", o->threads, "CPU threads of a parallel backend (0: all)")->capture_default_str();
+  app->add_option("--min-area", o->min_area, "Smallest dot, px (the seed's Area2)")->capture_default_str()->check(number_in(1, 100000000, true));
+  app->add_option("--max-area", o->max_area, "Largest dot, px (the seed's Area1)")->capture_default_str()->check(number_in(1, 100000000, true));
+  app->add_option("--search-radius", o->search_radius, "Matching radius, px (0: 0.4 x dot spacing)")->capture_default_str()->check(number_in(0, 16384));
+  app->add_option("--threads", o->threads, "CPU threads of a parallel backend (0: all; at most this machine's)")->capture_default_str()->check(number_in(0, 1 << 20, true));
   app->add_option("-o,--out", o->out, "Output folder")->required();
   app->add_flag("--no-overlays", o->no_overlays, "Write only the CSV files");
   app->callback([o] { run(*o); });
