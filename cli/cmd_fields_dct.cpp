@@ -55,6 +55,20 @@ std::vector<std::filesystem::path> expand_frames(const std::string& pattern) {
     out.emplace_back(pattern);
     return out;
   }
+  // A field width or precision is at most 3 digits: "%1000000000d" would build a 1 GB name.
+  for (std::size_t at = pattern.find('%'); at != std::string::npos; at = pattern.find('%', at + 1)) {
+    std::size_t digits = 0;
+    for (std::size_t i = at + 1; i < pattern.size() && digits <= 3; ++i) {
+      const char ch = pattern[i];
+      if (ch >= '0' && ch <= '9') ++digits;
+      else if (ch == '.' || ch == '-' || ch == '+' || ch == ' ' || ch == '#') digits = 0;
+      else break;
+    }
+    if (digits > 3 || pattern.size() > 4096)
+      throw InputError(fmt::format("--frames '{}': a field width of more than 3 digits (or a pattern over 4096 "
+                                   "characters) names no file; write e.g. def_%04d.png",
+                                   pattern.substr(0, 60)));
+  }
   for (int k = 0; k < 1000000; ++k) {
     std::string name;
     try {
@@ -100,8 +114,6 @@ void run(const RunDctOptions& o) {
     throw InputError("give either --reference (with --frames) or --specimen, not both and not neither");
   if (!o.reference.empty() && o.frames.empty())
     throw InputError("--reference needs --frames 'def_%04d.png' (the deformed images)");
-  const std::filesystem::path dir(o.out);
-  make_output_folder(dir, fmt::format("-o '{}'", o.out));
   PipelineOptions p;
   p.interp = interp_from_string(o.interp);
   p.mls.support = parse_support(o.support);
@@ -110,7 +122,7 @@ void run(const RunDctOptions& o) {
   if (grid.x < 2 || grid.y < 2) throw InputError("--points needs at least 2x2 points");
   p.points_x = static_cast<int>(grid.x);
   p.points_y = static_cast<int>(grid.y);
-  p.threads = o.threads;
+  p.threads = checked_threads(o.threads, "--threads");
   p.match.search_radius = o.search_radius;
   p.analysis.min_area = o.min_area;
   p.analysis.max_area = o.max_area;
@@ -137,9 +149,11 @@ void run(const RunDctOptions& o) {
     specimen = std::make_unique<Specimen>(parse_specimen(o.specimen));
     reference = specimen->reference_image();
   } else {
-    reference = read_grey(o.reference);
     frame_files = expand_frames(o.frames);
+    reference = read_grey(o.reference);
   }
+  const std::filesystem::path dir(o.out);
+  make_output_folder(dir, fmt::format("-o '{}'", o.out));
   auto backend = make_backend(o.backend, p);
   backend->set_reference(reference);
   fmt::print("backend {}: {} reference dots, {} points ({}x{}), {} {}, support {}\n", backend->name(),

@@ -107,8 +107,7 @@ void add_sweep_command(CLI::App& root) {
                   "spread each configuration over the sweep, and calibrate/validate combine its rounds "
                   "(--rounds-combine). Round r >= 2 is stored under the key <key>/round=r; resuming measures only "
                   "the missing rounds")
-      ->capture_default_str()
-      ->check(number_in(1, 1000, true));
+      ->capture_default_str();
   app->add_option("--seed", o->seed, "Seed of random plans")->capture_default_str()->check(number_in(0, std::numeric_limits<std::uint64_t>::max(), true));
   app->add_flag("--quiet,-q", o->quiet, "No progress on stderr (warnings still)");
   app->add_flag("--json", o->json, "Print the sweep's report as JSON");

@@ -9,7 +9,6 @@
 #include <fmt/format.h>
 
 #include "model/errors.hpp"
-#include "model/units.hpp"
 
 namespace dtflop::dct {
 namespace {
@@ -114,7 +113,7 @@ namespace {
 class CpuBackend final : public Backend {
  public:
   CpuBackend(const PipelineOptions& o, bool parallel)
-      : Backend(o), parallel_(parallel), threads_(parallel ? checked_threads(o.threads, "dct --threads") : 1) {}
+      : Backend(o), parallel_(parallel), threads_(parallel ? cpu_threads(o) : 1) {}
   std::string name() const override { return parallel_ ? "cpu-par" : "cpu-seq"; }
 
   void set_reference(const cv::Mat& image) override {

@@ -14,7 +14,6 @@
 
 #include "workloads/rbe/backend_counts.hpp"
 #include "workloads/rbe/detail.hpp"
-#include "model/units.hpp"
 
 namespace dtflop::rbe::detail {
 namespace {
@@ -214,7 +213,6 @@ class CpuPar final : public Backend {
   }
 
   void init(const Problem& problem) override {
-    checked_threads(threads_, "rbe --threads");  // running creates them: no more than this machine has
     ready_ = false;
     const auto prior = normalized_prior(problem);
     prediction_ = resolve_prediction(options_, problem.kernel, true, name());
