@@ -185,7 +185,12 @@ Sample sample_from_json(const json& j) {
   s.parameters = need(j, "parameters");
   if (!s.parameters.is_object()) bad("parameters", s.parameters, "an object");
   try {
-    (void)w->validate(s.parameters, *b);  // every value in its domain, as on the command line
+    // Every value of a parameter the workload has is checked as on the command line; names it no
+    // longer has (stores kept from earlier versions, e.g. rbe's Ix) are kept as they are.
+    json known = json::object();
+    for (const auto& [name, value] : s.parameters.items())
+      if (const auto* p = w->find_param(name); p && p->applies_to(b->name())) known[name] = value;
+    (void)w->validate(known, *b);
   } catch (const InputError& e) {
     throw InputError(fmt::format("sample field 'parameters': {}", e.what()));
   }
