@@ -22,9 +22,9 @@ namespace {
 // are checked by OpenCV's own limit while decoding and by the size of the result.
 void check_image_size(const std::filesystem::path& path, std::int64_t w, std::int64_t h) {
   if (w < 1 || h < 1 || w > kMaxImageSide || h > kMaxImageSide || w * h > kMaxImagePixels)
-    throw InputError(fmt::format("image '{}' is {}x{} px (about {} MiB as 16-bit grey): outside 1..{} px a side "
+    throw InputError(fmt::format("image '{}' is {}x{} px (about {:.0f} MiB as 16-bit grey): outside 1..{} px a side "
                                  "and {} MP; use a smaller image or a --roi of it",
-                                 path.string(), w, h, (w * h * 2) >> 20, kMaxImageSide, kMaxImagePixels / 1000000));
+                                 path.string(), w, h, static_cast<double>(w) * static_cast<double>(h) * 2 / (1 << 20), kMaxImageSide, kMaxImagePixels / 1000000));
 }
 
 void check_png_header(const std::filesystem::path& path, const std::string& bytes) {

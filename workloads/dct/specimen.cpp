@@ -537,12 +537,14 @@ Specimen parse_specimen(const std::string& text) {
   static const char* known[] = {"size", "pattern", "pitch", "radius", "gap", "count", "seed", "polarity",
                                 "blur", "noise", "lighting", "bits", "ground", "ink", "margin", "dx",
                                 "dy", "deg", "strain", "nu", "k", "a", "load", "supersample"};
-  for (const auto& [k, v] : kv)
-    if (std::find_if(std::begin(known), std::end(known), [&](const char* s) { return k == s; }) == std::end(known))
+  for (const auto& entry : kv) {
+    const std::string& k = entry.first;  // a plain name: clang 14 captures no structured binding
+    if (std::find_if(std::begin(known), std::end(known), [&k](const char* s) { return k == s; }) == std::end(known))
       throw InputError(fmt::format("specimen key '{}' is unknown; known keys: size, pattern, pitch, radius, "
                                    "gap, count, seed, polarity, blur, noise, lighting, bits, ground, ink, "
                                    "margin, supersample, dx, dy, deg, strain, nu, k, a, load",
                                    k.substr(0, 40)));
+  }
 
   Specimen s;
   const Size2 size = parse_size2(str(kv, "size", "1024x768"), "specimen size", 16384);
