@@ -78,15 +78,16 @@ std::string value_text(double v, Param p) { return format_quantity(v, info(p).un
 void run(const CalibrateOptions& o) {
   if (o.stores.empty()) throw InputError("name at least one --store");
   if (o.output.empty()) throw InputError("name the fitted profile to write with -o fitted.json");
-  std::error_code ec;
-  if (fs::exists(o.output, ec) && fs::exists(o.machine, ec) && fs::equivalent(o.output, o.machine, ec))
-    throw InputError(fmt::format("-o '{}' is the --machine profile itself; write the fit to another file so "
-                                 "the probed values stay",
-                                 o.output));
-  if (!o.calibration.empty()) {
-    check_output(o.calibration, {o.machine, o.output});
-    check_output(o.output, {o.calibration});
-    for (const auto& st : o.stores) check_output(o.calibration, {st});
+  {
+    // Neither the probed profile nor a store is ever replaced by the fit or the calibration.
+    std::vector<std::string> inputs = o.stores;
+    inputs.push_back(o.machine);
+    check_output(o.output, inputs);
+    if (!o.calibration.empty()) {
+      inputs.push_back(o.output);
+      check_output(o.calibration, inputs);
+      check_output(o.output, {o.calibration});
+    }
   }
   if (o.folds < 2) throw InputError(fmt::format("--folds must be at least 2, got {}", o.folds));
   if (!(o.loss_scale > 0)) throw InputError("--loss-scale must be positive, e.g. 0.05 (5%)");
@@ -313,19 +314,21 @@ void add_calibrate_command(CLI::App& root) {
   app->add_option("--variant", o->variant, variant_names(", ") + ", or all (choose by cross-validation)")
       ->capture_default_str();
   app->add_flag("--json", o->json, "Print the fit's result as JSON instead of tables");
-  app->add_option("--folds", o->folds, "Folds of the cross-validation")->capture_default_str();
+  app->add_option("--folds", o->folds, "Folds of the cross-validation")->capture_default_str()->check(number_in(2, 1000, true));
   app->add_option("--match", o->match, "Only samples whose key contains this text, e.g. host-memory=pinned (repeatable: all must match)");
   app->add_option("--backend", o->backends, "Fit only samples of these backends (repeatable)");
   app->add_option("--loss", o->loss, "Robust loss: huber, cauchy or none")->capture_default_str();
   app->add_option("--loss-scale", o->loss_scale, "Relative residual where the robust loss bends")
+      ->check(number_in(1e-6, 100))
       ->capture_default_str();
   app->add_option("--flag-ratio", o->flag_ratio, "Flag a fitted value this many times off the probed one")
+      ->check(number_in(1, 1e6))
       ->capture_default_str();
   app->add_flag("--total-only", o->total_only, "Fit totals only, not the measured components");
   app->add_flag("--accept-bounds", o->accept_bounds,
                 "Write the fit even when a parameter ended on its physical bound (otherwise exit status 1, nothing "
                 "written; docs/calibration.md, Bounds)");
-  app->add_option("--seed", o->seed, "Seed of the fold assignment")->capture_default_str();
+  app->add_option("--seed", o->seed, "Seed of the fold assignment")->capture_default_str()->check(number_in(0, std::numeric_limits<std::uint64_t>::max(), true));
   app->add_option("--rounds-combine", o->rounds_combine,
                   "How the rounds of a configuration (sweep --rounds) give its time: fastest (the fastest round's "
                   "median: interference only adds time), p25 (the rounds' lower quartile) or median (docs/calibration.md)")
