@@ -104,6 +104,8 @@ int run(const ValidateOptions& o) {
   } else if (const auto chosen = chosen_variant(profile)) {
     variant = *chosen;
     variant_from = "the profile's fit";
+  } else {
+    variant_from = "the richest the profile supports";  // a probe profile: see below
   }
 
   std::vector<Sample> loaded;
@@ -151,6 +153,20 @@ int run(const ValidateOptions& o) {
                                    s.key, describe(s.machine), o.machine, describe(profile.identity), why));
   }
 
+  // A probe profile names no variant: predict every sample with the richest variant the profile
+  // supports for all of them, as `predict` falls back (the probes give no K_GR, B_GS, L_atomic).
+  if (o.variant.empty() && !chosen_variant(profile)) {
+    std::vector<Param> missing;
+    for (const auto& s : samples) {
+      std::vector<Param> m;
+      const Variant v = richest_supported_variant(profile, s.counts, variant, &m);
+      if (v != variant) {
+        variant = v;
+        missing = m;
+      }
+    }
+    if (!missing.empty()) fmt::print(stderr, "dtflop: note: {}\n", fallback_note(Variant::extended, variant, missing));
+  }
   if (calibration)
     for (const auto& s : samples)
       if (s.workload != calibration->workload || s.backend != calibration->backend)

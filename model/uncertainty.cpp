@@ -15,6 +15,11 @@ constexpr double kZ95 = 1.959963984540054;
 
 double normal_cdf(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
 
+// Does the prediction of `counts` have device terms (a GPU backend's)?
+bool on_device(const CostCounts& c) {
+  return c.N_CG > 0 || c.N_GC > 0 || c.N_GG > 0 || c.N_G > 0 || c.launches > 0 || c.host_waits > 0;
+}
+
 double metadata_number(const MachineProfile& p, const char* key) {
   auto it = p.metadata.find(key);
   if (it == p.metadata.end()) return -1;
@@ -43,7 +48,7 @@ BasisError basis_of(const MachineProfile& profile, const CostCounts& counts, Var
     if (const Parameter* par = profile.find(id)) fitted = fitted || par->provenance == Provenance::fitted;
   if (!fitted) {
     b.basis = Basis::probe_only;
-    b.sigma = kProbeOnlySigma;
+    b.sigma = on_device(counts) ? kProbeOnlySigma.gpu : kProbeOnlySigma.cpu;
     b.source = "measured error of probe-only predictions (docs/PERFORMANCE.md, Prediction portability)";
     return b;
   }
@@ -56,7 +61,7 @@ BasisError basis_of(const MachineProfile& profile, const CostCounts& counts, Var
     b.source = "the fit's rms residual (the profile records no cross-validated error: refit it with `dtflop "
                "calibrate` for an honest one)";
   } else {
-    b.sigma = kTransferSigma;
+    b.sigma = on_device(counts) ? kTransferSigma.gpu : kTransferSigma.cpu;
     b.source = "no error recorded with the fitted profile: the figure of a carried calibration";
   }
   return b;
@@ -76,7 +81,7 @@ BasisError basis_of(const Calibration& c, Basis applied) {
     b.sigma = c.transfer_error->rms_log;
     b.source = fmt::format("its error measured when carried to {} ({})", c.transfer_measured_on, c.transfer_error->how);
   } else {
-    b.sigma = std::hypot(own, kTransferSigma);
+    b.sigma = std::hypot(own, uses_gpu(c) ? kTransferSigma.gpu : kTransferSigma.cpu);
     b.source = fmt::format("its own error ({}) and the measured error of carried calibrations "
                            "(docs/PERFORMANCE.md, Prediction portability)",
                            c.fit_error.how);

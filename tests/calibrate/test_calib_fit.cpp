@@ -55,8 +55,10 @@ TEST(CalibFit, NoisySamplesGiveIntervalsThatCoverTheTruth) {
   const auto samples = test::seed_pipeline_samples(truth, Variant::latency, 0.02, 11);
   FitOptions o;
   o.variant = Variant::latency;
-  const FitResult r = fit(samples, perturbed(truth, 0.8), o);
+  // Probes 10% below the truth: inside the physical bounds (1.25x the probed bandwidths and rates).
+  const FitResult r = fit(samples, perturbed(truth, 0.9), o);
   ASSERT_TRUE(r.covariance_ok) << r.covariance_note;
+  EXPECT_EQ(r.at_physical_bounds, 0);
   EXPECT_GT(r.rms_relative, 0.001);
   EXPECT_LT(r.rms_relative, 0.05);
   int covered = 0;
@@ -73,6 +75,29 @@ TEST(CalibFit, NoisySamplesGiveIntervalsThatCoverTheTruth) {
   }
   // Eight 95% intervals: all but at most one should hold the truth.
   EXPECT_GE(covered, static_cast<int>(r.params.size()) - 1);
+}
+
+TEST(CalibFit, AFitAboveWhatTheProbesSawEndsOnItsBoundAndSaysSo) {
+  // Probes at half the truth: no bandwidth or rate may exceed 1.25x its probe, so the fit stops
+  // at 0.625x the truth and reports each such parameter, with the reason; latencies (probed at
+  // half of theirs) are inside their 0.02x .. 100x range and are fitted.
+  const MachineProfile truth = test::round_profile();
+  const auto samples = test::seed_pipeline_samples(truth, Variant::latency, 0.0);
+  FitOptions o;
+  o.variant = Variant::latency;
+  const FitResult r = fit(samples, perturbed(truth, 0.5), o);
+  EXPECT_GT(r.at_physical_bounds, 0);
+  for (const auto& f : r.params) {
+    const auto unit = info(f.id).unit;
+    if (unit == "B/s" || unit == "FLOP/s") {
+      EXPECT_TRUE(f.at_physical_bound) << info(f.id).name;
+      EXPECT_NEAR(f.value, 1.25 * 0.5 * truth.get(f.id).value, 1e-6 * f.value) << info(f.id).name;
+      EXPECT_NE(f.note.find("physical range"), std::string::npos) << f.note;
+    }
+    if (unit == "s") {
+      EXPECT_FALSE(f.at_physical_bound) << info(f.id).name;
+    }
+  }
 }
 
 TEST(CalibFit, LargeDisagreementWithTheProbedValueIsFlagged) {
@@ -279,8 +304,11 @@ TEST(CalibFit, ACalibrationCarriesABackendsEfficiencyToAnotherMachinesProbes) {
   o.variant = Variant::latency;
   const FitResult r = fit(test::seed_pipeline_samples(truth_of(probe_a), Variant::latency, 0.0), probe_a, o);
   const Calibration c = to_calibration(r, "rbe", "cuda-seed", {}, ErrorFigure{10, 0.01, 0.02, 0.01, "test"});
-  for (const auto& f : c.factors)
-    if (f.fitted && info(f.id).unit != "B") EXPECT_TRUE(f.relative) << info(f.id).name;
+  for (const auto& f : c.factors) {
+    if (f.fitted && info(f.id).unit != "B") {
+      EXPECT_TRUE(f.relative) << info(f.id).name;
+    }
+  }
   const Applied a = apply_calibration(c, probe_b);
   EXPECT_EQ(a.basis, Basis::transferred);
   const MachineProfile truth_b = truth_of(probe_b);

@@ -1,4 +1,5 @@
 // `dtflop predict` end to end: the real executable, good and bad input.
+#include <cmath>
 #include <filesystem>
 
 #include <gtest/gtest.h>
@@ -6,7 +7,9 @@
 #include "cuda/device.hpp"
 #include <nlohmann/json.hpp>
 
+#include "model/calibration.hpp"
 #include "model/json_io.hpp"
+#include "model/uncertainty.hpp"
 #include "model/predict.hpp"
 #include "tests/cli/run_cli.hpp"
 #include "tests/model/fixtures.hpp"
@@ -59,13 +62,17 @@ TEST_F(PredictCli, CountsOnlyWithoutMachineAreTheBackendsOwn) {
 
 TEST_F(PredictCli, PredictionMatchesModelAndDeadline) {
   const auto r = test::run_dtflop("predict --machine " + path("m.json") +
-                                  " rbe -b cuda-seed --grid 1000x1000 --kernel 33x33 --deadline 10ms --json --variant seed");
+                                  " rbe -b cuda-seed --grid 1000x1000 --kernel 33x33 --deadline 1s --json --variant seed");
   ASSERT_EQ(r.status, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   const auto expected = predict(profile_, rbe::step_counts("cuda-seed", {1000, 1000, 33, 33}), Variant::seed);
   EXPECT_DOUBLE_EQ(j.at("prediction").at("total").get<double>(), expected.total);
   EXPECT_DOUBLE_EQ(j.at("prediction").at("dt_CG").get<double>(), expected.dt_CG);
-  EXPECT_EQ(j.at("meets_deadline").get<bool>(), expected.total <= 10e-3);
+  EXPECT_TRUE(j.at("meets_deadline").get<bool>());  // 1.5 ms against 1 s: met even by a probe-only interval
+  EXPECT_EQ(j.at("uncertainty").at("basis"), "probe-only");
+  EXPECT_EQ(j.at("uncertainty").at("deadline_verdict").at("verdict"), "met");
+  EXPECT_LT(j.at("uncertainty").at("interval").at("lo").get<double>(), expected.total);
+  EXPECT_GT(j.at("uncertainty").at("interval").at("hi").get<double>(), expected.total);
   EXPECT_EQ(j.at("prediction").at("variant"), "seed");
   EXPECT_EQ(j.at("variant"), "seed");
 }
@@ -73,13 +80,18 @@ TEST_F(PredictCli, PredictionMatchesModelAndDeadline) {
 TEST_F(PredictCli, DeadlineIsPrintedAndMissedDeadlineExitsThree) {
   // The round profile predicts ~1.5 ms per step of the pageable seed pipeline at 1000x1000.
   const std::string args = "predict --machine " + path("m.json") + " rbe -b cuda-seed --grid 1000x1000 --kernel 33x33";
-  auto r = test::run_dtflop(args + " --deadline 10ms");
+  auto r = test::run_dtflop(args + " --deadline 1s");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("MET"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("dt_CG"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("90% interval"), std::string::npos) << r.out;
   r = test::run_dtflop(args + " --deadline 10us");
   EXPECT_EQ(r.status, 3) << r.err;  // documented: a missed deadline
   EXPECT_NE(r.out.find("MISSED"), std::string::npos) << r.out;
+  // 2 ms is above the prediction but inside a probe-only profile's interval: neither.
+  r = test::run_dtflop(args + " --deadline 2ms");
+  EXPECT_EQ(r.status, 4) << r.err;  // documented: uncertain
+  EXPECT_NE(r.out.find("UNCERTAIN"), std::string::npos) << r.out;
 }
 
 TEST_F(PredictCli, ChosenVariantOfAFittedProfileIsUsed) {
@@ -106,6 +118,45 @@ TEST_F(PredictCli, MissingFittedParameterFallsBackAndSaysSo) {
   EXPECT_NE(j.at("variant_fallback").get<std::string>().find("K_CW"), std::string::npos);
   EXPECT_NE(r.err.find("K_CW"), std::string::npos) << r.err;
   EXPECT_EQ(test::count_lines(r.err), 1) << r.err;
+}
+
+TEST_F(PredictCli, ACalibrationCarriedToAnotherMachineIsAppliedToItsProbes) {
+  Calibration c;
+  c.workload = "rbe";
+  c.backend = "cuda-seed";
+  c.variant = Variant::seed;
+  c.fitted_on = profile_.identity;
+  c.fitted_on.gpu_name = "Source GPU";
+  CalibrationFactor b;  // the backend's copies reach half the probed pageable bandwidth
+  b.id = Param::B_CG_pageable;
+  b.relative = true;
+  b.factor = 0.5;
+  b.value = 1;
+  c.factors = {b};
+  c.fit_error = {50, 0.02, 0.05, 0.03, "test"};
+  save_calibration(c, dir_ / "cal.json");
+  const std::string args = "predict --machine " + path("m.json") + " --calibration " + path("cal.json") +
+                           " rbe -b cuda-seed --grid 1000x1000 --kernel 33x33 --json";
+  const auto r = test::run_dtflop(args);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  auto m = profile_;
+  m.set(Param::B_CG_pageable, Parameter{0.5 * profile_.get(Param::B_CG_pageable).value, Provenance::fitted, {}, {}, {}});
+  const auto expected = predict(m, rbe::step_counts("cuda-seed", {1000, 1000, 33, 33}), Variant::seed);
+  EXPECT_DOUBLE_EQ(j.at("prediction").at("total").get<double>(), expected.total);
+  EXPECT_EQ(j.at("uncertainty").at("basis"), "transferred");
+  EXPECT_EQ(j.at("uncertainty").at("calibrated_on"), "Source GPU");
+  EXPECT_NEAR(j.at("uncertainty").at("basis_error").at("sigma_log").get<double>(), std::hypot(0.03, kTransferSigma.gpu),
+              1e-12);
+  // Another backend, or a fitted target profile: one line, exit 2.
+  expect_one_line_error("predict --machine " + path("m.json") + " --calibration " + path("cal.json") + " rbe -b cpu-seq",
+                        "is of rbe on cuda-seed");
+  auto fitted = profile_;
+  fitted.set(Param::B_GG, Parameter{1e12, Provenance::fitted, {}, {}, {}});
+  save_profile(fitted, dir_ / "fitted.json");
+  expect_one_line_error("predict --machine " + path("fitted.json") + " --calibration " + path("cal.json") +
+                            " rbe -b cuda-seed",
+                        "probe profile");
 }
 
 TEST_F(PredictCli, BadInputGivesOneLineAndExitStatusTwo) {

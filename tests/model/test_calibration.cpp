@@ -141,12 +141,15 @@ TEST(Uncertainty, TheIntervalIsTheBasisErrorAroundThePrediction) {
   ASSERT_DOUBLE_EQ(p.total, 0.02);
   const BasisError b = basis_of(m, c, Variant::seed);
   EXPECT_EQ(b.basis, Basis::probe_only);
-  EXPECT_DOUBLE_EQ(b.sigma, kProbeOnlySigma);
+  EXPECT_DOUBLE_EQ(b.sigma, kProbeOnlySigma.gpu);  // a copy to the device: a GPU backend's prediction
   const Interval iv = interval_of(p, m, c, b);
   EXPECT_DOUBLE_EQ(iv.sigma_params, 0);  // no parameter carries an uncertainty
   const double z = 1.6448536269514722;   // the 95% normal quantile: a central 90% interval
-  EXPECT_NEAR(iv.lo, 0.02 * std::exp(-z * kProbeOnlySigma), 1e-12);
-  EXPECT_NEAR(iv.hi, 0.02 * std::exp(z * kProbeOnlySigma), 1e-12);
+  EXPECT_NEAR(iv.lo, 0.02 * std::exp(-z * kProbeOnlySigma.gpu), 1e-12);
+  EXPECT_NEAR(iv.hi, 0.02 * std::exp(z * kProbeOnlySigma.gpu), 1e-12);
+  CostCounts cpu;
+  cpu.N_C = 1000;
+  EXPECT_DOUBLE_EQ(basis_of(m, cpu, Variant::seed).sigma, kProbeOnlySigma.cpu);
   EXPECT_NEAR(normal_quantile(0.95), z, 1e-12);
 }
 
@@ -188,7 +191,7 @@ TEST(Uncertainty, ACarriedCalibrationAddsTheTransferError) {
   const BasisError here = basis_of(c, Basis::calibrated);
   EXPECT_DOUBLE_EQ(here.sigma, 0.025);
   const BasisError there = basis_of(c, Basis::transferred);
-  EXPECT_DOUBLE_EQ(there.sigma, std::hypot(0.025, kTransferSigma));
+  EXPECT_DOUBLE_EQ(there.sigma, std::hypot(0.025, kTransferSigma.gpu));  // a GPU backend's calibration
   c.transfer_error = ErrorFigure{50, 0.04, 0.1, 0.05, "held-out"};
   EXPECT_DOUBLE_EQ(basis_of(c, Basis::transferred).sigma, 0.05);  // measured: it replaces the default
 }
