@@ -159,6 +159,32 @@ TEST_F(PredictCli, ACalibrationCarriedToAnotherMachineIsAppliedToItsProbes) {
                         "probe profile");
 }
 
+// Every profile docs/examples ships predicts every backend of every workload its machine can run
+// (a GPU backend needs a profile with a GPU), with an interval, from the probes alone.
+TEST_F(PredictCli, EveryExampleProfilePredictsEveryBackendItsMachineCanRun) {
+  int profiles = 0;
+  for (const auto& e : std::filesystem::directory_iterator(test::source_path("docs/examples"))) {
+    if (e.path().extension() != ".json") continue;
+    ++profiles;
+    const MachineProfile m = load_profile(e.path());
+    for (const workload::Workload* w : workload::all())
+      for (const auto& b : w->backends()) {
+        const std::string args = "predict --machine " + e.path().string() + " " + std::string(w->name()) + " -b " +
+                                 b->name() + " --json";
+        const auto r = test::run_dtflop(args);
+        if (b->needs_gpu() && m.identity.gpu_name.empty()) {
+          EXPECT_EQ(r.status, 2) << args;  // no GPU to predict for: bad input, said so
+          continue;
+        }
+        ASSERT_EQ(r.status, 0) << args << "\n" << r.err;
+        const auto j = nlohmann::json::parse(r.out);
+        EXPECT_GT(j.at("prediction").at("total").get<double>(), 0) << args;
+        EXPECT_EQ(j.at("uncertainty").at("basis"), "probe-only") << args;
+      }
+  }
+  EXPECT_GE(profiles, 3);  // a CPU-only machine, the H100 and the H200
+}
+
 TEST_F(PredictCli, BadInputGivesOneLineAndExitStatusTwo) {
   expect_one_line_error("predict nosuch-workload --grid 10x10", "nosuch-workload");
   expect_one_line_error("predict", "rbe");
