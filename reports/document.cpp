@@ -145,12 +145,9 @@ std::string tick_label(double v) {
   static const Prefix prefixes[] = {{1e12, " T"}, {1e9, " G"}, {1e6, " M"}, {1e3, " k"}, {1, ""},
                                     {1e-3, " m"}, {1e-6, " µ"}, {1e-9, " n"}, {1e-12, " p"}};
   const double a = std::abs(v);
-  for (const auto& p : prefixes) {
-    if (a >= p.scale * (1 - 1e-9) || p.scale == 1e-12) {
-      if (p.scale == 1 && a < 1 && a >= 0.01) break;  // 0.5, 0.25: no prefix
-      return fmt::format("{:.3g}{}", v / p.scale, p.name);
-    }
-  }
+  if (a >= 0.01 && a < 1000) return fmt::format("{:.3g}", v);  // 0.25, 3, 500: no prefix
+  for (const auto& p : prefixes)
+    if (a >= p.scale * (1 - 1e-9) || p.scale == 1e-12) return fmt::format("{:.3g}{}", v / p.scale, p.name);
   return fmt::format("{:.3g}", v);
 }
 
