@@ -182,8 +182,11 @@ std::string render_svg(const Chart& c) {
     x1 = y1 = std::max(x1, y1);
   }
   Frame f{x0, x1, y0, y1, xlog, ylog};
-  // Legend below the axis title, four entries a row.
-  const int legend_rows = static_cast<int>((c.series.size() + 2) / 3);
+  // Legend below the axis title: three entries a row, two where the names are long.
+  std::size_t longest = 0;
+  for (const auto& s : c.series) longest = std::max(longest, s.name.size());
+  const std::size_t per_row = longest > 24 ? 2 : 3;
+  const int legend_rows = static_cast<int>((c.series.size() + per_row - 1) / per_row);
   const double bar_label_room = bars ? 40 : 0;
   const double total_h = f.top + f.height + 58 + bar_label_room + 20.0 * legend_rows + 8;
   const double total_w = f.left + f.width + 24;
@@ -280,8 +283,8 @@ std::string render_svg(const Chart& c) {
   const double ly0 = f.top + f.height + 56 + bar_label_room;
   for (std::size_t i = 0; i < c.series.size(); ++i) {
     const Series& s = c.series[i];
-    const double lx = f.left + static_cast<double>(i % 3) * (f.width / 3);
-    const double ly = ly0 + 20.0 * static_cast<double>(i / 3);
+    const double lx = f.left + static_cast<double>(i % per_row) * (f.width / static_cast<double>(per_row));
+    const double ly = ly0 + 20.0 * static_cast<double>(i / per_row);
     const std::string col = colour(s.colour);
     if (s.kind == SeriesKind::line)
       o += fmt::format("<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{}\" stroke-width=\"2\"{}/>", lx, ly - 4,
