@@ -114,7 +114,7 @@ void add_report_command(CLI::App& root) {
     for (const auto& s : o->stores) args.push_back({"--store", s});
     args.push_back({"--machine", in.profile_path});
     for (const auto& b : o->backends) args.push_back({"--backend", b});
-    for (const auto& m : o->match) args.push_back({"--match", m});
+    for (const auto& t : o->match) args.push_back({"--match", t});
     if (!o->variant.empty()) args.push_back({"--variant", o->variant});
     if (!o->rounds_combine.empty()) args.push_back({"--rounds-combine", o->rounds_combine});
     args.push_back({"-o", o->output});

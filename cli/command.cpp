@@ -3,6 +3,7 @@
 namespace dtflop::cli {
 
 void setup_all(CLI::App& root) {
+  add_characterize_command(root);  // the main job first
   add_probe_command(root);
   add_predict_command(root);
   add_run_command(root);
