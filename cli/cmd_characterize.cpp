@@ -78,7 +78,7 @@ json quick_plan(const std::string& workload, bool held, bool gpu) {
   } else {
     return nullptr;
   }
-  return {{"description", fmt::format("dtflop characterize --quick: {} plan of {}", held ? "held-out" : "training", workload)},
+  return {{"description", fmt::format("dtflop characterize: small {} plan of {}", held ? "held-out" : "training", workload)},
           {"configs", configs}};
 }
 

@@ -176,7 +176,10 @@ std::string render_svg(const Chart& c) {
   } else {
     pad_range(x0, x1, xlog, false);
   }
+  const double y_data_min = y0;
   pad_range(y0, y1, ylog, bars && !ylog);
+  // Bars on a log axis start at a power of ten, so their heights compare as decades.
+  if (bars && ylog && y_data_min > 0) y0 = std::min(y0, std::pow(10.0, std::floor(std::log10(y_data_min))));
   if (c.diagonal) {
     x0 = y0 = std::min(x0, y0);
     x1 = y1 = std::max(x1, y1);
@@ -187,7 +190,10 @@ std::string render_svg(const Chart& c) {
   for (const auto& s : c.series) longest = std::max(longest, s.name.size());
   const std::size_t per_row = longest > 24 ? 2 : 3;
   const int legend_rows = static_cast<int>((c.series.size() + per_row - 1) / per_row);
-  const double bar_label_room = bars ? 40 : 0;
+  // Category labels are turned by 30 degrees: room for the longest (about 6.5 px a character).
+  std::size_t longest_category = 0;
+  for (const auto& cat : c.categories) longest_category = std::max(longest_category, cat.size());
+  const double bar_label_room = bars ? 8 + 0.5 * 6.5 * static_cast<double>(longest_category) : 0;
   const double total_h = f.top + f.height + 58 + bar_label_room + 20.0 * legend_rows + 8;
   const double total_w = f.left + f.width + 24;
   std::string o = fmt::format(

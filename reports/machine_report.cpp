@@ -34,6 +34,15 @@ std::vector<std::pair<double, double>> decode_transfer_points(const std::string&
 
 namespace {
 
+// A log axis only where the values span more than a factor of 20.
+bool needs_log(const Chart& c) {
+  double lo = INFINITY, hi = 0;
+  for (const auto& s : c.series)
+    for (const auto& p : s.points)
+      if (p.y > 0) lo = std::min(lo, p.y), hi = std::max(hi, p.y);
+  return hi > 0 && hi / lo > 20;
+}
+
 struct TransferSeries {
   const char* key;  // probe series ("h2d_pinned")
   const char* memory;
@@ -165,8 +174,8 @@ Document machine_report(const MachineProfile& p, const Context& ctx) {
     Chart c;
     c.id = "flop-rates";
     c.title = "Floating-point rates against the peaks known";
-    c.x = {"rate", false};
-    c.y = {"FLOP/s", true};
+    c.x = {"processor, precision, threads", false};
+    c.y = {"rate [FLOP/s]", true};
     Series meas{"measured", SeriesKind::bars, 0, {}};
     Series peak{"peak", SeriesKind::points, 1, {}, true};
     const double threads = i.cpu_threads;
@@ -199,6 +208,7 @@ Document machine_report(const MachineProfile& p, const Context& ctx) {
     if (!meas.points.empty()) {
       c.series.push_back(std::move(meas));
       if (!peak.points.empty()) c.series.push_back(std::move(peak));
+      c.y.log = needs_log(c);
       c.note = "Peaks: for all CPU threads, the one-thread rate times the hardware threads (perfect scaling); for the "
                "GPU, SMs x FP lanes per SM x 2 FLOP x SM clock. None is drawn where it is not known.";
       rates.blocks.emplace_back(std::move(c));
@@ -208,7 +218,7 @@ Document machine_report(const MachineProfile& p, const Context& ctx) {
     Chart c;
     c.id = "bandwidths";
     c.title = "Memory bandwidths";
-    c.x = {"memory", false};
+    c.x = {"memory, threads or direction", false};
     c.y = {"bandwidth [B/s]", true};
     Series meas{"measured", SeriesKind::bars, 2, {}};
     Series peak{"all threads if they scaled perfectly", SeriesKind::points, 1, {}, true};
@@ -234,6 +244,7 @@ Document machine_report(const MachineProfile& p, const Context& ctx) {
     if (!meas.points.empty()) {
       c.series.push_back(std::move(meas));
       if (!peak.points.empty()) c.series.push_back(std::move(peak));
+      c.y.log = needs_log(c);
       c.note = "Memory bandwidths count bytes read and written. Host memory is shared by the threads, so the "
                "'perfect scaling' ring is an upper bound, not a peak the hardware promises.";
       rates.blocks.emplace_back(std::move(c));
@@ -243,7 +254,7 @@ Document machine_report(const MachineProfile& p, const Context& ctx) {
     Chart c;
     c.id = "latencies";
     c.title = "Fixed costs (latencies)";
-    c.x = {"cost", false};
+    c.x = {"model parameter", false};
     c.y = {"time [s]", true};
     Series meas{"measured or fitted", SeriesKind::bars, 3, {}};
     for (const auto& pi : all_params()) {
@@ -256,6 +267,7 @@ Document machine_report(const MachineProfile& p, const Context& ctx) {
     }
     if (!meas.points.empty()) {
       c.series.push_back(std::move(meas));
+      c.y.log = needs_log(c);
       rates.blocks.emplace_back(std::move(c));
     }
   }
