@@ -19,7 +19,10 @@
 #include <gtest/gtest.h>
 
 #include "model/errors.hpp"
+#include "model/stats.hpp"
+#include "probes/machine.hpp"
 #include "reports/document.hpp"
+#include "reports/reports.hpp"
 #include "tests/cli/run_cli.hpp"
 #include "tests/support/temp_dir.hpp"
 
@@ -89,6 +92,71 @@ TEST(ReportFiles, WritesHtmlMarkdownAndACsvPerChartAndNeverReplacesAFolder) {
   EXPECT_THROW(reports::write_report(tiny_document(), dir / "link"), InputError);
   EXPECT_FALSE(fs::exists(dir / "nowhere"));
   fs::remove_all(dir);
+}
+
+// The probe keeps every transfer size it measured in the profile, and the machine report draws
+// them over the fitted curve: one point per size at bytes / median seconds.
+TEST(MachineReport, DrawsTheProbedTransferSizesOverTheFit) {
+  probes::MachineReport mr;
+  mr.identity.cpu_model = "test CPU";
+  mr.identity.cpu_threads = 4;
+  mr.identity.gpu_name = "test GPU";
+  probes::ProbeReport pr;
+  pr.probe = "gpu-transfers";
+  const double L = 4e-6, B = 20e9;
+  const std::vector<double> sizes = {4096, 1 << 20, 64 << 20};
+  for (double bytes : sizes) {
+    probes::Measurement m;
+    const double t = L + bytes / B;
+    m.key = fmt::format("h2d_pinned_{}", static_cast<long long>(bytes));
+    m.unit = "B/s";
+    m.stats = summarize(std::vector<double>{t * 0.99, t, t * 1.02});
+    m.value = bytes / m.stats.median;
+    m.detail = true;
+    pr.measurements.push_back(m);
+  }
+  probes::Measurement b;
+  b.key = "h2d_pinned_bandwidth";
+  b.unit = "B/s";
+  b.value = B;
+  b.param = Param::B_CG_pinned;
+  pr.measurements.push_back(b);
+  probes::Measurement l = b;
+  l.key = "h2d_pinned_latency";
+  l.unit = "s";
+  l.value = L;
+  l.param = Param::L_CG_pinned;
+  pr.measurements.push_back(l);
+  mr.reports.push_back(pr);
+  const MachineProfile p = probes::make_profile(mr);
+
+  const auto points = reports::decode_transfer_points(p.metadata.at("probe.transfers.h2d_pinned"));
+  ASSERT_EQ(points.size(), sizes.size());
+  for (std::size_t i = 0; i < sizes.size(); ++i) {
+    EXPECT_DOUBLE_EQ(points[i].first, sizes[i]);
+    EXPECT_NEAR(points[i].second, L + sizes[i] / B, 1e-9 * points[i].second);
+  }
+  EXPECT_TRUE(reports::decode_transfer_points("4096:x").empty());
+  EXPECT_TRUE(reports::decode_transfer_points("4096:-1").empty());
+
+  const reports::Document d = reports::machine_report(p, {"test", {}});
+  const reports::Chart* h2d = nullptr;
+  for (const auto* c : reports::charts(d))
+    if (c->id == "transfers-h2d") h2d = c;
+  ASSERT_NE(h2d, nullptr);
+  const std::string csv = reports::render_csv(*h2d);
+  int measured = 0;
+  for (const auto& s : h2d->series)
+    if (s.kind == reports::SeriesKind::points) {
+      ++measured;
+      ASSERT_EQ(s.points.size(), sizes.size());
+      for (std::size_t i = 0; i < sizes.size(); ++i) EXPECT_NEAR(s.points[i].y, B * sizes[i] / (L * B + sizes[i]), 1e-6 * B);
+    } else {
+      // The fitted curve n / (L + n/B) and its asymptote B: never above B.
+      for (const auto& pt : s.points) EXPECT_LE(pt.y, B * (1 + 1e-12));
+    }
+  EXPECT_EQ(measured, 1);
+  EXPECT_EQ(test::count_lines(csv), 1 + 3 + 49 + 2);
 }
 
 // ---- Every report kind, from archived files, rendered by Chromium --------------------------
