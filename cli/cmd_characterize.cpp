@@ -65,7 +65,7 @@ json quick_plan(const std::string& workload, bool held, bool gpu) {
                                                : std::vector<std::string>{"640x480", "800x600", "1024x768"};
     const std::vector<int> dots = held ? std::vector<int>{80, 150} : std::vector<int>{60, 120, 200};
     const std::vector<std::string> points = held ? std::vector<std::string>{"20x20", "28x28"}
-                                                 : std::vector<std::string>{"16x16", "24x24", "32x32"};
+                                                 : std::vector<std::string>{"16x16", "32x32"};
     const std::vector<int> supports = held ? std::vector<int>{18, 30} : std::vector<int>{12, 25, 40};
     int n = 0;
     for (const auto& s : sizes)
