@@ -19,6 +19,7 @@ namespace fs = std::filesystem;
 struct ReportOptions {
   std::vector<std::string> machines;
   std::vector<std::string> stores;
+  std::vector<std::string> stores_b;  // compare: run B (stores: run A)
   std::vector<std::string> backends;
   std::vector<std::string> match;
   std::vector<std::string> names;
@@ -124,18 +125,39 @@ void add_report_command(CLI::App& root) {
   });
 
   auto* c = app->add_subcommand("compare",
-                                "Two profiles (two machines, or two runs of one) parameter by parameter, with ratios");
-  c->add_option("--machine,-m", o->machines, "The two profiles, A then B (give --machine twice)")
-      ->required()
+                                "Two profiles (two machines, or two runs of one) parameter by parameter, or two runs' "
+                                "sample stores configuration by configuration, with ratios");
+  c->add_option("--machine,-m", o->machines, "Two profiles to compare, A then B (give --machine twice)")
       ->expected(2)
       ->check(CLI::ExistingFile);
+  c->add_option("--store-a", o->stores, "Sample store(s) of run A (repeatable), instead of profiles");
+  c->add_option("--store-b", o->stores_b, "Sample store(s) of run B (repeatable)");
   c->add_option("--names", o->names, "Names for A and B in the report (default: the file names)")
       ->expected(2)
       ->delimiter(',');
   c->add_option("-o,--output", o->output, "Folder to write the report into (must not exist)")->required();
   c->callback([o] {
     check_output(o->output);
-    if (o->machines.size() != 2) throw InputError("give two profiles to compare: --machine A.json --machine B.json");
+    const bool runs = !o->stores.empty() || !o->stores_b.empty();
+    if (runs) {
+      if (!o->machines.empty())
+        throw InputError("compare two runs (--store-a, --store-b) or two profiles (--machine twice), not both");
+      if (o->stores.empty() || o->stores_b.empty())
+        throw InputError("a comparison of two runs needs both --store-a and --store-b");
+      const std::string na = o->names.size() == 2 ? o->names[0] : fs::path(o->stores[0]).filename().string();
+      const std::string nb = o->names.size() == 2 ? o->names[1] : fs::path(o->stores_b[0]).filename().string();
+      std::vector<std::pair<std::string, std::string>> args;
+      for (const auto& s : o->stores) args.push_back({"--store-a", s});
+      for (const auto& s : o->stores_b) args.push_back({"--store-b", s});
+      if (o->names.size() == 2) args.push_back({"--names", o->names[0] + "," + o->names[1]});
+      args.push_back({"-o", o->output});
+      reports::Context ctx{join_cmd("compare", args), o->stores};
+      ctx.inputs.insert(ctx.inputs.end(), o->stores_b.begin(), o->stores_b.end());
+      finish(reports::compare_runs_report(o->stores, na, o->stores_b, nb, ctx), o->output);
+      return;
+    }
+    if (o->machines.size() != 2)
+      throw InputError("give two profiles (--machine A.json --machine B.json) or two runs (--store-a, --store-b) to compare");
     const MachineProfile a = load_profile(o->machines[0]);
     const MachineProfile b = load_profile(o->machines[1]);
     const std::string na = o->names.size() == 2 ? o->names[0] : fs::path(o->machines[0]).filename().string();

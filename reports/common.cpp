@@ -4,6 +4,7 @@
 
 #include "calibrate/sample.hpp"
 #include "model/units.hpp"
+#include "workloads/workload.hpp"
 
 namespace dtflop::reports {
 
@@ -21,6 +22,15 @@ Stamp make_stamp(const Context& ctx, const std::string& machine, const std::stri
 std::string format_value(double v, std::string_view unit) {
   if (unit == "x") return fmt::format("{:.3g}x", v);
   return format_quantity(v, unit);
+}
+
+std::string config_text(const calib::Sample& s) {
+  try {
+    const workload::Workload& w = workload::find(s.workload);
+    return w.label(w.validate(s.parameters, w.backend(s.backend)));
+  } catch (const std::exception&) {
+    return s.key;
+  }
 }
 
 Table parameter_table(const MachineProfile& p, bool only_fitted) {

@@ -5,7 +5,14 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <algorithm>
+#include <map>
+
 #include "calibrate/machine.hpp"
+#include "calibrate/rounds.hpp"
+#include "calibrate/store.hpp"
+#include "model/errors.hpp"
+#include "model/units.hpp"
 #include "reports/common.hpp"
 #include "reports/reports.hpp"
 
@@ -65,6 +72,84 @@ Document compare_report(const MachineProfile& a, const std::string& name_a, cons
     c.note = "Rates and bandwidths: B / A; fixed costs (seconds): A / B. Above 1, B is faster.";
     sec.blocks.emplace_back(std::move(c));
   }
+  doc.sections.push_back(std::move(sec));
+  return doc;
+}
+
+Document compare_runs_report(const std::vector<std::string>& stores_a, const std::string& name_a,
+                             const std::vector<std::string>& stores_b, const std::string& name_b, const Context& ctx) {
+  auto side = [](const std::vector<std::string>& stores) {
+    calib::MergedRounds m = calib::merge_rounds(calib::load_samples(stores, {}).samples, calib::kDefaultRoundCombine);
+    std::map<std::string, calib::Sample> by_key;
+    for (auto& s : m.samples) by_key.emplace(s.key, std::move(s));
+    return by_key;
+  };
+  const auto a = side(stores_a), b = side(stores_b);
+  struct Row {
+    const calib::Sample* a;
+    const calib::Sample* b;
+    double ta, tb;
+  };
+  std::vector<Row> rows;
+  for (const auto& [key, sa] : a) {
+    auto it = b.find(key);
+    if (it == b.end()) continue;
+    const Stats* xa = sa.find(calib::Component::total);
+    const Stats* xb = it->second.find(calib::Component::total);
+    if (!xa || !xb || sa.steps <= 0 || it->second.steps <= 0) continue;
+    rows.push_back({&sa, &it->second, xa->median / static_cast<double>(sa.steps),
+                    xb->median / static_cast<double>(it->second.steps)});
+  }
+  if (rows.empty())
+    throw InputError(fmt::format("the runs share no configuration ({} in A, {} in B): compare stores of the same plan",
+                                 a.size(), b.size()));
+  const calib::Sample& fa = *rows.front().a;
+  const calib::Sample& fb = *rows.front().b;
+  Document doc;
+  doc.kind = "compare";
+  doc.title = fmt::format("Comparison of two runs: {} against {}", name_b, name_a);
+  const std::string ma = calib::describe(fa.machine), mb = calib::describe(fb.machine);
+  doc.stamp = make_stamp(ctx, ma == mb ? ma : fmt::format("A: {}; B: {}", ma, mb),
+                         fmt::format("A: {}; B: {}", fa.measured_at, fb.measured_at));
+  std::string why;
+  doc.summary.push_back(calib::same_machine(fa.machine, fb.machine, &why)
+                            ? fmt::format("One machine: A = {}, B = {}", name_a, name_b)
+                            : fmt::format("Two machines ({}): A = {} ({}), B = {} ({})", why, name_a, ma, name_b, mb));
+  double log_sum = 0, lo = INFINITY, hi = 0;
+  for (const auto& r : rows) {
+    const double q = r.tb / r.ta;
+    log_sum += std::log(q);
+    lo = std::min(lo, q);
+    hi = std::max(hi, q);
+  }
+  doc.summary.push_back(fmt::format(
+      "{} configurations in both ({} only in A, {} only in B); time per step B / A: geometric mean {:.3g}, from {:.3g} to "
+      "{:.3g} (below 1: B is faster)",
+      rows.size(), a.size() - rows.size(), b.size() - rows.size(), std::exp(log_sum / static_cast<double>(rows.size())),
+      lo, hi));
+  Section sec{"Configurations side by side", {}};
+  Chart c;
+  c.id = "runs";
+  c.title = "Measured time per step, B against A";
+  c.x = {fmt::format("A: {} [s per step]", name_a), true};
+  c.y = {fmt::format("B: {} [s per step]", name_b), true};
+  c.diagonal = true;
+  std::map<std::string, int> colour_of;
+  for (const auto& r : rows) {
+    const std::string group = r.a->backend == r.b->backend ? r.a->backend : r.a->backend + " / " + r.b->backend;
+    if (!colour_of.count(group)) {
+      colour_of[group] = static_cast<int>(c.series.size());
+      c.series.push_back({group, SeriesKind::points, static_cast<int>(c.series.size()), {}});
+    }
+    c.series[static_cast<std::size_t>(colour_of[group])].points.push_back({r.ta, r.tb, config_text(*r.a)});
+  }
+  c.note = "One point per configuration, rounds combined by the fastest; below the dashed line B is faster.";
+  sec.blocks.emplace_back(std::move(c));
+  std::sort(rows.begin(), rows.end(), [](const Row& x, const Row& y) { return x.tb / x.ta < y.tb / y.ta; });
+  Table t{{"configuration", "A per step", "B per step", "B / A"}, {}, "lrrr"};
+  for (const auto& r : rows)
+    t.rows.push_back({r.a->backend + " " + config_text(*r.a), format_duration(r.ta), format_duration(r.tb), fmt::format("{:.3g}", r.tb / r.ta)});
+  sec.blocks.emplace_back(std::move(t));
   doc.sections.push_back(std::move(sec));
   return doc;
 }

@@ -47,16 +47,6 @@ std::string component_name(Component c) {
   return "?";
 }
 
-// The configuration in the workload's own words; the key when it is not one.
-std::string config_text(const Sample& s) {
-  try {
-    const workload::Workload& w = workload::find(s.workload);
-    return w.label(w.validate(s.parameters, w.backend(s.backend)));
-  } catch (const std::exception&) {
-    return s.key;
-  }
-}
-
 // A parameter as a number for an axis: a number itself, a size "WxH" or [W, H] as W*H.
 std::optional<double> as_number(const nlohmann::json& v) {
   if (v.is_number()) return v.get<double>();

@@ -7,7 +7,7 @@
 //                measured (same colour), the mean/max error table, the fitted parameters with
 //                their intervals, the chosen variant and its margin, the worst configurations;
 //   compare    - two profiles (two machines, or two runs of one), parameter by parameter with
-//                the ratio.
+//                the ratio; or two runs' sample stores, configuration by configuration.
 // Each returns a Document (reports/document.hpp); write_report() writes it.
 #pragma once
 
@@ -50,6 +50,14 @@ Document predicted_report(const PredictedInput& in, const Context& ctx);
 
 Document compare_report(const MachineProfile& a, const std::string& name_a, const MachineProfile& b,
                         const std::string& name_b, const Context& ctx);
+
+// Two runs of the same configurations (two machines, or one machine before and after a change):
+// the stores of A and of B, their rounds combined by the fastest (the default rule), matched
+// by configuration key. Per configuration the measured total per step on each side and the
+// ratio B / A; the geometric mean, the smallest and the largest ratio. Throws InputError when
+// a side holds no sample or the two share no configuration.
+Document compare_runs_report(const std::vector<std::string>& stores_a, const std::string& name_a,
+                             const std::vector<std::string>& stores_b, const std::string& name_b, const Context& ctx);
 
 // The transfer sweeps `dtflop probe` keeps in a profile's metadata (probes/machine.cpp writes
 // them): "probe.transfers.<series>", e.g. "probe.transfers.h2d_pinned", holds

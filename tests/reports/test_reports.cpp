@@ -17,6 +17,7 @@
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "model/errors.hpp"
 #include "model/stats.hpp"
@@ -359,6 +360,48 @@ TEST_F(ReportKinds, ComparisonOfTwoMachines) {
   const std::string md = test::slurp(out / "report.md");
   EXPECT_NE(md.find("Two machines"), std::string::npos);
   EXPECT_NE(md.find("| B_GG |"), std::string::npos);
+  if (browser_.empty()) GTEST_SKIP() << "chromium is not installed (scripts/setup.sh installs it): not rendered";
+  check_rendered(out, dir_, browser_, 1);
+}
+
+TEST_F(ReportKinds, ComparisonOfTwoRuns) {
+  if (std::system("command -v xz >/dev/null 2>&1") != 0) GTEST_SKIP() << "xz is not installed: cannot read the archived store";
+  // Run A is the archived held-out store; run B the same samples with every time doubled.
+  const auto a = dir_ / "a.jsonl", b = dir_ / "b.jsonl";
+  ASSERT_EQ(std::system(fmt::format("xz -dc {} > {}", test::source_path("results/dct-calibration/cpu-2026-11-24/held.jsonl.xz"),
+                                    a.string())
+                            .c_str()),
+            0);
+  {
+    std::ifstream in(a);
+    std::ofstream out(b);
+    std::string line;
+    int n = 0;
+    while (std::getline(in, line)) {
+      auto j = nlohmann::json::parse(line);
+      for (auto& [name, st] : j.at("components").items())
+        for (const char* k : {"median", "p25", "p75", "min", "max", "mean"})
+          if (st.contains(k)) st[k] = 2 * st[k].get<double>();
+      for (auto& [name, st] : j.at("components").items())
+        if (st.contains("values"))
+          for (auto& v : st["values"]) v = 2 * v.get<double>();
+      out << j.dump() << "\n";
+      ++n;
+    }
+    ASSERT_GT(n, 0);
+  }
+  const auto out = dir_ / "runs";
+  const auto r = test::run_dtflop(fmt::format("report compare --store-a {} --store-b {} --names before,after -o {}", a.string(),
+                                              b.string(), out.string()));
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("geometric mean 2,"), std::string::npos) << r.out;
+  const auto rows = read_csv(out / "01-runs.csv");
+  ASSERT_FALSE(rows.empty());
+  for (const auto& row : rows) EXPECT_NEAR(row.y, 2 * row.x, 1e-12 * row.y);
+  // Half a comparison is refused.
+  const auto half = test::run_dtflop(fmt::format("report compare --store-a {} -o {}", a.string(), (dir_ / "half").string()));
+  EXPECT_EQ(half.status, 2);
+  EXPECT_FALSE(fs::exists(dir_ / "half"));
   if (browser_.empty()) GTEST_SKIP() << "chromium is not installed (scripts/setup.sh installs it): not rendered";
   check_rendered(out, dir_, browser_, 1);
 }
