@@ -359,6 +359,7 @@ std::vector<CvResult> cross_validate(const std::vector<Sample>& samples, const M
     cv.variant = v;
     cv.folds = k;
     std::vector<double> all_err;
+    double sum_log2 = 0;
     for (int f = 0; f < k; ++f) {
       std::vector<Sample> train, test;
       for (int i = 0; i < n; ++i) (fold_of[i] == f ? test : train).push_back(samples[i]);
@@ -369,7 +370,9 @@ std::vector<CvResult> cross_validate(const std::vector<Sample>& samples, const M
         double sum = 0;
         for (const auto& s : test) {
           const double meas = s.find(Component::total)->median;
-          const double err = std::abs(predict(r.profile, s.counts, v).total - meas) / meas;
+          const double pred = predict(r.profile, s.counts, v).total;
+          const double err = std::abs(pred - meas) / meas;
+          sum_log2 += pred > 0 ? std::pow(std::log(pred / meas), 2) : 0;
           sum += err;
           all_err.push_back(err);
           cv.max_rel = std::max(cv.max_rel, err);
@@ -380,8 +383,10 @@ std::vector<CvResult> cross_validate(const std::vector<Sample>& samples, const M
       }
     }
     cv.held_out = static_cast<int>(all_err.size());
-    if (!all_err.empty())
+    if (!all_err.empty()) {
       cv.mean_rel = std::accumulate(all_err.begin(), all_err.end(), 0.0) / static_cast<double>(all_err.size());
+      cv.rms_log = std::sqrt(sum_log2 / static_cast<double>(all_err.size()));
+    }
     if (cv.fold_means.size() >= 2) {
       const double m = std::accumulate(cv.fold_means.begin(), cv.fold_means.end(), 0.0) /
                        static_cast<double>(cv.fold_means.size());
@@ -435,6 +440,45 @@ VariantChoice choose_variant(const std::vector<CvResult>& cv) {
         "variant within one standard error of the best ({}, {:.2f}% + {:.2f}%).",
         k, table, to_string(chosen->variant), to_string(best->variant), 100 * best->mean_rel, 100 * best->se);
   return out;
+}
+
+ErrorFigure error_figure(const CvResult& cv, int samples) {
+  ErrorFigure e;
+  e.samples = cv.held_out;
+  e.mean_rel = cv.mean_rel;
+  e.max_rel = cv.max_rel;
+  e.rms_log = cv.rms_log;
+  e.how = fmt::format("{}-fold cross-validation of {} samples, variant {}", cv.folds, samples, to_string(cv.variant));
+  return e;
+}
+
+Calibration to_calibration(const FitResult& r, const std::string& workload, const std::string& backend,
+                           const std::vector<std::string>& match, const ErrorFigure& error) {
+  Calibration c;
+  c.workload = workload;
+  c.backend = backend;
+  c.match = match;
+  c.variant = r.variant;
+  c.fitted_on = r.profile.identity;
+  c.fit_error = error;
+  for (const auto& f : r.params) {
+    if (!f.fitted && !f.probed) continue;  // neither fitted nor probed: nothing to carry
+    CalibrationFactor cf;
+    cf.id = f.id;
+    cf.fitted = f.fitted;
+    cf.value = f.value;
+    cf.log_sigma = f.has_interval ? f.log_sigma : 0;
+    if (f.probed && *f.probed > 0) {
+      cf.relative = true;
+      cf.source_probed = *f.probed;
+      cf.factor = f.value / *f.probed;
+    }
+    c.factors.push_back(cf);
+  }
+  c.metadata["fitted_at"] = utc_now();
+  c.metadata["fit_samples"] = std::to_string(r.samples);
+  c.metadata["fit_rms_relative"] = fmt::format("{:.4g}", r.rms_relative);
+  return c;
 }
 
 }  // namespace dtflop::calib

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "calibrate/sample.hpp"
+#include "model/calibration.hpp"
 #include "model/predict.hpp"
 #include "model/profile.hpp"
 
@@ -76,6 +77,7 @@ struct CvResult {
   double mean_rel = 0;              // mean |relative error| of the total over held-out samples
   double max_rel = 0;
   double se = 0;                    // standard error of the per-fold means
+  double rms_log = 0;               // root mean square of log(predicted / measured) over held-out samples
   std::vector<double> fold_means;
   int failed_folds = 0;             // folds whose fit failed (then the variant is not eligible)
   std::string failure;              // the first failure's message
@@ -96,5 +98,15 @@ struct VariantChoice {
 // one standard error of the best one's (the one-standard-error rule). Throws InputError when no
 // variant could be cross-validated.
 VariantChoice choose_variant(const std::vector<CvResult>& cv);
+
+// The fit as a backend calibration (model/calibration.hpp): each parameter the fit determined as a
+// factor of the start profile's value of it where the start profile has one (a probe measured
+// it), else as its value; parameters it could not determine are kept at the probe (factor 1).
+// `error` is the chosen variant's cross-validated error; `workload`, `backend` and `match` name
+// what the samples were.
+Calibration to_calibration(const FitResult& r, const std::string& workload, const std::string& backend,
+                           const std::vector<std::string>& match, const ErrorFigure& error);
+// The cross-validated error of `cv` as an ErrorFigure.
+ErrorFigure error_figure(const CvResult& cv, int samples);
 
 }  // namespace dtflop::calib

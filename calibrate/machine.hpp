@@ -1,5 +1,5 @@
-// Identity of the machine dtflop runs on, recorded in every sample, and the rule by which a
-// sample and a machine profile are judged to come from the same machine.
+// Identity of the machine dtflop runs on, recorded in every sample (the rule by which a sample
+// and a machine profile are judged to come from the same machine is model/profile.hpp's same_machine).
 #pragma once
 
 #include <string>
@@ -13,13 +13,5 @@ namespace dtflop::calib {
 // same functions as `dtflop probe` (probes/identity.hpp, probes/gpu.hpp). `measured_at` is left
 // empty.
 MachineIdentity this_machine();
-
-// Same machine: the same CPU model and hardware thread count, and the same GPU (or none on
-// both). The hostname is not compared: lent machines of one kind get a new name each time.
-// When they differ, `why` (if given) says what differs, in words.
-bool same_machine(const MachineIdentity& a, const MachineIdentity& b, std::string* why = nullptr);
-
-// One line for people: "AMD EPYC 7B13 (2 threads) + NVIDIA H200 on host x".
-std::string describe(const MachineIdentity& id);
 
 }  // namespace dtflop::calib

@@ -1,6 +1,7 @@
 // `dtflop calibrate`: fit the DTFLOP model's parameters to measured samples (Ceres), with 95%
 // intervals, a comparison with the probed values, and the model variant chosen by k-fold
 // cross-validation; writes the fitted machine profile.
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -15,6 +16,7 @@
 #include "calibrate/store.hpp"
 #include "cli/command.hpp"
 #include "cli/table.hpp"
+#include "cli/workload_cli.hpp"
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
 #include "model/units.hpp"
@@ -29,6 +31,7 @@ struct CalibrateOptions {
   std::vector<std::string> stores;
   std::string machine;
   std::string output;
+  std::string calibration;  // --write-calibration
   std::string variant = "all";
   int folds = 5;
   std::string loss = "huber";
@@ -78,6 +81,11 @@ void run(const CalibrateOptions& o) {
     throw InputError(fmt::format("-o '{}' is the --machine profile itself; write the fit to another file so "
                                  "the probed values stay",
                                  o.output));
+  if (!o.calibration.empty()) {
+    check_output(o.calibration, {o.machine, o.output});
+    check_output(o.output, {o.calibration});
+    for (const auto& st : o.stores) check_output(o.calibration, {st});
+  }
   if (o.folds < 2) throw InputError(fmt::format("--folds must be at least 2, got {}", o.folds));
   if (!(o.loss_scale > 0)) throw InputError("--loss-scale must be positive, e.g. 0.05 (5%)");
   if (!(o.flag_ratio > 1)) throw InputError("--flag-ratio must be above 1, e.g. 1.5");
@@ -126,7 +134,31 @@ void run(const CalibrateOptions& o) {
     }
   }
   fo.variant = choice.chosen;
+  // A calibration describes one backend of one workload: check that before the fit's minutes.
+  if (!o.calibration.empty()) {
+    std::map<std::string, int> kinds;
+    for (const auto& s : samples) kinds[s.workload + "/" + s.backend] += 1;
+    if (kinds.size() != 1)
+      throw InputError(fmt::format("--write-calibration describes one backend of one workload, and the samples hold "
+                                   "{} ({}); select one with --backend NAME",
+                                   kinds.size(), [&] {
+                                     std::string t;
+                                     for (const auto& [k, n] : kinds) t += (t.empty() ? "" : ", ") + k;
+                                     return t;
+                                   }()));
+  }
   FitResult r = fit(samples, probed, fo);
+  // The chosen variant's cross-validated error: what a prediction of this calibration carries.
+  ErrorFigure error;
+  for (const auto& c : cv)
+    if (c.variant == r.variant && c.failed_folds == 0 && c.held_out > 0) error = error_figure(c, static_cast<int>(samples.size()));
+  if (error.samples == 0) {
+    error.samples = static_cast<int>(samples.size());
+    error.rms_log = std::log1p(r.rms_relative);
+    error.mean_rel = r.rms_relative;
+    error.max_rel = r.rms_relative;
+    error.how = "the fit's rms residual on its own samples (too few samples to cross-validate: an optimistic figure)";
+  }
 
   // Report: tables, or with --json the same as one object.
   std::FILE* tables = o.json ? nullptr : stdout;
@@ -213,6 +245,8 @@ void run(const CalibrateOptions& o) {
   }
   out.metadata["fit_stores"] = stores;
   out.metadata["fit_rms_relative"] = fmt::format("{:.4g}", r.rms_relative);
+  out.metadata["fit_cv_rms_log"] = fmt::format("{:.4g}", error.rms_log);
+  out.metadata["fit_error"] = error.how;
   out.metadata["fit_loss"] = fmt::format("{} (scale {})", to_string(fo.loss), fo.loss_scale);
   out.metadata["fit_from"] = fs::path(o.machine).lexically_normal().string();
   out.metadata["fitted_at"] = utc_now();
@@ -222,6 +256,18 @@ void run(const CalibrateOptions& o) {
   if (!kept.empty()) out.metadata["fit_not_identifiable"] = kept;
   save_profile(out, o.output);
   print(fmt::format("\nWrote {} (model variant {}).\n", o.output, to_string(r.variant)));
+  if (!o.calibration.empty()) {
+    std::vector<std::string> match = o.match;
+    Calibration cal = to_calibration(r, samples.front().workload, samples.front().backend, match, error);
+    cal.metadata["fit_stores"] = stores;
+    cal.metadata["fit_rounds_combine"] = std::string(to_string(merged.combine));
+    save_calibration(cal, o.calibration);
+    result["calibration"] = o.calibration;
+    print(fmt::format("Wrote {}: {} {} on {} ({} parameters; carry it to another machine with `dtflop predict "
+                      "--machine target.json --calibration {}`).\n",
+                      o.calibration, cal.workload, cal.backend, hardware_class(cal.fitted_on, uses_gpu(cal)),
+                      cal.factors.size(), o.calibration));
+  }
   if (o.json) fmt::print("{}\n", result.dump(2));
 }
 
@@ -240,6 +286,9 @@ void add_calibrate_command(CLI::App& root) {
       ->check(CLI::ExistingFile);
   app->add_option("--output,-o", o->output, "Fitted profile to write (written only when the fit succeeds)")
       ->required();
+  app->add_option("--write-calibration", o->calibration,
+                  "Also write the backend's calibration: its fitted parameters as factors of the probed ones, to "
+                  "carry to another machine's probe profile (one workload and backend; docs/portability.md)");
   app->add_option("--variant", o->variant, variant_names(", ") + ", or all (choose by cross-validation)")
       ->capture_default_str();
   app->add_flag("--json", o->json, "Print the fit's result as JSON instead of tables");

@@ -27,11 +27,12 @@ struct PredictCommon {
 void run(const PredictCommon& o, const WorkloadArgs& a) {
   const workload::Workload& w = *a.workload;
   const Chosen c = choose(a);
-  check_output(o.result.output, {o.predict.machine});
+  check_output(o.result.output, {o.predict.machine, o.predict.calibration});
   const std::optional<double> deadline = deadline_of(o.predict);
-  std::optional<MachineProfile> profile;
-  if (!o.predict.machine.empty()) profile = load_profile(o.predict.machine);
-  const CostCounts counts = c.backend->counts(c.config, profile ? &profile->identity : nullptr);
+  std::optional<PredictionProfile> pp;
+  if (!o.predict.machine.empty() || !o.predict.calibration.empty())
+    pp = prediction_profile(o.predict, w, *c.backend, c.config);
+  const CostCounts counts = c.backend->counts(c.config, pp ? &pp->profile.identity : nullptr);
   const std::string description = w.describe(*c.backend, c.config);
 
   nlohmann::json out = {{"workload", std::string(w.name())},
@@ -40,20 +41,25 @@ void run(const PredictCommon& o, const WorkloadArgs& a) {
                         {"parameters", c.config},
                         {"counts", to_json(counts)}};
   std::optional<Predicted> pred;
-  if (profile) {
-    pred = predict_with_fallback(*profile, counts, wanted_variant(o.predict, *profile));
+  std::optional<Judged> judged;
+  if (pp) {
+    for (const auto& n : pp->notes) fmt::print(stderr, "dtflop: note: {}\n", n);
+    pred = predict_with_fallback(pp->profile, counts, wanted_variant(o.predict, pp->profile));
     if (!pred->fallback.empty()) fmt::print(stderr, "dtflop: note: {}\n", pred->fallback);
-    out["machine"] = machine_json(o.predict.machine, *profile);
+    judged = judge(*pred, *pp, counts, deadline);
+    out["machine"] = machine_json(o.predict.machine, pp->profile);
+    if (!o.predict.calibration.empty()) out["calibration"] = o.predict.calibration;
     out["variant"] = std::string(to_string(pred->variant));
     if (!pred->fallback.empty()) out["variant_fallback"] = pred->fallback;
     out["prediction"] = to_json(pred->prediction);
+    out["uncertainty"] = uncertainty_json(*judged, deadline);
     if (deadline) {
       out["deadline"] = *deadline;
-      out["meets_deadline"] = meets_deadline(pred->prediction, *deadline);
+      out["meets_deadline"] = judged->deadline->verdict == Verdict::met;
       out["slack"] = *deadline - pred->prediction.total;
     }
   }
-  if (deadline && !meets_deadline(pred->prediction, *deadline)) set_exit_status(kExitMissed);
+  if (judged && judged->deadline) set_exit_status(exit_status_of(*judged->deadline));
   if (!o.result.output.empty()) write_file_atomically(o.result.output, out.dump(2) + "\n");
   if (o.result.json) {
     fmt::print("{}\n", out.dump(2));
@@ -66,16 +72,12 @@ void run(const PredictCommon& o, const WorkloadArgs& a) {
                "--machine docs/examples/h200.json)\n");
     return;
   }
-  fmt::print("\nPredicted time per {} on {}{} (model variant: {}):\n", w.step_name(), machine_name(*profile),
-             profile->identity.measured_at.empty() ? "" : ", profiled " + profile->identity.measured_at,
+  const MachineProfile& profile = pp->profile;
+  fmt::print("\nPredicted time per {} on {}{} (model variant: {}):\n", w.step_name(), machine_name(profile),
+             profile.identity.measured_at.empty() ? "" : ", profiled " + profile.identity.measured_at,
              to_string(pred->variant));
   print_prediction(pred->prediction);
-  if (deadline) {
-    const bool ok = meets_deadline(pred->prediction, *deadline);
-    fmt::print("\nDeadline dt_p = {}: {} (dt = {}, {} {})\n", format_duration(*deadline), ok ? "MET" : "MISSED",
-               format_duration(pred->prediction.total), format_duration(std::abs(*deadline - pred->prediction.total)),
-               ok ? "to spare" : "over");
-  }
+  fmt::print("{}", judged_text(*pred, *judged, deadline));
 }
 
 }  // namespace
@@ -84,7 +86,8 @@ void add_predict_command(CLI::App& root) {
   auto* app = root.add_subcommand(
       "predict",
       "Print a workload configuration's cost counts and, with --machine, the DTFLOP model's predicted time per step, "
-      "component by component, and whether it meets a deadline (exit status 3 when it does not).");
+      "component by component, with a 90% interval and how the parameters were obtained (probe-only, calibrated, "
+      "transferred with --calibration), and whether it meets a deadline (exit status 3 missed, 4 uncertain).");
   auto o = std::make_shared<PredictCommon>();
   add_predict_options(*app, o->predict);
   add_result_options(*app, o->result);

@@ -2,7 +2,10 @@
 // mean and maximum error like the seed's Tables 5.2-5.3, with the worst samples named.
 #include <algorithm>
 #include <cstdlib>
+#include <cmath>
 #include <cstdio>
+#include <map>
+#include <optional>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -22,6 +25,8 @@
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
 #include "model/units.hpp"
+#include "model/calibration.hpp"
+#include "model/uncertainty.hpp"
 
 namespace dtflop::cli {
 namespace {
@@ -32,6 +37,8 @@ using namespace dtflop::calib;
 struct ValidateOptions {
   std::vector<std::string> stores;
   std::string machine;
+  std::string calibration;       // applied to --machine (a probe profile)
+  std::string record;            // --record-error: the calibration with its measured transfer error
   std::string variant;
   std::vector<std::string> backends;
   std::vector<std::string> match;  // sample keys must contain each
@@ -74,7 +81,19 @@ std::string params_text(const Sample& s) {
 int run(const ValidateOptions& o) {
   if (o.stores.empty()) throw InputError("name at least one --store of held-out samples");
   if (!(o.target_mean > 0) || !(o.target_max > 0)) throw InputError("--target-mean and --target-max are percentages > 0");
-  const MachineProfile profile = load_profile(o.machine);
+  if (!o.record.empty() && o.calibration.empty())
+    throw InputError("--record-error writes a calibration with the error measured here; name it with --calibration");
+  MachineProfile profile = load_profile(o.machine);
+  std::optional<Calibration> calibration;
+  std::optional<BasisError> calibration_basis;
+  if (!o.calibration.empty()) {
+    check_output(o.record, {o.calibration, o.machine});
+    calibration = load_calibration(o.calibration);
+    Applied a = apply_calibration(*calibration, profile);
+    for (const auto& n : a.notes) fmt::print(stderr, "dtflop: note: {}\n", n);
+    profile = std::move(a.profile);
+    calibration_basis = basis_of(*calibration, a.basis);
+  }
   Variant variant = Variant::extended;
   std::string variant_from = "default";
   if (!o.variant.empty()) {
@@ -90,7 +109,12 @@ int run(const ValidateOptions& o) {
   std::vector<Sample> loaded;
   std::string fit_stores;
   if (auto it = profile.metadata.find("fit_stores"); it != profile.metadata.end()) fit_stores = it->second;
-  LoadedSamples l = load_samples(o.stores, {o.backends, o.match});
+  std::vector<std::string> backends = o.backends, match = o.match;
+  if (calibration) {  // only the samples the calibration describes
+    if (backends.empty()) backends = {calibration->backend};
+    for (const auto& m : calibration->match) match.push_back(m);
+  }
+  LoadedSamples l = load_samples(o.stores, {backends, match});
   for (const auto& w : l.warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
   loaded = std::move(l.samples);
   // A store the profile was fitted to (its metadata names them as given then) gives no held-out errors.
@@ -127,7 +151,41 @@ int run(const ValidateOptions& o) {
                                    s.key, describe(s.machine), o.machine, describe(profile.identity), why));
   }
 
+  if (calibration)
+    for (const auto& s : samples)
+      if (s.workload != calibration->workload || s.backend != calibration->backend)
+        throw InputError(fmt::format("sample '{}' is not of {} on {}, which calibration '{}' describes; select the "
+                                     "samples with --backend and --match",
+                                     s.key, calibration->workload, calibration->backend, o.calibration));
+
   const Validation v = validate(samples, profile, variant);
+  // How often the 90% interval each prediction states holds the measured time, and the error of
+  // this basis as a figure a calibration can carry.
+  int inside = 0, scored = 0;
+  ErrorFigure measured_error;
+  std::map<std::string, int> bases;
+  double sum_log2 = 0;
+  for (const auto& s : samples) {
+    const Stats* st = s.find(Component::total);
+    if (!st || !(st->median > 0)) continue;
+    const Prediction p = predict(profile, s.counts, variant);
+    const BasisError b = calibration_basis ? *calibration_basis : basis_of(profile, s.counts, variant);
+    const Interval iv = interval_of(p, profile, s.counts, b);
+    ++scored;
+    bases[std::string(to_string(b.basis))] += 1;
+    if (st->median >= iv.lo && st->median <= iv.hi) ++inside;
+    const double rel = std::abs(p.total - st->median) / st->median;
+    measured_error.mean_rel += rel;
+    measured_error.max_rel = std::max(measured_error.max_rel, rel);
+    if (p.total > 0) sum_log2 += std::pow(std::log(p.total / st->median), 2);
+  }
+  if (scored > 0) {
+    measured_error.samples = scored;
+    measured_error.mean_rel /= scored;
+    measured_error.rms_log = std::sqrt(sum_log2 / scored);
+  }
+  std::string basis_names;
+  for (const auto& [b, n] : bases) basis_names += fmt::format("{}{} {}", basis_names.empty() ? "" : ", ", n, b);
   const double tmean = o.target_mean / 100, tmax = o.target_max / 100;
   std::vector<std::string> groups = {"all"};
   for (const auto& [g, comps] : v.groups) {
@@ -192,10 +250,30 @@ int run(const ValidateOptions& o) {
     worst.push_back({{"key", r.sample->key}, {"total_rel", r.rel(Component::total)}});
   }
   out["worst"] = worst;
+  out["interval90"] = {{"inside", inside}, {"scored", scored}, {"coverage", scored ? double(inside) / scored : 0.0},
+                       {"bases", bases}};
+  out["error"] = to_json(measured_error);
+  if (calibration) out["calibration"] = o.calibration;
   if (o.json) {
     fmt::print("{}\n", out.dump(2));
   } else if (n_worst > 0) {
     fmt::print("\nWorst {} samples by total error:\n{}", n_worst, t.str());
+  }
+  if (!o.json && scored > 0)
+    fmt::print("\nThe predictions' 90% intervals ({}) hold {} of {} measured totals ({:.1f}%; honest intervals hold "
+               "about 90%).\n",
+               basis_names, inside, scored, 100.0 * inside / scored);
+  if (!o.record.empty()) {
+    Calibration c = *calibration;
+    c.transfer_error = measured_error;
+    c.transfer_error->how = fmt::format("held-out samples of {} ({}), variant {}", o.stores.front(),
+                                        describe(profile.identity), to_string(variant));
+    c.transfer_measured_on = describe(profile.identity);
+    save_calibration(c, o.record);
+    if (!o.json)
+      fmt::print("Wrote {}: the calibration with the error measured here (rms log {:.3f}), which predictions "
+                 "carried to other machines now state.\n",
+                 o.record, measured_error.rms_log);
   }
   return o.strict && !all_met ? 3 : 0;
 }
@@ -209,9 +287,18 @@ void add_validate_command(CLI::App& root) {
       "maximum absolute and relative error (like the seed's Tables 5.2-5.3), against the targets.");
   auto o = std::make_shared<ValidateOptions>();
   app->add_option("--store,-s", o->stores, "Held-out sample store(s) (repeatable)")->required();
-  app->add_option("--machine,-m", o->machine, "Fitted machine profile (`dtflop calibrate -o`)")
+  app->add_option("--machine,-m", o->machine,
+                  "Fitted machine profile (`dtflop calibrate -o`), or a probe profile (with --calibration, or to "
+                  "measure probe-only predictions)")
       ->required()
       ->check(CLI::ExistingFile);
+  app->add_option("--calibration", o->calibration,
+                  "Backend calibration to apply to --machine (then a probe profile): validates a calibration "
+                  "carried to this machine (docs/portability.md)")
+      ->check(CLI::ExistingFile);
+  app->add_option("--record-error", o->record,
+                  "With --calibration: write the calibration, with the error measured here as its transfer error, "
+                  "to this new file");
   app->add_option("--variant", o->variant, "Model variant (default: the one the fit chose)");
   app->add_option("--match", o->match, "Only samples whose key contains this text, e.g. host-memory=pinned (repeatable: all must match)");
   app->add_option("--backend", o->backends, "Only samples of these backends (repeatable)");

@@ -1,10 +1,12 @@
 #include "cli/workload_cli.hpp"
 
+#include <cmath>
 #include <filesystem>
 
 #include <fmt/format.h>
 
 #include "model/errors.hpp"
+#include "model/json_io.hpp"
 #include "model/units.hpp"
 
 namespace dtflop::cli {
@@ -80,11 +82,118 @@ void add_result_options(CLI::App& app, ResultArgs& args) {
 void add_predict_options(CLI::App& app, PredictArgs& args) {
   app.add_option("--machine,-m", args.machine, "Machine profile (JSON) written by `dtflop probe` or `dtflop calibrate`")
       ->check(CLI::ExistingFile);
+  app.add_option("--calibration", args.calibration,
+                 "Backend calibration (`dtflop calibrate --write-calibration`) to apply to --machine, a probe profile: "
+                 "how to predict a machine the workload never ran on (docs/portability.md)")
+      ->check(CLI::ExistingFile);
   app.add_option("--variant", args.variant,
                  "Model variant: " + variant_names(", ") +
                      " (default: the one the profile's calibration chose, else extended; docs/model.md)");
-  app.add_option("--deadline", args.deadline, "Real-time deadline dt_p per step, e.g. 1ms or 250us (exit status 3 "
-                                              "when missed)");
+  app.add_option("--deadline", args.deadline,
+                 "Real-time deadline dt_p per step, e.g. 1ms or 250us, judged against the prediction's 90% interval "
+                 "(exit status 3 when missed, 4 when the interval straddles it)");
+}
+
+PredictionProfile prediction_profile(const PredictArgs& args, const workload::Workload& w,
+                                     const workload::Backend& b, const workload::Config& config) {
+  if (args.machine.empty()) {
+    if (!args.calibration.empty())
+      throw InputError("--calibration is applied to a machine's probe profile; add --machine target.json (a `dtflop "
+                       "probe` profile of the machine to predict)");
+    throw InputError("no --machine profile to predict with");
+  }
+  PredictionProfile out;
+  const MachineProfile machine = load_profile(args.machine);
+  if (args.calibration.empty()) {
+    out.profile = machine;
+    return out;
+  }
+  const Calibration c = load_calibration(args.calibration);
+  if (c.workload != w.name() || c.backend != b.name())
+    throw InputError(fmt::format("calibration '{}' is of {} on {}, and this predicts {} on {}; use a calibration of "
+                                 "this workload and backend (`dtflop calibrate --backend {} --write-calibration ...`)",
+                                 args.calibration, c.workload, c.backend, w.name(), b.name(), b.name()));
+  const std::string key = w.key(b, config);
+  for (const auto& m : c.match)
+    if (key.find(m) == std::string::npos)
+      throw InputError(fmt::format("calibration '{}' was fitted to samples with '{}' only, and this configuration "
+                                   "({}) is not one: use a calibration fitted to such configurations",
+                                   args.calibration, m, key));
+  Applied a = apply_calibration(c, machine);
+  out.profile = std::move(a.profile);
+  out.notes = std::move(a.notes);
+  out.calibration = basis_of(c, a.basis);
+  return out;
+}
+
+Judged judge(const Predicted& p, const PredictionProfile& pp, const CostCounts& counts, std::optional<double> deadline) {
+  Judged j;
+  j.basis = pp.calibration ? *pp.calibration : basis_of(pp.profile, counts, p.variant);
+  j.interval = interval_of(p.prediction, pp.profile, counts, j.basis);
+  if (deadline) j.deadline = judge_deadline(p.prediction.total, j.interval, *deadline);
+  return j;
+}
+
+nlohmann::json uncertainty_json(const Judged& j, std::optional<double> deadline) {
+  nlohmann::json out = {{"basis", std::string(to_string(j.basis.basis))},
+                        {"basis_error", {{"sigma_log", j.basis.sigma}, {"source", j.basis.source}}},
+                        {"interval", {{"level", j.interval.level},
+                                      {"lo", j.interval.lo},
+                                      {"hi", j.interval.hi},
+                                      {"sigma_log", j.interval.sigma},
+                                      {"sigma_log_parameters", j.interval.sigma_params},
+                                      {"sigma_log_basis", j.interval.sigma_basis}}}};
+  if (!j.basis.from.empty()) out["calibrated_on"] = j.basis.from;
+  if (deadline && j.deadline)
+    out["deadline_verdict"] = {{"deadline", *deadline},
+                               {"verdict", std::string(to_string(j.deadline->verdict))},
+                               {"probability_met", j.deadline->probability_met}};
+  return out;
+}
+
+std::string judged_text(const Predicted& p, const Judged& j, std::optional<double> deadline) {
+  std::string basis;
+  switch (j.basis.basis) {
+    case Basis::probe_only: basis = "probe-only: no run of this workload calibrated the parameters"; break;
+    case Basis::calibrated: basis = "calibrated on this machine"; break;
+    case Basis::transferred: basis = fmt::format("calibration transferred from {}", j.basis.from); break;
+  }
+  std::string out = fmt::format(
+      "{:.0f}% interval: {} .. {} ({}; spread of log time {:.3f} = parameters {:.3f} and {:.3f} from {})\n",
+      100 * j.interval.level, format_duration(j.interval.lo), format_duration(j.interval.hi), basis, j.interval.sigma,
+      j.interval.sigma_params, j.interval.sigma_basis, j.basis.source);
+  if (deadline && j.deadline) {
+    const double t = p.prediction.total;
+    switch (j.deadline->verdict) {
+      case Verdict::met:
+        out += fmt::format("Deadline dt_p = {}: MET (dt = {}, {} to spare; met with probability {:.3f})\n",
+                           format_duration(*deadline), format_duration(t), format_duration(*deadline - t),
+                           j.deadline->probability_met);
+        break;
+      case Verdict::missed:
+        out += fmt::format("Deadline dt_p = {}: MISSED (dt = {}, {} over; met with probability {:.3f})\n",
+                           format_duration(*deadline), format_duration(t), format_duration(std::abs(*deadline - t)),
+                           j.deadline->probability_met);
+        break;
+      case Verdict::uncertain:
+        out += fmt::format("Deadline dt_p = {}: UNCERTAIN (dt = {}, but the {:.0f}% interval straddles the deadline: "
+                           "met with probability {:.2f}); calibrate this backend on a machine of this class "
+                           "(docs/portability.md) to narrow it\n",
+                           format_duration(*deadline), format_duration(t), 100 * j.interval.level,
+                           j.deadline->probability_met);
+        break;
+    }
+  }
+  return out;
+}
+
+int exit_status_of(const DeadlineVerdict& v) {
+  switch (v.verdict) {
+    case Verdict::met: return 0;
+    case Verdict::missed: return kExitMissed;
+    case Verdict::uncertain: return kExitUncertain;
+  }
+  return 0;
 }
 
 Variant wanted_variant(const PredictArgs& args, const MachineProfile& profile) {

@@ -16,7 +16,9 @@
 #include <nlohmann/json.hpp>
 
 #include "calibrate/measure.hpp"
+#include "model/calibration.hpp"
 #include "model/predict.hpp"
+#include "model/uncertainty.hpp"
 #include "model/profile.hpp"
 #include "workloads/workload.hpp"
 
@@ -57,9 +59,10 @@ struct ResultArgs {
 };
 void add_result_options(CLI::App& app, ResultArgs& args);
 
-// --machine, --variant and --deadline, as `predict` and `run` take them.
+// --machine, --calibration, --variant and --deadline, as `predict` and `run` take them.
 struct PredictArgs {
   std::string machine;
+  std::string calibration;  // a backend calibration to apply to --machine (model/calibration.hpp)
   std::string variant;   // empty: the variant the profile's calibration chose, else extended
   std::string deadline;
 };
@@ -70,6 +73,33 @@ struct Predicted {
   std::string fallback;   // why `variant` is not the one asked for (empty: it is)
   Prediction prediction;
 };
+
+// The profile a prediction uses: --machine's, with --calibration applied when given, and the basis
+// of its parameters (probe-only, calibrated here, transferred) with that basis' measured error.
+struct PredictionProfile {
+  MachineProfile profile;
+  std::optional<BasisError> calibration;  // the basis a --calibration gives (else judge() finds it)
+  std::vector<std::string> notes;  // for stderr: what a calibration carried as it is
+};
+// Throws InputError for a calibration of another workload, backend or host memory kind than the
+// configuration, a fitted --machine under a calibration, or --calibration without --machine.
+PredictionProfile prediction_profile(const PredictArgs& args, const workload::Workload& w,
+                                     const workload::Backend& b, const workload::Config& config);
+
+// A prediction with its interval and, given a deadline, the verdict against it.
+struct Judged {
+  BasisError basis;
+  Interval interval;
+  std::optional<DeadlineVerdict> deadline;
+};
+Judged judge(const Predicted& p, const PredictionProfile& pp, const CostCounts& counts,
+             std::optional<double> deadline);
+// JSON of the basis, interval and verdict (the same figures the tables print).
+nlohmann::json uncertainty_json(const Judged& j, std::optional<double> deadline);
+// Lines for people: "90% interval 1.2 ms .. 1.9 ms (probe-only: ...)" and the deadline verdict.
+std::string judged_text(const Predicted& p, const Judged& j, std::optional<double> deadline);
+// The exit status a deadline verdict gives: 0 met, kExitMissed, kExitUncertain.
+int exit_status_of(const DeadlineVerdict& v);
 // The variant `args` asks for on `profile`: --variant, else the profile's chosen one, else extended.
 Variant wanted_variant(const PredictArgs& args, const MachineProfile& profile);
 // Predicts `counts` on `profile` with the wanted variant, or with the richest simpler one whose
@@ -90,10 +120,12 @@ nlohmann::json machine_json(const std::string& file, const MachineProfile& profi
 std::string machine_name(const MachineProfile& profile);
 
 // Exit statuses (docs/cli.md): 0 done, 1 failed while running, 2 bad input, 3 a deadline or
-// target missed. A command sets 3 through this; main() returns it.
+// target missed, 4 a deadline neither met nor missed within the prediction's interval. A command
+// sets 3 or 4 through this; main() returns it.
 inline constexpr int kExitFailure = 1;
 inline constexpr int kExitBadInput = 2;
 inline constexpr int kExitMissed = 3;
+inline constexpr int kExitUncertain = 4;  // a deadline the prediction's interval straddles
 void set_exit_status(int status);
 int exit_status();
 

@@ -157,21 +157,20 @@ MachineProfile profile_from_json(const json& j) {
   return p;
 }
 
-MachineProfile load_profile(const std::filesystem::path& path) {
+json read_json_file(const std::filesystem::path& path, std::string_view what, std::string_view remedy) {
   std::ifstream in(path);
   if (!in)
-    throw InputError(fmt::format("cannot read machine profile '{}': {}; write one with "
-                                 "`dtflop probe -o {}`",
-                                 path.string(), std::error_code(errno, std::generic_category()).message(),
-                                 path.string()));
-  json j;
+    throw InputError(fmt::format("cannot read {} '{}': {}; {}", what, path.string(),
+                                 std::error_code(errno, std::generic_category()).message(), remedy));
   try {
-    j = json::parse(in);
+    return json::parse(in);
   } catch (const json::parse_error& e) {
-    throw InputError(fmt::format("machine profile '{}' is not valid JSON (byte {}): re-create it "
-                                 "with `dtflop probe`",
-                                 path.string(), e.byte));
+    throw InputError(fmt::format("{} '{}' is not valid JSON (byte {}): {}", what, path.string(), e.byte, remedy));
   }
+}
+
+MachineProfile load_profile(const std::filesystem::path& path) {
+  const json j = read_json_file(path, "machine profile", fmt::format("write one with `dtflop probe -o {}`", path.string()));
   try {
     return profile_from_json(j);
   } catch (const InputError& e) {

@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <string>
+#include <string_view>
 
 #include <nlohmann/json.hpp>
 
@@ -20,6 +21,9 @@ nlohmann::json to_json(const MachineProfile& p);
 MachineProfile profile_from_json(const nlohmann::json& j);
 
 MachineProfile load_profile(const std::filesystem::path& path);
+// Reads and parses one JSON file; a file that cannot be read or parsed is an InputError naming
+// `what` (e.g. "machine profile") and ending with `remedy`.
+nlohmann::json read_json_file(const std::filesystem::path& path, std::string_view what, std::string_view remedy);
 // Writes atomically (temporary file + rename) so a crash never leaves a torn profile.
 void save_profile(const MachineProfile& p, const std::filesystem::path& path);
 

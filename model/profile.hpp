@@ -64,6 +64,8 @@ struct ParamInfo {
 const std::vector<ParamInfo>& all_params();
 const ParamInfo& info(Param p);
 std::optional<Param> param_from_name(std::string_view name);
+// Does `p` describe the GPU or the link to it (copies, kernels, device waits), rather than the host?
+bool device_param(Param p);
 
 struct Parameter {
   double value = 0;                    // in the unit of ParamInfo
@@ -86,6 +88,15 @@ struct MachineIdentity {
   std::string cuda_version;
   std::string measured_at;              // ISO 8601 UTC
 };
+
+// Same machine: the same CPU model and hardware thread count, and the same GPU (or none on
+// both). The hostname is not compared: lent machines of one kind get a new name each time.
+// When they differ, `why` (if given) says what differs, in words.
+bool same_machine(const MachineIdentity& a, const MachineIdentity& b, std::string* why = nullptr);
+
+// One line for people: "AMD EPYC 7B13 (2 threads) + NVIDIA H200 on host x".
+std::string describe(const MachineIdentity& id);
+
 
 class MachineProfile {
  public:

@@ -15,7 +15,7 @@
 #
 # On the other machine, from a copy of the repository with the bundle at the same place:
 #   export LD_LIBRARY_PATH=$PWD/.carry/lib; .carry/bin/dtflop probe
-# The device scripts (benchmarks/rbe/device*.sh, benchmarks/calibrate/h200.sh) take the bundle
+# The device scripts (benchmarks/rbe/device*.sh, benchmarks/calibrate/gpu.sh) take the bundle
 # folder as BUNDLE=FOLDER (default .carry).
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -246,3 +246,49 @@ TEST(CalibSample, PredictedComponentsAreThePhasesOfThePrediction) {
 
 }  // namespace
 }  // namespace dtflop::calib
+
+namespace dtflop::calib {
+namespace {
+
+// What a calibration is for: a backend that reaches the same share of each machine's probed
+// figures on two machines is fitted on one and predicted exactly on the other from that one's
+// probes alone.
+TEST(CalibFit, ACalibrationCarriesABackendsEfficiencyToAnotherMachinesProbes) {
+  const MachineProfile probe_a = perturbed(test::round_profile(), 1.0);
+  // Machine B: twice the copy bandwidths, half the latencies, a faster GPU.
+  MachineProfile probe_b = probe_a;
+  probe_b.identity.gpu_name = "Other GPU";
+  for (const auto& [p, v] : probe_a.params()) {
+    Parameter q = v;
+    const auto unit = info(p).unit;
+    q.value = unit == "s" ? v.value / 2 : unit == "B/s" || unit == "FLOP/s" ? v.value * 2 : v.value;
+    probe_b.set(p, q);
+  }
+  // The backend's truth on either machine: 70% of each probed bandwidth and rate, 1.5x each latency.
+  auto truth_of = [](const MachineProfile& probe) {
+    MachineProfile t = probe;
+    for (const auto& [p, v] : probe.params()) {
+      Parameter q = v;
+      const auto unit = info(p).unit;
+      q.value = unit == "s" ? v.value * 1.5 : unit == "B/s" || unit == "FLOP/s" ? v.value * 0.7 : v.value;
+      t.set(p, q);
+    }
+    return t;
+  };
+  FitOptions o;
+  o.variant = Variant::latency;
+  const FitResult r = fit(test::seed_pipeline_samples(truth_of(probe_a), Variant::latency, 0.0), probe_a, o);
+  const Calibration c = to_calibration(r, "rbe", "cuda-seed", {}, ErrorFigure{10, 0.01, 0.02, 0.01, "test"});
+  for (const auto& f : c.factors)
+    if (f.fitted && info(f.id).unit != "B") EXPECT_TRUE(f.relative) << info(f.id).name;
+  const Applied a = apply_calibration(c, probe_b);
+  EXPECT_EQ(a.basis, Basis::transferred);
+  const MachineProfile truth_b = truth_of(probe_b);
+  for (const auto& s : test::seed_pipeline_samples(truth_b, Variant::latency, 0.0, 3)) {
+    const double want = predict(truth_b, s.counts, Variant::latency).total;
+    EXPECT_NEAR(predict(a.profile, s.counts, Variant::latency).total / want, 1.0, 1e-3) << s.key;
+  }
+}
+
+}  // namespace
+}  // namespace dtflop::calib

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# The calibration run on the lent H200: GPU tests, a quick probe for start values, then the
-# sweeps, in replicate rounds (docs/calibration.md, "Rounds"). Bundle first, here:
+# The calibration run on a lent GPU machine (H200 or H100): GPU tests, a quick probe for start
+# values, then the RBE sweeps, in replicate rounds (docs/calibration.md, "Rounds"). ROUNDS=n
+# sets the rounds of `all` (default 5; 3 fit a 10-minute device call). Bundle first, here:
 #   scripts/device-bundle.sh dtflop test_calibrate_gpu test_rbe_gpu test_probes_gpu
 # then, on the GPU machine with the bundle (.carry/, or BUNDLE=folder) beside the repository:
-#   bash benchmarks/calibrate/h200.sh all    everything below in one device call (5 rounds:
+#   bash benchmarks/calibrate/gpu.sh all    everything below in one device call (5 rounds:
 #                                            about 400 s; the time limits below bound a stuck
 #                                            sweep, they do not add up to under 10 minutes), the
 #                                            training and held-out sets measured round by round
@@ -14,10 +15,10 @@
 #                                            (copies most), and the median of three still moved
 #                                            single held-out errors by 2-3 points; Test 1 (200
 #                                            kernels on one grid, dense already) takes two
-#   bash benchmarks/calibrate/h200.sh resident   both sets for cuda-resident alone, with a probe
+#   bash benchmarks/calibrate/gpu.sh resident   both sets for cuda-resident alone, with a probe
 #                                            and the GPU tests (about 2 minutes)
 # Each sweep is resumable and bounded in time, so a slow one cannot take the whole lease;
-# whatever was measured comes back in $OUT (or ./h200-out). Fitting and validation run
+# whatever was measured comes back in $OUT (or ./gpu-out). Fitting and validation run
 # afterwards on the developer's machine from the stores (docs/PERFORMANCE.md; the stores of
 # the recorded runs are in results/rbe-calibration/).
 set -uo pipefail
@@ -26,7 +27,7 @@ bundle=${BUNDLE:-.carry}
 [ -x "$bundle/bin/dtflop" ] || { echo "no $bundle/bin/dtflop: run scripts/device-bundle.sh dtflop test_calibrate_gpu test_rbe_gpu test_probes_gpu first, and copy $bundle/ beside the repository" >&2; exit 2; }
 export LD_LIBRARY_PATH=$PWD/$bundle/lib:${LD_LIBRARY_PATH:-}
 B=$bundle/bin
-O=${OUT:-h200-out}
+O=${OUT:-gpu-out}
 part=${1:-}
 [[ "$part" == all || "$part" == resident ]] || { echo "usage: $0 all|resident" >&2; exit 2; }
 mkdir -p "$O"
@@ -71,7 +72,7 @@ if [[ "$part" == all ]]; then
   probe_quick
   gpu_tests
   # Rounds are resumable: `--rounds r` on a store holding rounds 1..r-1 measures round r only.
-  for r in 1 2 3 4 5; do
+  for ((r = 1; r <= ${ROUNDS:-5}; ++r)); do
     for setup in "--backend cuda-seed" "--backend cuda-seed --host-memory pinned" "--backend cuda-resident"; do
       # shellcheck disable=SC2086
       sweep 60 fit.jsonl $setup --plan seed-test2 --rounds $r

@@ -1,0 +1,197 @@
+// Calibrations carried between machines and the intervals predictions state, checked against
+// values worked out by hand.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "model/calibration.hpp"
+#include "model/errors.hpp"
+#include "model/json_io.hpp"
+#include "model/uncertainty.hpp"
+#include "tests/model/fixtures.hpp"
+
+namespace dtflop {
+namespace {
+
+MachineProfile probed(MachineProfile m) {
+  const MachineProfile given = m;
+  for (const auto& [p, v] : given.params()) {
+    Parameter q = v;
+    q.provenance = Provenance::probed;
+    m.set(p, q);
+  }
+  return m;
+}
+
+Calibration pinned_copy_calibration() {
+  Calibration c;
+  c.workload = "rbe";
+  c.backend = "cuda-seed";
+  c.match = {"host-memory=pinned"};
+  c.variant = Variant::latency;
+  c.fitted_on = test::round_profile().identity;
+  // The backend reaches 80% of the probed pinned bandwidth; K_GR has no probe.
+  CalibrationFactor b;
+  b.id = Param::B_CG_pinned;
+  b.relative = true;
+  b.factor = 0.8;
+  b.value = 40e9;
+  b.source_probed = 50e9;
+  b.log_sigma = 0.01;
+  CalibrationFactor k;
+  k.id = Param::K_GR;
+  k.value = 3.0;
+  c.factors = {b, k};
+  c.fit_error = {40, 0.02, 0.05, 0.025, "5-fold cross-validation"};
+  return c;
+}
+
+TEST(Calibration, RelativeFactorsScaleTheTargetsProbesAndAbsoluteOnesAreCarried) {
+  MachineProfile target = probed(test::round_profile());
+  target.identity.gpu_name = "Other GPU";
+  target.set(Param::B_CG_pinned, Parameter{100e9, Provenance::probed, {}, {}, {}});
+  const Applied a = apply_calibration(pinned_copy_calibration(), target);
+  EXPECT_EQ(a.basis, Basis::transferred);
+  EXPECT_DOUBLE_EQ(a.profile.get(Param::B_CG_pinned).value, 80e9);  // 0.8 x this machine's 100 GB/s
+  EXPECT_EQ(a.profile.get(Param::B_CG_pinned).provenance, Provenance::fitted);
+  EXPECT_DOUBLE_EQ(a.profile.get(Param::K_GR).value, 3.0);
+  EXPECT_EQ(a.notes.size(), 1u);  // K_GR carried as it is, and said so
+  // Everything else is the target's probe.
+  EXPECT_DOUBLE_EQ(a.profile.get(Param::B_GG).value, target.get(Param::B_GG).value);
+  EXPECT_EQ(a.profile.metadata.at(kChosenVariantKey), "latency");
+}
+
+TEST(Calibration, OnItsOwnMachineItIsCalibratedAndAProbeItLacksIsCarried) {
+  MachineProfile target = probed(test::round_profile());
+  target.erase(Param::B_CG_pinned);
+  const Applied a = apply_calibration(pinned_copy_calibration(), target);
+  EXPECT_EQ(a.basis, Basis::calibrated);
+  EXPECT_DOUBLE_EQ(a.profile.get(Param::B_CG_pinned).value, 40e9);  // the source machine's value
+  ASSERT_EQ(a.notes.size(), 1u);
+  EXPECT_NE(a.notes[0].find("no probe of B_CG_pinned"), std::string::npos) << a.notes[0];
+}
+
+TEST(Calibration, RefusesAFittedTargetAndAGpuCalibrationForAMachineWithoutOne) {
+  MachineProfile fitted = probed(test::round_profile());
+  fitted.set(Param::B_GG, Parameter{1e12, Provenance::fitted, {}, {}, {}});
+  EXPECT_THROW(apply_calibration(pinned_copy_calibration(), fitted), InputError);
+  MachineProfile cpu_only = probed(test::round_profile());
+  cpu_only.identity.gpu_name.clear();
+  try {
+    apply_calibration(pinned_copy_calibration(), cpu_only);
+    FAIL() << "a GPU calibration applied to a machine without a GPU";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("has no GPU"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Calibration, JsonRoundTripsAndBadFieldsAreNamed) {
+  Calibration c = pinned_copy_calibration();
+  c.transfer_error = ErrorFigure{50, 0.04, 0.1, 0.05, "held-out"};
+  c.transfer_measured_on = "Other";
+  const Calibration back = calibration_from_json(to_json(c));
+  EXPECT_EQ(back.workload, "rbe");
+  EXPECT_EQ(back.backend, "cuda-seed");
+  EXPECT_EQ(back.match, c.match);
+  EXPECT_EQ(back.variant, Variant::latency);
+  EXPECT_EQ(back.fitted_on.gpu_name, "Test GPU");
+  ASSERT_EQ(back.factors.size(), 2u);
+  ASSERT_NE(back.find(Param::B_CG_pinned), nullptr);
+  EXPECT_TRUE(back.find(Param::B_CG_pinned)->relative);
+  EXPECT_DOUBLE_EQ(back.find(Param::B_CG_pinned)->factor, 0.8);
+  EXPECT_FALSE(back.find(Param::K_GR)->relative);
+  EXPECT_DOUBLE_EQ(back.fit_error.rms_log, 0.025);
+  ASSERT_TRUE(back.transfer_error.has_value());
+  EXPECT_DOUBLE_EQ(back.transfer_error->rms_log, 0.05);
+
+  auto message = [](nlohmann::json j) {
+    try {
+      calibration_from_json(j);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  nlohmann::json j = to_json(c);
+  j["factors"]["B_XX"] = j["factors"]["K_GR"];
+  EXPECT_NE(message(j).find("factors.B_XX"), std::string::npos) << message(j);
+  j = to_json(c);
+  j["factors"]["K_GR"]["value"] = -1;
+  EXPECT_NE(message(j).find("factors.K_GR.value"), std::string::npos) << message(j);
+  j = to_json(c);
+  j["schema"] = kProfileSchemaName;
+  EXPECT_NE(message(j).find("schema"), std::string::npos) << message(j);
+  j = to_json(c);
+  j["fit_error"]["rms_log"] = "big";
+  EXPECT_NE(message(j).find("fit_error.rms_log"), std::string::npos) << message(j);
+}
+
+CostCounts one_pinned_copy() {
+  CostCounts c;
+  c.P = 4;
+  c.N_CG = 250'000'000;  // 1 GB: 20 ms at the round profile's 50 GB/s
+  c.host_memory = HostMemory::pinned;
+  return c;
+}
+
+TEST(Uncertainty, TheIntervalIsTheBasisErrorAroundThePrediction) {
+  const MachineProfile m = probed(test::round_profile());
+  const CostCounts c = one_pinned_copy();
+  const Prediction p = predict(m, c, Variant::seed);
+  ASSERT_DOUBLE_EQ(p.total, 0.02);
+  const BasisError b = basis_of(m, c, Variant::seed);
+  EXPECT_EQ(b.basis, Basis::probe_only);
+  EXPECT_DOUBLE_EQ(b.sigma, kProbeOnlySigma);
+  const Interval iv = interval_of(p, m, c, b);
+  EXPECT_DOUBLE_EQ(iv.sigma_params, 0);  // no parameter carries an uncertainty
+  const double z = 1.6448536269514722;   // the 95% normal quantile: a central 90% interval
+  EXPECT_NEAR(iv.lo, 0.02 * std::exp(-z * kProbeOnlySigma), 1e-12);
+  EXPECT_NEAR(iv.hi, 0.02 * std::exp(z * kProbeOnlySigma), 1e-12);
+  EXPECT_NEAR(normal_quantile(0.95), z, 1e-12);
+}
+
+TEST(Uncertainty, AParametersIntervalSpreadsTheTimeByItsElasticity) {
+  MachineProfile m = probed(test::round_profile());
+  // B_CG_pinned fitted to within +-10% (95%): log sigma = log(1.1) / 1.96; the time is inversely
+  // proportional to it (elasticity -1), so the time's log sigma is the same.
+  m.set(Param::B_CG_pinned, Parameter{50e9, Provenance::fitted, 5e9, {}, {}});
+  m.metadata["fit_cv_rms_log"] = "0.03";
+  const CostCounts c = one_pinned_copy();
+  const Prediction p = predict(m, c, Variant::seed);
+  const BasisError b = basis_of(m, c, Variant::seed);
+  EXPECT_EQ(b.basis, Basis::calibrated);
+  EXPECT_DOUBLE_EQ(b.sigma, 0.03);
+  const Interval iv = interval_of(p, m, c, b);
+  EXPECT_NEAR(iv.sigma_params, std::log(1.1) / 1.959963984540054, 1e-6);
+  EXPECT_NEAR(iv.sigma, std::hypot(std::log(1.1) / 1.959963984540054, 0.03), 1e-6);
+}
+
+TEST(Uncertainty, TheDeadlineVerdictIsTheProbabilityOfMeetingIt) {
+  Interval iv;
+  iv.sigma = 0.1;
+  // At the prediction itself: even odds.
+  auto at = judge_deadline(1e-3, iv, 1e-3);
+  EXPECT_NEAR(at.probability_met, 0.5, 1e-12);
+  EXPECT_EQ(at.verdict, Verdict::uncertain);
+  // Two sigma of log time above: P = Phi(2) = 0.977 >= 0.95, met.
+  auto above = judge_deadline(1e-3, iv, 1e-3 * std::exp(0.2));
+  EXPECT_NEAR(above.probability_met, 0.9772498680518208, 1e-9);
+  EXPECT_EQ(above.verdict, Verdict::met);
+  auto below = judge_deadline(1e-3, iv, 1e-3 * std::exp(-0.2));
+  EXPECT_EQ(below.verdict, Verdict::missed);
+  // One sigma above: 0.84, neither.
+  EXPECT_EQ(judge_deadline(1e-3, iv, 1e-3 * std::exp(0.1)).verdict, Verdict::uncertain);
+}
+
+TEST(Uncertainty, ACarriedCalibrationAddsTheTransferError) {
+  Calibration c = pinned_copy_calibration();
+  const BasisError here = basis_of(c, Basis::calibrated);
+  EXPECT_DOUBLE_EQ(here.sigma, 0.025);
+  const BasisError there = basis_of(c, Basis::transferred);
+  EXPECT_DOUBLE_EQ(there.sigma, std::hypot(0.025, kTransferSigma));
+  c.transfer_error = ErrorFigure{50, 0.04, 0.1, 0.05, "held-out"};
+  EXPECT_DOUBLE_EQ(basis_of(c, Basis::transferred).sigma, 0.05);  // measured: it replaces the default
+}
+
+}  // namespace
+}  // namespace dtflop
