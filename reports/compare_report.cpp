@@ -8,7 +8,7 @@
 #include <algorithm>
 #include <map>
 
-#include "calibrate/machine.hpp"
+#include "model/profile.hpp"
 #include "calibrate/rounds.hpp"
 #include "calibrate/store.hpp"
 #include "model/errors.hpp"
@@ -23,11 +23,11 @@ Document compare_report(const MachineProfile& a, const std::string& name_a, cons
   Document doc;
   doc.kind = "compare";
   doc.title = fmt::format("Comparison: {} against {}", name_b, name_a);
-  const std::string ma = calib::describe(a.identity), mb = calib::describe(b.identity);
+  const std::string ma = dtflop::describe(a.identity), mb = dtflop::describe(b.identity);
   doc.stamp = make_stamp(ctx, ma == mb ? ma : fmt::format("A: {}; B: {}", ma, mb),
                                    fmt::format("A: {}; B: {}", a.identity.measured_at, b.identity.measured_at));
   std::string why;
-  const bool same = calib::same_machine(a.identity, b.identity, &why);
+  const bool same = dtflop::same_machine(a.identity, b.identity, &why);
   doc.summary.push_back(same ? fmt::format("One machine, two runs: A = {} ({}), B = {} ({})", name_a,
                                            a.identity.measured_at, name_b, b.identity.measured_at)
                              : fmt::format("Two machines ({}): A = {} ({}), B = {} ({})", why, name_a, ma, name_b, mb));
@@ -108,11 +108,11 @@ Document compare_runs_report(const std::vector<std::string>& stores_a, const std
   Document doc;
   doc.kind = "compare";
   doc.title = fmt::format("Comparison of two runs: {} against {}", name_b, name_a);
-  const std::string ma = calib::describe(fa.machine), mb = calib::describe(fb.machine);
+  const std::string ma = dtflop::describe(fa.machine), mb = dtflop::describe(fb.machine);
   doc.stamp = make_stamp(ctx, ma == mb ? ma : fmt::format("A: {}; B: {}", ma, mb),
                          fmt::format("A: {}; B: {}", fa.measured_at, fb.measured_at));
   std::string why;
-  doc.summary.push_back(calib::same_machine(fa.machine, fb.machine, &why)
+  doc.summary.push_back(dtflop::same_machine(fa.machine, fb.machine, &why)
                             ? fmt::format("One machine: A = {}, B = {}", name_a, name_b)
                             : fmt::format("Two machines ({}): A = {} ({}), B = {} ({})", why, name_a, ma, name_b, mb));
   double log_sum = 0, lo = INFINITY, hi = 0;

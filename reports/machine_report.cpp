@@ -5,7 +5,7 @@
 
 #include <fmt/format.h>
 
-#include "calibrate/machine.hpp"
+#include "model/profile.hpp"
 #include "calibrate/sample.hpp"
 #include "model/units.hpp"
 #include "reports/common.hpp"
@@ -81,8 +81,8 @@ std::string md(const MachineProfile& p, const std::string& key) {
 Document machine_report(const MachineProfile& p, const Context& ctx) {
   Document doc;
   doc.kind = "machine";
-  doc.title = "Machine report: " + calib::describe(p.identity);
-  doc.stamp = make_stamp(ctx, calib::describe(p.identity), p.identity.measured_at);
+  doc.title = "Machine report: " + dtflop::describe(p.identity);
+  doc.stamp = make_stamp(ctx, dtflop::describe(p.identity), p.identity.measured_at);
 
   // Identity.
   Section id{"Machine", {}};

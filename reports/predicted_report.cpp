@@ -7,7 +7,7 @@
 
 #include <fmt/format.h>
 
-#include "calibrate/machine.hpp"
+#include "model/profile.hpp"
 #include "calibrate/rounds.hpp"
 #include "calibrate/store.hpp"
 #include "calibrate/validate.hpp"
@@ -219,17 +219,17 @@ Document predicted_report(const PredictedInput& in, const Context& ctx) {
   const Sample first = loaded.samples.front();  // a copy: the samples move on below
   for (const auto& s : loaded.samples) {
     std::string why;
-    if (!calib::same_machine(s.machine, first.machine, &why))
+    if (!dtflop::same_machine(s.machine, first.machine, &why))
       throw InputError(fmt::format("the stores mix samples of two machines ('{}' on {}, '{}' on {}: {}); a "
                                    "predicted-vs-actual report is of one machine: give the stores of one machine",
-                                   first.key, calib::describe(first.machine), s.key, calib::describe(s.machine), why));
+                                   first.key, dtflop::describe(first.machine), s.key, dtflop::describe(s.machine), why));
   }
   {
     std::string why;
-    if (!calib::same_machine(first.machine, profile.identity, &why))
+    if (!dtflop::same_machine(first.machine, profile.identity, &why))
       throw InputError(fmt::format("the samples were measured on {}, but '{}' describes {} ({}); give the profile "
                                    "fitted on the machine that measured them",
-                                   calib::describe(first.machine), in.profile_path, calib::describe(profile.identity), why));
+                                   dtflop::describe(first.machine), in.profile_path, dtflop::describe(profile.identity), why));
   }
   std::string combine_name = in.rounds_combine;
   if (combine_name.empty()) {
@@ -252,7 +252,7 @@ Document predicted_report(const PredictedInput& in, const Context& ctx) {
                           }());
   std::string last_measured;
   for (const auto& s : merged.samples) last_measured = std::max(last_measured, s.measured_at);
-  doc.stamp = make_stamp(ctx, calib::describe(first.machine), last_measured);
+  doc.stamp = make_stamp(ctx, dtflop::describe(first.machine), last_measured);
 
   const auto& all = v.groups.at("all");
   const auto& tot = all.at(Component::total);
