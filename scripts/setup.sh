@@ -1,15 +1,20 @@
 #!/usr/bin/env bash
 # Installs what dtflop needs from Debian 12 packages (only what is missing) and builds it
 # (Release) into build/. Idempotent: run it again and it only rebuilds what changed.
-#   scripts/setup.sh [--sanitize]   # --sanitize also builds build-asan/ (ASan + UBSan, host code)
+#   scripts/setup.sh [--sanitize]   # --sanitize (the test suite) also builds build-asan/ (ASan +
+#                                   # UBSan, host code) and installs what the tests alone need
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(cmake ninja-build g++ pkg-config libeigen3-dev libfmt-dev nlohmann-json3-dev libcli11-dev
           libopencv-dev libceres-dev libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
-          xz-utils chromium fonts-dejavu-core)
-# xz-utils: the archived stores in results/; chromium (headless) and its font: the report tests
-# open every kind of report as a person would (tests/reports/).
+          xz-utils)
+# xz-utils: the archived stores in results/. For the test suite (scripts/test.sh passes
+# --sanitize), headless Chromium and a font: the report tests open every kind of report as a
+# person would (tests/reports/); the main job does not need them.
+if [ "${1:-}" = "--sanitize" ]; then
+  packages+=(chromium fonts-dejavu-core)
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -303,7 +303,7 @@ TEST_F(ReportKinds, MachineReportOfAnArchivedProfile) {
   const std::string page = test::slurp(out / "report.html");
   for (const char* s : {"NVIDIA H200", "dtflop version", "dtflop report machine", "host-&gt;device copies"})
     EXPECT_NE(page.find(s), std::string::npos) << s;
-  if (browser_.empty()) GTEST_SKIP() << "chromium is not installed (scripts/setup.sh installs it): not rendered";
+  if (browser_.empty()) GTEST_SKIP() << "chromium is not installed (scripts/test.sh installs it): not rendered";
   check_rendered(out, dir_, browser_, 4);
 }
 
@@ -346,7 +346,7 @@ TEST_F(ReportKinds, PredictedReportOfArchivedStores) {
   EXPECT_EQ(mixed.status, 2);
   EXPECT_NE(mixed.err.find("two machines"), std::string::npos) << mixed.err;
   EXPECT_FALSE(fs::exists(dir_ / "mixed"));
-  if (browser_.empty()) GTEST_SKIP() << "chromium is not installed (scripts/setup.sh installs it): not rendered";
+  if (browser_.empty()) GTEST_SKIP() << "chromium is not installed (scripts/test.sh installs it): not rendered";
   check_rendered(out, dir_, browser_, 1);
 }
 
@@ -360,7 +360,7 @@ TEST_F(ReportKinds, ComparisonOfTwoMachines) {
   const std::string md = test::slurp(out / "report.md");
   EXPECT_NE(md.find("Two machines"), std::string::npos);
   EXPECT_NE(md.find("| B_GG |"), std::string::npos);
-  if (browser_.empty()) GTEST_SKIP() << "chromium is not installed (scripts/setup.sh installs it): not rendered";
+  if (browser_.empty()) GTEST_SKIP() << "chromium is not installed (scripts/test.sh installs it): not rendered";
   check_rendered(out, dir_, browser_, 1);
 }
 
@@ -402,7 +402,7 @@ TEST_F(ReportKinds, ComparisonOfTwoRuns) {
   const auto half = test::run_dtflop(fmt::format("report compare --store-a {} -o {}", a.string(), (dir_ / "half").string()));
   EXPECT_EQ(half.status, 2);
   EXPECT_FALSE(fs::exists(dir_ / "half"));
-  if (browser_.empty()) GTEST_SKIP() << "chromium is not installed (scripts/setup.sh installs it): not rendered";
+  if (browser_.empty()) GTEST_SKIP() << "chromium is not installed (scripts/test.sh installs it): not rendered";
   check_rendered(out, dir_, browser_, 1);
 }
 
