@@ -113,6 +113,18 @@ void group_charts(Section& sec, const std::string& backend, const std::string& p
   for (const auto* r : rows)
     for (const auto& [c, pm] : r->per_step)
       if (pm.second > 0 || pm.first > 0) present.insert(c);
+  // A component that is the whole total in every configuration (CPU work on a CPU backend) would
+  // hide the total's marks under its own: the total alone is drawn.
+  for (Component comp : calib::all_components()) {
+    if (comp == Component::total || !present.count(comp)) continue;
+    const bool same = std::all_of(rows.begin(), rows.end(), [&](const SampleError* r) {
+      auto a = r->per_step.find(comp), t = r->per_step.find(Component::total);
+      return a != r->per_step.end() && t != r->per_step.end() &&
+             std::abs(a->second.second - t->second.second) <= 1e-9 * std::abs(t->second.second) &&
+             std::abs(a->second.first - t->second.first) <= 1e-9 * std::abs(t->second.first);
+    });
+    if (same) present.erase(comp);
+  }
 
   auto unique_id = [&](std::string id) {
     for (char& ch : id)
