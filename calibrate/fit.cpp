@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "model/errors.hpp"
+#include "model/units.hpp"
 
 namespace dtflop::calib {
 
@@ -42,6 +43,26 @@ double default_start(Param p) {
   if (p == Param::B_GG || p == Param::B_GG_copy || p == Param::B_GS) return 1e12;
   return 10e9;  // host bandwidths and CPU rates
 }
+
+}  // namespace
+
+Bound physical_bounds(Param p, const MachineProfile& start, double start_value) {
+  const auto unit = info(p).unit;
+  const Parameter* probed = start.find(p);
+  if (probed && probed->value > 0 && (unit == "B/s" || unit == "FLOP/s"))
+    return {1e-4 * probed->value, kBoundAbove * probed->value,
+            fmt::format("{} {} probed: no path is faster than the probes saw", format_quantity(probed->value, unit),
+                        unit == "B/s" ? "bandwidth" : "rate")};
+  if (probed && probed->value > 0 && unit == "s")
+    return {0.02 * probed->value, 100 * probed->value,
+            fmt::format("0.02x .. 100x the probed {}", format_quantity(probed->value, unit))};
+  if (unit == "x") return {0.1, 100, "a cost ratio of one FLOP to another"};
+  if (unit == "s") return {1e-10, 1e-2, "an event of the machine: 0.1 ns .. 10 ms"};
+  if (unit == "B") return {1, 1024.0 * 1024 * 1024, "a copy size: 1 B .. 1 GiB"};
+  return {start_value * 1e-6, start_value * 1e6, "no probe: a million-fold either side of its start"};
+}
+
+namespace {
 
 // Does a sample's counts exercise component c (so that its prediction can be non-zero)?
 bool exercised(const CostCounts& k, Component c) {
@@ -194,12 +215,25 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
 
   // A parameter whose term the samples barely feel would run off to zero or infinity (in log
   // space) without changing the cost; bound it to a million-fold either way and, if it ends on a
-  // bound, report it as not determined.
-  for (std::size_t i = 0; i < ids.size(); ++i)
-    if (identifiable[i]) {
-      problem.SetParameterLowerBound(&theta[i], 0, -kLogBound);
-      problem.SetParameterUpperBound(&theta[i], 0, kLogBound);
+  // bound, report it as not determined. Inside that, each stays in its physical range
+  // (physical_bounds); one that ends on an end of it is reported so.
+  std::vector<Bound> bounds(ids.size());
+  std::vector<double> lo_theta(ids.size(), -kLogBound), hi_theta(ids.size(), kLogBound);
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    if (!identifiable[i]) continue;
+    const Parameter* sp = start.find(ids[i]);
+    bounds[i] = physical_bounds(ids[i], start, sp ? sp->value : starts[i]);
+    // A warm start outside the range begins on its nearer end.
+    const double clamped = std::clamp(starts[i], bounds[i].lo, bounds[i].hi);
+    if (clamped != starts[i]) {
+      starts[i] = clamped;
+      base.set(ids[i], Parameter{starts[i], Provenance::user, {}, {}, "fit start, clamped to its physical range"});
     }
+    lo_theta[i] = std::max(-kLogBound, std::log(bounds[i].lo / starts[i]));
+    hi_theta[i] = std::min(kLogBound, std::log(bounds[i].hi / starts[i]));
+    problem.SetParameterLowerBound(&theta[i], 0, lo_theta[i]);
+    problem.SetParameterUpperBound(&theta[i], 0, hi_theta[i]);
+  }
 
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
@@ -227,12 +261,17 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
   if (summary.termination_type != ceres::CONVERGENCE || !summary.IsSolutionUsable())
     throw InputError(fmt::format("the {} fit failed: {}", to_string(o.variant), summary.message));
 
-  std::vector<bool> at_bound(ids.size(), false);
-  for (std::size_t i = 0; i < ids.size(); ++i)
-    if (identifiable[i] && std::abs(theta[i]) > kLogBound - 1e-3) {
+  std::vector<bool> at_bound(ids.size(), false), at_physical(ids.size(), false);
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    if (!identifiable[i]) continue;
+    if (std::abs(theta[i]) > kLogBound - 1e-3) {
       at_bound[i] = true;
       problem.SetParameterBlockConstant(&theta[i]);  // out of the covariance
+    } else if (theta[i] < lo_theta[i] + 1e-3 || theta[i] > hi_theta[i] - 1e-3) {
+      at_physical[i] = true;
+      problem.SetParameterBlockConstant(&theta[i]);  // on a bound: its interval says nothing
     }
+  }
 
   // Unrobustified residuals at the solution: their variance scales the covariance, since
   // relative residuals have no known standard deviation of their own.
@@ -255,7 +294,7 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
     ceres::Covariance cov(co);
     std::vector<std::pair<const double*, const double*>> blocks;
     for (std::size_t i = 0; i < ids.size(); ++i)
-      if (identifiable[i] && !at_bound[i]) blocks.emplace_back(&theta[i], &theta[i]);
+      if (identifiable[i] && !at_bound[i] && !at_physical[i]) blocks.emplace_back(&theta[i], &theta[i]);
     if (dof <= 0) {
       out.covariance_note = "no degrees of freedom left for an uncertainty estimate (as many residuals as parameters)";
     } else if ([&] {
@@ -269,7 +308,7 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
                }()) {
       out.covariance_ok = true;
       for (std::size_t i = 0; i < ids.size(); ++i) {
-        if (!identifiable[i] || at_bound[i]) continue;
+        if (!identifiable[i] || at_bound[i] || at_physical[i]) continue;
         double c = 0;
         cov.GetCovarianceBlock(&theta[i], &theta[i], &c);
         log_var[i] = std::max(0.0, c * s2);
@@ -289,6 +328,11 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
     f.id = ids[i];
     if (const Parameter* p = start.find(ids[i])) f.probed = p->value;
     f.fitted = identifiable[i] && !at_bound[i];
+    f.lo_bound = bounds[i].lo;
+    f.hi_bound = bounds[i].hi;
+    f.bound_reason = bounds[i].reason;
+    f.at_physical_bound = at_physical[i];
+    if (at_physical[i]) ++out.at_physical_bounds;
     f.value = starts[i] * std::exp(theta[i]);
     if (!f.fitted) {
       const std::string why = at_bound[i] ? fmt::format("not determined by these samples (the fit drove it {} a "
@@ -315,6 +359,11 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
       } else {
         f.note = "no probed value to compare with";
       }
+      if (f.at_physical_bound)
+        f.note = fmt::format("reached the {} end of its physical range ({}): the counts do not describe what bounds "
+                             "this backend here, so the value is not the machine's{}",
+                             f.value >= f.hi_bound * (1 - 1e-3) ? "upper" : "lower", f.bound_reason,
+                             f.note.empty() ? "" : "; " + f.note);
       Parameter par;
       par.value = f.value;
       par.provenance = Provenance::fitted;

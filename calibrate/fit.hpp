@@ -48,8 +48,29 @@ struct FittedParameter {
   double lo95 = 0, hi95 = 0;     // 95% interval (fitted and covariance available)
   double log_sigma = 0;          // standard deviation of log(value)
   bool flagged = false;          // fitted and probed disagree by more than flag_ratio
+  // The physical range the fit kept it in (physical_bounds()), and whether it ended on an end of
+  // it: then the value says less about the machine than about the counts (a bandwidth above
+  // any the probes saw means the counts overstate the traffic that bounds the backend).
+  double lo_bound = 0, hi_bound = 0;
+  bool at_physical_bound = false;
+  std::string bound_reason;      // why the range is what it is
   std::string note;
 };
+
+// The range a fitted parameter must stay in, from the start profile (the probes) where it has a
+// value of the parameter, else from what the parameter is (docs/calibration.md, "Bounds"):
+//   bandwidths and rates: at most kBoundAbove x the probed value (no path is faster than the
+//     fastest the probes saw; the margin covers probe noise and clock boost), at least 1e-4 x;
+//   latencies: 0.02x .. 100x the probed value (a launch in a stream of launches costs less
+//     than the probe's lone one);
+//   unprobed: a cost ratio (K_CW, K_GR) 0.1 .. 100; a latency 0.1 ns .. 10 ms; a size 1 B .. 1 GiB;
+//     a bandwidth or rate a million-fold either side of its start.
+struct Bound {
+  double lo = 0, hi = 0;
+  std::string reason;
+};
+inline constexpr double kBoundAbove = 1.25;
+Bound physical_bounds(Param p, const MachineProfile& start, double start_value);
 
 struct FitResult {
   Variant variant = Variant::extended;
@@ -60,6 +81,7 @@ struct FitResult {
   std::string termination;              // Ceres' one-line report
   int iterations = 0;
   double rms_relative = 0;              // sqrt(mean squared relative residual), no loss applied
+  int at_physical_bounds = 0;           // parameters that ended on an end of their physical range
   bool covariance_ok = false;
   std::string covariance_note;
   MachineProfile profile;               // the start profile with the fitted values written in

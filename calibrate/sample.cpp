@@ -9,6 +9,7 @@
 
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
+#include "workloads/workload.hpp"
 
 namespace dtflop::calib {
 
@@ -167,6 +168,14 @@ Sample sample_from_json(const json& j) {
   s.machine = identity_from_json(need(j, "machine"));
   s.workload = need_string(j, "workload");
   s.backend = need_string(j, "backend");
+  const workload::Workload* w = nullptr;
+  const workload::Backend* b = nullptr;
+  try {
+    w = &workload::find(s.workload);
+    b = &w->backend(s.backend);
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("sample field 'workload'/'backend': {}", e.what()));
+  }
   s.plan = opt_string(j, "plan");
   if (auto it = j.find("round"); it != j.end()) {  // absent in samples written before rounds: round 1
     if (!it->is_number_integer() || it->get<long long>() < 1 || it->get<long long>() > 1000000)
@@ -175,6 +184,16 @@ Sample sample_from_json(const json& j) {
   }
   s.parameters = need(j, "parameters");
   if (!s.parameters.is_object()) bad("parameters", s.parameters, "an object");
+  try {
+    // Every value of a parameter the workload has is checked as on the command line; names it no
+    // longer has (stores kept from earlier versions, e.g. rbe's Ix) are kept as they are.
+    json known = json::object();
+    for (const auto& [name, value] : s.parameters.items())
+      if (const auto* p = w->find_param(name); p && p->applies_to(b->name())) known[name] = value;
+    (void)w->validate(known, *b);
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("sample field 'parameters': {}", e.what()));
+  }
   const json& steps = need(j, "steps");
   if (!steps.is_number_integer() || steps.get<long long>() < 1) bad("steps", steps, "an integer >= 1");
   s.steps = steps.get<std::int64_t>();
@@ -202,7 +221,12 @@ Sample sample_from_json(const json& j) {
     if (!c) bad("components." + name, name, "one of total, CG, GC, G, C");
     s.components[*c] = stats_from_json(st, "components." + name);
   }
-  if (!s.find(Component::total)) bad("components.total", json(), "to be present (every sample has a total)");
+  const Stats* total = s.find(Component::total);
+  if (!total) bad("components.total", json(), "to be present (every sample has a total)");
+  for (std::size_t i = 0; i < total->values.size(); ++i)
+    if (!(total->values[i] > 0))
+      bad(fmt::format("components.total.values[{}]", i), total->values[i],
+          "a positive time (a repetition takes time; a zero total is a broken measurement)");
   if (auto it = j.find("detail"); it != j.end()) s.detail = *it;
   return s;
 }

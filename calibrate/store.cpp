@@ -4,17 +4,17 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
-#include <fstream>
-#include <sstream>
 #include <system_error>
 
 #include <fmt/format.h>
 
 #include "model/errors.hpp"
+#include "model/json_io.hpp"
 
 namespace dtflop::calib {
 
@@ -40,12 +40,8 @@ StoreContents read_store(const std::filesystem::path& path) {
   if (!std::filesystem::exists(path, ec)) return out;
   if (std::filesystem::is_directory(path, ec))
     throw InputError(fmt::format("sample store '{}' is a folder; name a .jsonl file", path.string()));
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw InputError(fmt::format("cannot read sample store '{}': {}", path.string(), errno_text(errno)));
-  std::stringstream buf;
-  buf << in.rdbuf();
-  const std::string text = buf.str();
+  // At most kMaxStoreBytes are read: a device (--store /dev/zero) or a stream cannot exhaust memory.
+  const std::string text = read_file_limited(path, fmt::format("sample store '{}'", path.string()), kMaxStoreBytes);
 
   // Split into lines, remembering where each ends.
   struct Line {
@@ -77,11 +73,23 @@ StoreContents read_store(const std::filesystem::path& path) {
       if (L.terminated) out.good_bytes = L.end + 1;
       continue;
     }
+    if (line.size() > kMaxStoreLineBytes)
+      throw InputError(fmt::format("sample store '{}': line {} is {} bytes long, more than the {} MiB a sample may "
+                                   "take; name the right file or remove that line",
+                                   path.string(), i + 1, line.size(), kMaxStoreLineBytes >> 20));
     nlohmann::json j;
     bool parsed = true;
     try {
-      j = nlohmann::json::parse(line);
-    } catch (const nlohmann::json::parse_error&) {
+      j = parse_json_limited(line, fmt::format("sample store '{}', line {},", path.string(), i + 1));
+    } catch (const InputError&) {
+      // Too deep or a number out of range is a bad line wherever it is; only plain syntax errors can
+      // be a torn tail.
+      bool syntax = true;
+      try {
+        syntax = !nlohmann::json::accept(line);
+      } catch (...) {
+      }
+      if (!syntax) throw;
       parsed = false;
     }
     // A line cut short by an interrupted write can only be the last one, and cannot parse.
@@ -126,6 +134,14 @@ StoreWriter::StoreWriter(const std::filesystem::path& path, std::vector<std::str
   if (fd_ < 0)
     throw InputError(fmt::format("cannot open sample store '{}' for writing: {}", path.string(),
                                  errno_text(errno)));
+  struct ::stat st {};
+  if (::fstat(fd_, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd_);
+    fd_ = -1;
+    throw InputError(fmt::format("sample store '{}' is not a regular file (a device, a FIFO or a folder); name a "
+                                 ".jsonl file",
+                                 path.string()));
+  }
   if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     const int e = errno;
     ::close(fd_);

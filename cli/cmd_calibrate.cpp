@@ -3,6 +3,7 @@
 // cross-validation; writes the fitted machine profile.
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -41,6 +42,7 @@ struct CalibrateOptions {
   std::vector<std::string> match;  // sample keys must contain each
   bool total_only = false;
   std::uint64_t seed = 1;
+  bool accept_bounds = false;
   std::string rounds_combine{to_string(kDefaultRoundCombine)};
   bool json = false;
 };
@@ -76,15 +78,16 @@ std::string value_text(double v, Param p) { return format_quantity(v, info(p).un
 void run(const CalibrateOptions& o) {
   if (o.stores.empty()) throw InputError("name at least one --store");
   if (o.output.empty()) throw InputError("name the fitted profile to write with -o fitted.json");
-  std::error_code ec;
-  if (fs::exists(o.output, ec) && fs::exists(o.machine, ec) && fs::equivalent(o.output, o.machine, ec))
-    throw InputError(fmt::format("-o '{}' is the --machine profile itself; write the fit to another file so "
-                                 "the probed values stay",
-                                 o.output));
-  if (!o.calibration.empty()) {
-    check_output(o.calibration, {o.machine, o.output});
-    check_output(o.output, {o.calibration});
-    for (const auto& st : o.stores) check_output(o.calibration, {st});
+  {
+    // Neither the probed profile nor a store is ever replaced by the fit or the calibration.
+    std::vector<std::string> inputs = o.stores;
+    inputs.push_back(o.machine);
+    check_output(o.output, inputs);
+    if (!o.calibration.empty()) {
+      inputs.push_back(o.output);
+      check_output(o.calibration, inputs);
+      check_output(o.output, {o.calibration});
+    }
   }
   if (o.folds < 2) throw InputError(fmt::format("--folds must be at least 2, got {}", o.folds));
   if (!(o.loss_scale > 0)) throw InputError("--loss-scale must be positive, e.g. 0.05 (5%)");
@@ -218,9 +221,10 @@ void run(const CalibrateOptions& o) {
            f.fitted ? value_text(f.value, f.id) : "(kept)",
            f.has_interval ? fmt::format("{} .. {}", value_text(f.lo95, f.id), value_text(f.hi95, f.id)) : "-",
            f.fitted && f.probed ? fmt::format("{:.2f}", f.value / *f.probed) : "-",
-           (f.flagged ? "FLAG: " : "") + f.note});
+           (f.at_physical_bound ? "BOUND: " : f.flagged ? "FLAG: " : "") + f.note});
     nlohmann::json pj = {{"name", std::string(info(f.id).name)}, {"unit", std::string(info(f.id).unit)},
-                         {"fitted", f.fitted}, {"value", f.value}, {"flagged", f.flagged}, {"note", f.note}};
+                         {"fitted", f.fitted}, {"value", f.value}, {"flagged", f.flagged}, {"note", f.note},
+                         {"bounds", {f.lo_bound, f.hi_bound}}, {"at_physical_bound", f.at_physical_bound}};
     if (f.probed) pj["probed"] = *f.probed;
     if (f.has_interval) pj["interval95"] = {f.lo95, f.hi95};
     params_json.push_back(pj);
@@ -231,6 +235,24 @@ void run(const CalibrateOptions& o) {
   if (flagged)
     print(fmt::format("{} parameter{} disagree with the probed value by more than {:.2f}x (flagged above).\n", flagged,
                       flagged == 1 ? "" : "s", o.flag_ratio));
+
+  if (r.at_physical_bounds > 0) {
+    std::string which;
+    for (const auto& f : r.params)
+      if (f.at_physical_bound) which += (which.empty() ? "" : ", ") + std::string(info(f.id).name);
+    result["at_physical_bounds"] = which;
+    if (!o.accept_bounds) {
+      if (o.json) fmt::print("{}\n", result.dump(2));
+      throw std::runtime_error(fmt::format(
+          "{} fitted parameter{} reached {} physical bound ({}: see the table): the samples' counts do not describe "
+          "what bounds this backend on this machine, and such a value cannot carry to another; nothing written. Pass "
+          "--accept-bounds to write the fit anyway",
+          r.at_physical_bounds, r.at_physical_bounds == 1 ? "" : "s", r.at_physical_bounds == 1 ? "its" : "their",
+          which));
+    }
+    print(fmt::format("{} parameter(s) at a physical bound ({}), accepted with --accept-bounds.\n",
+                      r.at_physical_bounds, which));
+  }
 
   MachineProfile out = r.profile;
   std::string stores;
@@ -292,16 +314,21 @@ void add_calibrate_command(CLI::App& root) {
   app->add_option("--variant", o->variant, variant_names(", ") + ", or all (choose by cross-validation)")
       ->capture_default_str();
   app->add_flag("--json", o->json, "Print the fit's result as JSON instead of tables");
-  app->add_option("--folds", o->folds, "Folds of the cross-validation")->capture_default_str();
+  app->add_option("--folds", o->folds, "Folds of the cross-validation")->capture_default_str()->check(number_in(2, 1000, true));
   app->add_option("--match", o->match, "Only samples whose key contains this text, e.g. host-memory=pinned (repeatable: all must match)");
   app->add_option("--backend", o->backends, "Fit only samples of these backends (repeatable)");
   app->add_option("--loss", o->loss, "Robust loss: huber, cauchy or none")->capture_default_str();
   app->add_option("--loss-scale", o->loss_scale, "Relative residual where the robust loss bends")
+      ->check(number_in(1e-6, 100))
       ->capture_default_str();
   app->add_option("--flag-ratio", o->flag_ratio, "Flag a fitted value this many times off the probed one")
+      ->check(number_in(1, 1e6))
       ->capture_default_str();
   app->add_flag("--total-only", o->total_only, "Fit totals only, not the measured components");
-  app->add_option("--seed", o->seed, "Seed of the fold assignment")->capture_default_str();
+  app->add_flag("--accept-bounds", o->accept_bounds,
+                "Write the fit even when a parameter ended on its physical bound (otherwise exit status 1, nothing "
+                "written; docs/calibration.md, Bounds)");
+  app->add_option("--seed", o->seed, "Seed of the fold assignment")->capture_default_str()->check(number_in(0, std::numeric_limits<std::uint64_t>::max(), true));
   app->add_option("--rounds-combine", o->rounds_combine,
                   "How the rounds of a configuration (sweep --rounds) give its time: fastest (the fastest round's "
                   "median: interference only adds time), p25 (the rounds' lower quartile) or median (docs/calibration.md)")

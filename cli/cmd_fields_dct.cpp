@@ -1,7 +1,9 @@
 // `dtflop fields`: the DCT full-field measurement on image files or on a rendered specimen.
 // Per frame it writes a CSV of the points (u_x, u_y, e_xx, e_yy, e_xy, validity) and a
 // colour-mapped PNG overlay of each field on the image, with a colour bar and units.
+#include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <sstream>
@@ -14,6 +16,8 @@
 #include "cli/command.hpp"
 #include "workloads/workload.hpp"
 #include "cli/table.hpp"
+#include "cli/workload_cli.hpp"
+#include "model/json_io.hpp"
 #include "model/errors.hpp"
 #include "model/units.hpp"
 #include "workloads/dct/backend.hpp"
@@ -51,6 +55,20 @@ std::vector<std::filesystem::path> expand_frames(const std::string& pattern) {
     out.emplace_back(pattern);
     return out;
   }
+  // A field width or precision is at most 3 digits: "%1000000000d" would build a 1 GB name.
+  for (std::size_t at = pattern.find('%'); at != std::string::npos; at = pattern.find('%', at + 1)) {
+    std::size_t digits = 0;
+    for (std::size_t i = at + 1; i < pattern.size() && digits <= 3; ++i) {
+      const char ch = pattern[i];
+      if (ch >= '0' && ch <= '9') ++digits;
+      else if (ch == '.' || ch == '-' || ch == '+' || ch == ' ' || ch == '#') digits = 0;
+      else break;
+    }
+    if (digits > 3 || pattern.size() > 4096)
+      throw InputError(fmt::format("--frames '{}': a field width of more than 3 digits (or a pattern over 4096 "
+                                   "characters) names no file; write e.g. def_%04d.png",
+                                   pattern.substr(0, 60)));
+  }
   for (int k = 0; k < 1000000; ++k) {
     std::string name;
     try {
@@ -67,13 +85,27 @@ std::vector<std::filesystem::path> expand_frames(const std::string& pattern) {
   return out;
 }
 
+// x,y,width,height, each a whole number within the largest image dtflop reads (16384 a side), so the
+// rectangle's corners and area never overflow.
 cv::Rect parse_roi(const std::string& s) {
-  int x, y, w, h;
-  char c1, c2, c3;
-  std::istringstream in(s);
-  if (!(in >> x >> c1 >> y >> c2 >> w >> c3 >> h) || c1 != ',' || c2 != ',' || c3 != ',' || w <= 0 || h <= 0)
-    throw InputError(fmt::format("--roi '{}' is not x,y,width,height with positive sizes", s));
-  return {x, y, w, h};
+  constexpr std::int64_t kSide = 16384;
+  std::int64_t v[4] = {0, 0, 0, 0};
+  const char* p = s.data();
+  const char* end = p + s.size();
+  bool ok = true;
+  for (int i = 0; i < 4 && ok; ++i) {
+    const auto r = std::from_chars(p, end, v[i]);
+    ok = r.ec == std::errc() && (i == 3 ? r.ptr == end : (r.ptr != end && *r.ptr == ','));
+    p = r.ptr + 1;
+  }
+  if (!ok)
+    throw InputError(fmt::format("--roi '{}' is not x,y,width,height (whole numbers, e.g. 100,50,800,600)",
+                                 s.substr(0, 60)));
+  if (v[0] < 0 || v[1] < 0 || v[2] < 1 || v[3] < 1 || v[0] + v[2] > kSide || v[1] + v[3] > kSide)
+    throw InputError(fmt::format("--roi '{}' must lie within 0..{} px with width and height >= 1; give a region "
+                                 "inside the image",
+                                 s, kSide));
+  return {static_cast<int>(v[0]), static_cast<int>(v[1]), static_cast<int>(v[2]), static_cast<int>(v[3])};
 }
 
 void run(const RunDctOptions& o) {
@@ -90,7 +122,7 @@ void run(const RunDctOptions& o) {
   if (grid.x < 2 || grid.y < 2) throw InputError("--points needs at least 2x2 points");
   p.points_x = static_cast<int>(grid.x);
   p.points_y = static_cast<int>(grid.y);
-  p.threads = o.threads;
+  p.threads = checked_threads(o.threads, "--threads");
   p.match.search_radius = o.search_radius;
   p.analysis.min_area = o.min_area;
   p.analysis.max_area = o.max_area;
@@ -117,13 +149,13 @@ void run(const RunDctOptions& o) {
     specimen = std::make_unique<Specimen>(parse_specimen(o.specimen));
     reference = specimen->reference_image();
   } else {
-    reference = read_grey(o.reference);
     frame_files = expand_frames(o.frames);
+    reference = read_grey(o.reference);
   }
+  const std::filesystem::path dir(o.out);
+  make_output_folder(dir, fmt::format("-o '{}'", o.out));
   auto backend = make_backend(o.backend, p);
   backend->set_reference(reference);
-  const std::filesystem::path dir(o.out);
-  std::filesystem::create_directories(dir);
   fmt::print("backend {}: {} reference dots, {} points ({}x{}), {} {}, support {}\n", backend->name(),
              backend->reference_dots().size(), backend->points().size(), grid.x, grid.y, to_string(p.interp),
              p.interp == Interp::mls ? to_string(p.mls.weight) : "", p.mls.support.str());
@@ -210,10 +242,10 @@ void add_fields_command(CLI::App& root) {
   app->add_option("--threshold", o->threshold, "otsu, adaptive or fixed:128 (8-bit scale)")->capture_default_str();
   app->add_option("--polarity", o->polarity, "dark (dark dots on light ground) or light")->capture_default_str();
   app->add_option("--roi", o->roi, "Region of interest x,y,width,height (px)");
-  app->add_option("--min-area", o->min_area, "Smallest dot, px (the seed's Area2)")->capture_default_str();
-  app->add_option("--max-area", o->max_area, "Largest dot, px (the seed's Area1)")->capture_default_str();
-  app->add_option("--search-radius", o->search_radius, "Matching radius, px (0: 0.4 x dot spacing)")->capture_default_str();
-  app->add_option("--threads", o->threads, "CPU threads of a parallel backend (0: all)")->capture_default_str();
+  app->add_option("--min-area", o->min_area, "Smallest dot, px (the seed's Area2)")->capture_default_str()->check(number_in(1, 100000000, true));
+  app->add_option("--max-area", o->max_area, "Largest dot, px (the seed's Area1)")->capture_default_str()->check(number_in(1, 100000000, true));
+  app->add_option("--search-radius", o->search_radius, "Matching radius, px (0: 0.4 x dot spacing)")->capture_default_str()->check(number_in(0, 16384));
+  app->add_option("--threads", o->threads, "CPU threads of a parallel backend (0: all; at most this machine's)")->capture_default_str()->check(number_in(0, 1 << 20, true));
   app->add_option("-o,--out", o->out, "Output folder")->required();
   app->add_flag("--no-overlays", o->no_overlays, "Write only the CSV files");
   app->callback([o] { run(*o); });

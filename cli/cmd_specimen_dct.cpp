@@ -2,7 +2,6 @@
 // its ground truth: the true dot centres and the true displacement and strain on a grid.
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <string>
 
@@ -10,6 +9,7 @@
 
 #include "cli/command.hpp"
 #include "model/errors.hpp"
+#include "model/json_io.hpp"
 #include "model/units.hpp"
 #include "workloads/dct/fields.hpp"
 #include "workloads/dct/io.hpp"
@@ -32,31 +32,29 @@ void run(const SpecimenOptions& o) {
   const Specimen s = parse_specimen(o.spec);
   const Size2 g = parse_size2(o.truth_grid, "--truth-grid", 4096);
   const std::filesystem::path dir(o.out);
-  std::filesystem::create_directories(dir);
+  make_output_folder(dir, fmt::format("-o '{}'", o.out));
   const std::string ext = o.format == "png" ? ".png" : ".tiff";
   write_image(dir / ("reference" + ext), s.reference_image());
   write_image(dir / ("def_0001" + ext), s.deformed_image());
   {
-    std::ofstream f(dir / "dots.csv");
-    f << "index,x_ref,y_ref,radius,x_def,y_def,u_x,u_y\n";
+    std::string f = "index,x_ref,y_ref,radius,x_def,y_def,u_x,u_y\n";
     const auto ref = s.reference_centres(), def = s.deformed_centres();
     for (std::size_t j = 0; j < ref.size(); ++j)
-      f << fmt::format("{},{:.6f},{:.6f},{:.4f},{:.6f},{:.6f},{:.6f},{:.6f}\n", j, ref[j].x, ref[j].y, s.dots[j].radius,
+      f += fmt::format("{},{:.6f},{:.6f},{:.4f},{:.6f},{:.6f},{:.6f},{:.6f}\n", j, ref[j].x, ref[j].y, s.dots[j].radius,
                        def[j].x, def[j].y, def[j].x - ref[j].x, def[j].y - ref[j].y);
-    if (!f) throw InputError(fmt::format("cannot write {}", (dir / "dots.csv").string()));
+    write_file_atomically(dir / "dots.csv", f);
   }
   {
-    std::ofstream f(dir / "truth.csv");
-    f << "x,y,in_material,u_x,u_y,e_xx,e_yy,e_xy\n";
+    std::string f = "x,y,in_material,u_x,u_y,e_xx,e_yy,e_xy\n";
     const auto pts = grid_points_over(s.reference_centres(), static_cast<int>(g.x), static_cast<int>(g.y), 0);
     for (const auto& p : pts) {
       const bool in = s.deformation->in_material(p);
       const Vec2 u = s.deformation->displacement(p);
       const Strain e = s.deformation->strain(p);
-      f << fmt::format("{:.3f},{:.3f},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", p.x, p.y, in ? 1 : 0, u.x, u.y, e.xx,
+      f += fmt::format("{:.3f},{:.3f},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", p.x, p.y, in ? 1 : 0, u.x, u.y, e.xx,
                        e.yy, e.xy);
     }
-    if (!f) throw InputError(fmt::format("cannot write {}", (dir / "truth.csv").string()));
+    write_file_atomically(dir / "truth.csv", f);
   }
   fmt::print("{}\n{} dots, {}x{} {}-bit, {} dots on a {} ground\n", s.deformation->describe(), s.dots.size(),
              s.render.width, s.render.height, s.render.bit_depth,

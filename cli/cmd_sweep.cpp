@@ -108,7 +108,7 @@ void add_sweep_command(CLI::App& root) {
                   "(--rounds-combine). Round r >= 2 is stored under the key <key>/round=r; resuming measures only "
                   "the missing rounds")
       ->capture_default_str();
-  app->add_option("--seed", o->seed, "Seed of random plans")->capture_default_str();
+  app->add_option("--seed", o->seed, "Seed of random plans")->capture_default_str()->check(number_in(0, std::numeric_limits<std::uint64_t>::max(), true));
   app->add_flag("--quiet,-q", o->quiet, "No progress on stderr (warnings still)");
   app->add_flag("--json", o->json, "Print the sweep's report as JSON");
   add_workload_subcommands(

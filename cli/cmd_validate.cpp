@@ -304,10 +304,12 @@ void add_validate_command(CLI::App& root) {
   app->add_option("--backend", o->backends, "Only samples of these backends (repeatable)");
   app->add_flag("--by-plan", o->by_plan, "Also break the errors down by sweep plan");
   app->add_option("--target-mean", o->target_mean, "Target for the mean relative error of the total [%]")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(1e-9, 1e6));
   app->add_option("--target-max", o->target_max, "Target for the maximum relative error of the total [%]")
-      ->capture_default_str();
-  app->add_option("--worst", o->worst, "Show this many worst samples")->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(1e-9, 1e6));
+  app->add_option("--worst", o->worst, "Show this many worst samples")->capture_default_str()->check(number_in(0, 1000000, true));
   app->add_flag("--strict", o->strict, "Exit with status 3 when a target is missed");
   app->add_flag("--json", o->json, "Print JSON instead of tables");
   app->add_option("--rounds-combine", o->rounds_combine,

@@ -1,6 +1,8 @@
 #include "cli/workload_cli.hpp"
 
+#include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 
 #include <fmt/format.h>
@@ -56,13 +58,50 @@ void add_workload_subcommands(CLI::App& verb, const std::function<void(const Wor
   }
 }
 
+CLI::Validator number_in(long double lo, long double hi, bool whole) {
+  auto range = [lo, hi, whole] {
+    if (whole)
+      return fmt::format("a whole number in [{}, {}]", static_cast<std::int64_t>(lo),
+                         static_cast<std::uint64_t>(hi));
+    return fmt::format("a finite number in [{}, {}]", static_cast<double>(lo), static_cast<double>(hi));
+  };
+  return CLI::Validator(
+      [lo, hi, whole, range](std::string& text) -> std::string {
+        long double v = 0;
+        bool ok = false;
+        const char* b = text.data();
+        const char* e = b + text.size();
+        if (whole) {
+          if (!text.empty() && text[0] == '-') {
+            std::int64_t i = 0;
+            const auto r = std::from_chars(b, e, i);
+            ok = r.ec == std::errc() && r.ptr == e;
+            v = static_cast<long double>(i);
+          } else {
+            std::uint64_t u = 0;
+            const auto r = std::from_chars(b, e, u);
+            ok = r.ec == std::errc() && r.ptr == e;
+            v = static_cast<long double>(u);
+          }
+        } else {
+          double d = 0;
+          const auto r = std::from_chars(b, e, d);
+          ok = r.ec == std::errc() && r.ptr == e && std::isfinite(d);
+          v = d;
+        }
+        if (!ok || v < lo || v > hi) return fmt::format("'{}' is not {}", text.substr(0, 40), range());
+        return {};
+      },
+      range());
+}
+
 void add_measure_options(CLI::App& app, calib::MeasureSettings& settings, bool& no_cupti) {
   app.add_option("--steps", settings.steps, "Steps (frames) per repetition (default: the workload's for the backend)")
-      ->check(CLI::Range(std::int64_t{1}, std::int64_t{1} << 30));
+      ->check(number_in(1, std::int64_t{1} << 30, true));
   app.add_option("--reps", settings.repetitions, "Timed repetitions (default: the workload's for the backend)")
-      ->check(CLI::Range(2, 100000));
+      ->check(number_in(2, 100000, true));
   app.add_option("--warmup", settings.warmup, "Untimed repetitions first (default: the workload's for the backend)")
-      ->check(CLI::Range(0, 100000));
+      ->check(number_in(0, 100000, true));
   app.add_flag("--no-cupti", no_cupti, "Time device work with host clocks only");
 }
 

@@ -41,6 +41,11 @@ std::shared_ptr<WorkloadArgs> add_workload_options(CLI::App& app, const workload
 void add_workload_subcommands(CLI::App& verb, const std::function<void(const WorkloadArgs&)>& action,
                               const std::function<std::string(const workload::Workload&)>& describe = {});
 
+// The one check of a number typed on the command line: a CLI11 validator that accepts the text only
+// as a finite number in [lo, hi] (a whole one when `whole`), so nan, inf, 1e309, 1.5 for a count and
+// 18446744073709551616 for a 64-bit seed are refused with the option's name and its range (exit 2).
+CLI::Validator number_in(long double lo, long double hi, bool whole = false);
+
 // --steps, --reps, --warmup and --no-cupti: how `run` and `sweep` measure (calibrate/measure.hpp).
 void add_measure_options(CLI::App& app, calib::MeasureSettings& settings, bool& no_cupti);
 

@@ -1,9 +1,14 @@
 #include "model/json_io.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
-#include <fstream>
-#include <sstream>
+#include <cstdlib>
 #include <system_error>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -15,6 +20,16 @@ namespace dtflop {
 using nlohmann::json;
 
 namespace {
+
+std::string errno_text(int e) { return std::error_code(e, std::generic_category()).message(); }
+
+std::string format_limit(std::uintmax_t bytes) {
+  if (bytes >= (std::uintmax_t{1} << 30) && bytes % (std::uintmax_t{1} << 30) == 0)
+    return fmt::format("{} GiB", bytes >> 30);
+  if (bytes >= (std::uintmax_t{1} << 20) && bytes % (std::uintmax_t{1} << 20) == 0)
+    return fmt::format("{} MiB", bytes >> 20);
+  return fmt::format("{} bytes", bytes);
+}
 
 [[noreturn]] void bad(const std::string& field, const json& value, const std::string& expected) {
   std::string shown = value.is_null() ? std::string("nothing") : value.dump();
@@ -158,49 +173,151 @@ MachineProfile profile_from_json(const json& j) {
 }
 
 json read_json_file(const std::filesystem::path& path, std::string_view what, std::string_view remedy) {
-  std::ifstream in(path);
-  if (!in)
-    throw InputError(fmt::format("cannot read {} '{}': {}; {}", what, path.string(),
-                                 std::error_code(errno, std::generic_category()).message(), remedy));
+  const std::string named = fmt::format("{} '{}'", what, path.string());
+  std::string text;
   try {
-    return json::parse(in);
-  } catch (const json::parse_error& e) {
-    throw InputError(fmt::format("{} '{}' is not valid JSON (byte {}): {}", what, path.string(), e.byte, remedy));
+    text = read_file_limited(path, named, kMaxJsonFileBytes);
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("{}; {}", e.what(), remedy));
   }
+  return parse_json_limited(text, named);
 }
 
 MachineProfile load_profile(const std::filesystem::path& path) {
+  const std::string what = fmt::format("machine profile '{}'", path.string());
   const json j = read_json_file(path, "machine profile", fmt::format("write one with `dtflop probe -o {}`", path.string()));
   try {
     return profile_from_json(j);
   } catch (const InputError& e) {
-    throw InputError(fmt::format("machine profile '{}': {}", path.string(), e.what()));
+    throw InputError(fmt::format("{}: {}", what, e.what()));
   }
+}
+
+std::string read_file_limited(const std::filesystem::path& path, const std::string& what, std::uintmax_t max_bytes) {
+  // O_NONBLOCK keeps open() from waiting on a FIFO without a writer; reads block again below.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (fd < 0) throw InputError(fmt::format("cannot read {}: {}", what, errno_text(errno)));
+  struct ::stat st {};
+  if (::fstat(fd, &st) != 0) {
+    const int e = errno;
+    ::close(fd);
+    throw InputError(fmt::format("cannot read {}: {}", what, errno_text(e)));
+  }
+  if (S_ISDIR(st.st_mode)) {
+    ::close(fd);
+    throw InputError(fmt::format("{} is a folder; name a file", what));
+  }
+  auto too_big = [&] {
+    return InputError(fmt::format("{} is larger than the {} this reader accepts (a device or a stream is never read "
+                                  "to its end); name the right file",
+                                  what, format_limit(max_bytes)));
+  };
+  if (S_ISREG(st.st_mode) && static_cast<std::uintmax_t>(st.st_size) > max_bytes) {
+    ::close(fd);
+    throw too_big();
+  }
+  ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+  std::string text;
+  if (S_ISREG(st.st_mode)) text.reserve(static_cast<std::size_t>(st.st_size));
+  std::vector<char> buf(std::size_t{1} << 16);
+  for (;;) {
+    const ssize_t n = ::read(fd, buf.data(), buf.size());
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const int e = errno;
+      ::close(fd);
+      throw InputError(fmt::format("reading {} failed: {}", what, errno_text(e)));
+    }
+    if (n == 0) break;
+    if (text.size() + static_cast<std::size_t>(n) > max_bytes) {
+      ::close(fd);
+      throw too_big();
+    }
+    text.append(buf.data(), static_cast<std::size_t>(n));
+  }
+  ::close(fd);
+  return text;
+}
+
+json parse_json_limited(std::string_view text, const std::string& what) {
+  // The depth is checked as the parser opens each array or object, before it holds deeper ones.
+  const json::parser_callback_t limit_depth = [&what](int depth, json::parse_event_t event, json&) {
+    if ((event == json::parse_event_t::object_start || event == json::parse_event_t::array_start) &&
+        depth >= kMaxJsonDepth)
+      throw InputError(fmt::format("{} nests arrays or objects more than {} deep (dtflop writes nothing like that); "
+                                   "name the right file",
+                                   what, kMaxJsonDepth));
+    return true;
+  };
+  try {
+    return json::parse(text.begin(), text.end(), limit_depth);
+  } catch (const json::parse_error& e) {
+    throw InputError(fmt::format("{} is not valid JSON (byte {}); fix or re-create it", what, e.byte));
+  } catch (const json::out_of_range&) {
+    throw InputError(fmt::format("{} holds a number too large for a double (e.g. 1e309); fix or re-create it",
+                                 what));
+  } catch (const json::exception&) {
+    throw InputError(fmt::format("{} is not valid JSON; fix or re-create it", what));
+  }
+}
+
+void make_output_folder(const std::filesystem::path& folder, const std::string& what) {
+  std::error_code ec;
+  for (auto p = folder; !p.empty(); p = p.parent_path()) {
+    const auto st = std::filesystem::status(p, ec);  // through links: a link to a folder is a folder
+    if (std::filesystem::exists(st)) {
+      if (!std::filesystem::is_directory(st))
+        throw InputError(fmt::format("{}: '{}' exists and is not a folder; name a new folder", what, p.string()));
+      break;
+    }
+    if (p == p.parent_path()) break;
+  }
+  std::filesystem::create_directories(folder, ec);
+  if (ec) throw InputError(fmt::format("{}: cannot make folder '{}': {}", what, folder.string(), ec.message()));
 }
 
 void write_file_atomically(const std::filesystem::path& path, const std::string& text) {
   // An output replaces an earlier output (a regular file) and nothing else: not a link, a device
-  // file or a folder.
+  // file, a FIFO or a folder.
   std::error_code ec0;
   const auto st = std::filesystem::symlink_status(path, ec0);
-  if (!ec0 && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st))
+  const bool existed = !ec0 && std::filesystem::exists(st);
+  if (existed && !std::filesystem::is_regular_file(st))
     throw InputError(fmt::format("'{}' exists and is not a regular file (a link, a device or a folder); write the "
                                  "output to a new file name",
                                  path.string()));
-  auto tmp = path;
-  tmp += ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out)
-      throw InputError(fmt::format("cannot write '{}': {}", tmp.string(),
-                                   std::error_code(errno, std::generic_category()).message()));
-    out << text;
-    out.flush();
-    if (!out) throw InputError(fmt::format("writing '{}' failed (disk full?)", tmp.string()));
+  // A fresh temporary file beside it (mkstemp: never an existing file or link), so the rename stays
+  // in one file system and nothing else is touched.
+  std::string tmp = path.string() + ".tmp.XXXXXX";
+  const int fd = ::mkstemp(tmp.data());
+  if (fd < 0) throw InputError(fmt::format("cannot write '{}': {}", path.string(), errno_text(errno)));
+  auto fail = [&](int e, bool open) {
+    if (open) ::close(fd);
+    ::unlink(tmp.c_str());
+    return InputError(fmt::format("writing '{}' failed: {}; '{}' was left as it was", path.string(), errno_text(e),
+                                  path.string()));
+  };
+  // The replaced file's permissions, or those a new file gets (0666 less the umask).
+  mode_t mode = 0644;
+  struct ::stat old {};
+  if (existed && ::stat(path.c_str(), &old) == 0) {
+    mode = old.st_mode & 07777;
+  } else {
+    const mode_t mask = ::umask(0);
+    ::umask(mask);
+    mode = 0666 & ~mask;
   }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw InputError(fmt::format("cannot move '{}' to '{}': {}", tmp.string(), path.string(), ec.message()));
+  if (::fchmod(fd, mode) != 0) throw fail(errno, true);
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) throw fail(n < 0 ? errno : ENOSPC, true);
+    done += static_cast<std::size_t>(n);
+  }
+  if (::fsync(fd) != 0) throw fail(errno, true);
+  if (::close(fd) != 0) throw fail(errno, false);
+  if (::rename(tmp.c_str(), path.c_str()) != 0) throw fail(errno, false);
 }
 
 void save_profile(const MachineProfile& p, const std::filesystem::path& path) {

@@ -4,6 +4,8 @@
 #include <charconv>
 #include <cmath>
 #include <string>
+#include <thread>
+#include <algorithm>
 
 #include <fmt/format.h>
 
@@ -64,6 +66,15 @@ std::int64_t parse_bytes(std::string_view text, std::string_view what) {
                                  what, text, unit));
   if (v <= 0) throw InputError(fmt::format("{} '{}' must be positive", what, text));
   return static_cast<std::int64_t>(std::llround(v * scale));
+}
+
+int checked_threads(std::int64_t requested, std::string_view what) {
+  const std::int64_t hw = std::max<std::int64_t>(1, std::thread::hardware_concurrency());
+  if (requested < 0 || requested > hw)
+    throw InputError(fmt::format("{} {} is outside 0..{}: this machine has {} hardware threads; give at most that "
+                                 "(0: all)",
+                                 what, requested, hw, hw));
+  return requested == 0 ? static_cast<int>(hw) : static_cast<int>(requested);
 }
 
 Size2 parse_size2(std::string_view text, std::string_view what, std::int64_t max) {

@@ -13,6 +13,11 @@ double parse_duration(std::string_view text, std::string_view what);
 // "4KiB", "16MiB", "1GiB", "1000" (bytes), "2MB".
 std::int64_t parse_bytes(std::string_view text, std::string_view what);
 
+// The threads to run with for `--threads requested` (0: every hardware thread). Throws InputError
+// naming `what` when it asks for more threads than this machine has (creating thousands of threads
+// fails or thrashes) or fewer than 0.
+int checked_threads(std::int64_t requested, std::string_view what);
+
 struct Size2 {
   std::int64_t x = 0;
   std::int64_t y = 0;

@@ -1,20 +1,22 @@
 #!/usr/bin/env bash
 # Installs what dtflop needs from Debian 12 packages (only what is missing) and builds it
 # (Release) into build/. Idempotent: run it again and it only rebuilds what changed.
-#   scripts/setup.sh [--sanitize]   # --sanitize (the test suite) also builds build-asan/ (ASan +
-#                                   # UBSan, host code) and installs what the tests alone need
+#   scripts/setup.sh [--sanitize] [--fuzz]
+#     --sanitize also builds build-asan/ (ASan + UBSan, host code) and installs what the test
+#                suite alone needs (scripts/test.sh passes it)
+#     --fuzz     also builds build-fuzz/: the libFuzzer targets of fuzz/ (clang, ASan + UBSan)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(cmake ninja-build g++ pkg-config libeigen3-dev libfmt-dev nlohmann-json3-dev libcli11-dev
           libopencv-dev libceres-dev libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
-          xz-utils)
-# xz-utils: the archived stores in results/. For the test suite (scripts/test.sh passes
-# --sanitize), headless Chromium and a font: the report tests open every kind of report as a
-# person would (tests/reports/); the main job does not need them.
-if [ "${1:-}" = "--sanitize" ]; then
-  packages+=(chromium fonts-dejavu-core)
-fi
+          clang libclang-rt-14-dev  # clang + libFuzzer: the fuzz targets (fuzz/)
+          xz-utils)                 # the archived stores in results/
+# The test suite (--sanitize): headless Chromium and a font, with which the report tests open
+# every kind of report as a person would (tests/reports/); the main job does not need them.
+for arg in "$@"; do
+  if [ "$arg" = "--sanitize" ]; then packages+=(chromium fonts-dejavu-core); fi
+done
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -37,9 +39,28 @@ jobs=$(nproc)
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >&2
 cmake --build build -j "$jobs" >&2
 
-if [ "${1:-}" = "--sanitize" ]; then
+sanitize=0
+fuzz=0
+for arg in "$@"; do
+  case "$arg" in
+    --sanitize) sanitize=1 ;;
+    --fuzz) fuzz=1 ;;
+    *) echo "setup: unknown option '$arg'; use --sanitize and/or --fuzz" >&2; exit 2 ;;
+  esac
+done
+
+if [ "$sanitize" = 1 ]; then
   # Host code only: CUDA backends are left out of the sanitized build.
   cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DDTFLOP_SANITIZE=ON \
         -DDTFLOP_WITH_CUDA=OFF -DDTFLOP_BUILD_BENCHMARKS=OFF >&2
   cmake --build build-asan -j "$jobs" >&2
+fi
+
+if [ "$fuzz" = 1 ]; then
+  # libFuzzer needs clang; everything is instrumented (fuzzer, ASan, UBSan). Only the fuzz targets
+  # and what they link are built.
+  cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang \
+        -DCMAKE_CXX_COMPILER=clang++ -DDTFLOP_FUZZ=ON -DDTFLOP_WITH_CUDA=OFF -DDTFLOP_BUILD_TESTS=OFF \
+        -DDTFLOP_BUILD_BENCHMARKS=OFF >&2
+  cmake --build build-fuzz -j "$jobs" --target dtflop_fuzz_targets >&2
 fi

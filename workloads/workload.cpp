@@ -2,11 +2,11 @@
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 
 #include <fmt/format.h>
 
 #include "model/errors.hpp"
+#include "model/json_io.hpp"
 #include "model/units.hpp"
 
 namespace dtflop::workload {
@@ -55,6 +55,13 @@ const ParamSpec* Workload::find_param(std::string_view name) const {
 namespace {
 
 std::string as_text(const json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); }
+// A value as messages show it: on one line, at most 60 characters.
+std::string shown(const json& v) {
+  std::string s = as_text(v);
+  for (char& ch : s)
+    if (static_cast<unsigned char>(ch) < 0x20) ch = ' ';
+  return s.size() <= 60 ? s : s.substr(0, 57) + "...";
+}
 
 // A whole number from JSON or from text as typed ("12"), in [min, max].
 std::int64_t whole(const json& v, const ParamSpec& p, std::string_view wname) {
@@ -79,7 +86,7 @@ std::int64_t whole(const json& v, const ParamSpec& p, std::string_view wname) {
   }
   if (!ok)
     throw InputError(fmt::format("{} --{} '{}' is not a whole number; give one in [{}, {}]", wname, p.name,
-                                 as_text(v), static_cast<std::int64_t>(p.min), static_cast<std::int64_t>(p.max)));
+                                 shown(v), static_cast<std::int64_t>(p.min), static_cast<std::int64_t>(p.max)));
   if (static_cast<double>(x) < p.min || static_cast<double>(x) > p.max)
     throw InputError(fmt::format("{} --{} {} is outside [{}, {}]{}; give a value inside it", wname, p.name, x,
                                  static_cast<std::int64_t>(p.min), static_cast<std::int64_t>(p.max),
@@ -105,7 +112,7 @@ double real(const json& v, const ParamSpec& p, std::string_view wname) {
   }
   if (!ok || !std::isfinite(x))
     throw InputError(fmt::format("{} --{} '{}' is not a finite number; give one in [{}, {}]", wname, p.name,
-                                 as_text(v), p.min, p.max));
+                                 shown(v), p.min, p.max));
   if (x < p.min || x > p.max)
     throw InputError(fmt::format("{} --{} {} is outside [{}, {}]{}; give a value inside it", wname, p.name, x, p.min,
                                  p.max, p.unit.empty() ? "" : " " + p.unit));
@@ -123,7 +130,7 @@ json size2(const json& v, const ParamSpec& p, std::string_view wname) {
     w = s.x;
     h = s.y;
   } else {
-    throw InputError(fmt::format("{} --{} '{}' is not a size WxH (e.g. 1000x1000)", wname, p.name, as_text(v)));
+    throw InputError(fmt::format("{} --{} '{}' is not a size WxH (e.g. 1000x1000)", wname, p.name, shown(v)));
   }
   for (auto x : {w, h})
     if (static_cast<double>(x) < p.min || static_cast<double>(x) > p.max)
@@ -141,7 +148,7 @@ bool flag(const json& v, const ParamSpec& p, std::string_view wname) {
     if (s == "false" || s == "0" || s == "off" || s == "no") return false;
   }
   if (v.is_number_integer() && (v.get<int>() == 0 || v.get<int>() == 1)) return v.get<int>() == 1;
-  throw InputError(fmt::format("{} --{} '{}' is not true or false", wname, p.name, as_text(v)));
+  throw InputError(fmt::format("{} --{} '{}' is not true or false", wname, p.name, shown(v)));
 }
 
 json value_of(const json& v, const ParamSpec& p, std::string_view wname) {
@@ -156,11 +163,11 @@ json value_of(const json& v, const ParamSpec& p, std::string_view wname) {
         if (c == s) return s;
       std::string known;
       for (const auto& c : p.choices) known += (known.empty() ? "" : ", ") + c;
-      throw InputError(fmt::format("{} --{} '{}' is unknown; use one of {}", wname, p.name, s, known));
+      throw InputError(fmt::format("{} --{} '{}' is unknown; use one of {}", wname, p.name, shown(v), known));
     }
     case Kind::text:
       if (!v.is_string())
-        throw InputError(fmt::format("{} --{} must be text, got {}", wname, p.name, v.dump()));
+        throw InputError(fmt::format("{} --{} must be text, got {}", wname, p.name, shown(v)));
       return v;
   }
   return v;
@@ -171,7 +178,7 @@ json value_of(const json& v, const ParamSpec& p, std::string_view wname) {
 Config Workload::validate(const json& given, const Backend& b) const {
   if (!given.is_object())
     throw InputError(fmt::format("a {} configuration must be a JSON object of parameters, got {}", name(),
-                                 given.dump()));
+                                 shown(given)));
   for (auto it = given.begin(); it != given.end(); ++it) {
     const ParamSpec* p = find_param(it.key());
     if (!p) {
@@ -213,20 +220,15 @@ std::string Workload::key(const Backend& b, const Config& c) const {
 }
 
 PlanConfigs Workload::plan_from_file(const std::string& path, const Backend& b) const {
-  std::ifstream in(path);
-  if (!in)
-    throw InputError(fmt::format("--plan '{}' is neither a plan of {} ({}) nor a readable plan file", path, name(),
-                                 [this] {
-                                   std::string s;
-                                   for (const auto& [n, d] : plan_names()) s += (s.empty() ? "" : ", ") + n;
-                                   return s + ", random:N";
-                                 }()));
-  json j;
-  try {
-    j = json::parse(in);
-  } catch (const json::parse_error& e) {
-    throw InputError(fmt::format("plan '{}' is not valid JSON (byte {}); fix the file", path, e.byte));
-  }
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec))
+    throw InputError(fmt::format("--plan '{}' is neither a plan of {} ({}) nor a plan file", path, name(), [this] {
+      std::string s;
+      for (const auto& [n, d] : plan_names()) s += (s.empty() ? "" : ", ") + n;
+      return s + ", random:N";
+    }()));
+  const std::string what = fmt::format("plan '{}'", path);
+  const json j = parse_json_limited(read_file_limited(path, what, kMaxJsonFileBytes), what);
   if (!j.is_object() || !j.contains("configs") || !j["configs"].is_array() || j["configs"].empty())
     throw InputError(fmt::format("plan '{}' needs a non-empty \"configs\" array of parameter objects (e.g. "
                                  "{{\"configs\": [{{\"{}\": ...}}]}})",
@@ -236,6 +238,8 @@ PlanConfigs Workload::plan_from_file(const std::string& path, const Backend& b) 
                                  j["configs"].size()));
   PlanConfigs p;
   p.name = std::filesystem::path(path).filename().string();
+  if (j.contains("description") && !j["description"].is_string())
+    throw InputError(fmt::format("plan '{}': \"description\" must be text", path));
   p.description = j.value("description", fmt::format("configurations listed in {}", path));
   for (std::size_t i = 0; i < j["configs"].size(); ++i) {
     try {

@@ -26,7 +26,7 @@ inline calib::Sample synthetic_sample(const std::string& key, const CostCounts& 
   s.workload = "rbe";
   s.backend = backend;
   s.plan = "synthetic";
-  s.parameters = {{"key", key}};
+  s.parameters = nlohmann::json::object();  // the defaults: a valid configuration of the backend
   s.counts = counts;
   s.steps = 1;
   s.source = calib::TimingSource::cupti;

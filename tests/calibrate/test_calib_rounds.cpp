@@ -33,7 +33,7 @@ Sample hand_sample(const std::string& key, int round, std::vector<double> total,
   s.workload = "rbe";
   s.backend = "cuda-seed";
   s.plan = "hand";
-  s.parameters = {{"nx", 100 + round}};  // tells the rounds apart
+  s.parameters = {{"grid", {100 + round, 100}}};  // tells the rounds apart
   s.counts = rbe::seed_gpu_counts({100, 100, 3, 3});
   s.steps = 10;
   s.components[Component::total] = summarize(std::move(total));

@@ -224,6 +224,8 @@ TEST_F(Store, LoadingKeepsWhatTheFilterKeepsAndRefusesMixedWorkloads) {
 
   Sample other = sample(7);
   other.workload = "dct";
+  other.backend = "cpu-seq";
+  other.parameters = nlohmann::json::object();
   {
     StoreWriter w(path_, warnings);
     w.append(other);

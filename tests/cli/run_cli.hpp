@@ -23,12 +23,13 @@ inline std::string slurp(const std::filesystem::path& p) {
   return s.str();
 }
 
-// `args` is appended to the executable's path as shell text.
-inline CliResult run_dtflop(const std::string& args) {
+// `args` is appended to the executable's path as shell text; run in folder `cwd` when given.
+inline CliResult run_dtflop(const std::string& args, const std::string& cwd = {}) {
   const auto dir = std::filesystem::temp_directory_path() /
                    ("dtflop_cli_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
-  const std::string cmd = std::string(DTFLOP_BINARY_DIR) + "/dtflop " + args + " >" +
+  const std::string cmd = (cwd.empty() ? std::string() : "cd '" + cwd + "' && ") + std::string(DTFLOP_BINARY_DIR) +
+                          "/dtflop " + args + " >" +
                           (dir / "out").string() + " 2>" + (dir / "err").string();
   CliResult r;
   const int raw = std::system(cmd.c_str());

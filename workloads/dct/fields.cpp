@@ -59,7 +59,8 @@ Support parse_support(const std::string& text) {
   if (ends("px")) {
     s.kind = Support::Kind::radius;
     s.radius = number(text.substr(0, text.size() - 2));
-    if (!(s.radius > 0)) throw InputError(fmt::format("support radius {} must be > 0 px", text));
+    if (!(s.radius > 0) || !(s.radius <= 16384))
+      throw InputError(fmt::format("support radius {} must be a finite number in (0, 16384] px", text));
   } else {
     const std::string t = ends("dots") ? text.substr(0, text.size() - 4) : text;
     const double v = number(t);

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
+#include <cstdint>
 #include <limits>
 
 #include <fmt/format.h>
@@ -10,15 +10,56 @@
 #include <opencv2/imgproc.hpp>
 
 #include "model/errors.hpp"
+#include "model/json_io.hpp"
 #include "workloads/dct/fields.hpp"
 
 namespace dtflop::dct {
+
+namespace {
+
+// Refuses an image whose declared size exceeds what dtflop processes, before it is decoded (a
+// header may declare 100000x100000 in a few bytes). PNG's size is in its header; other formats
+// are checked by OpenCV's own limit while decoding and by the size of the result.
+void check_image_size(const std::filesystem::path& path, std::int64_t w, std::int64_t h) {
+  if (w < 1 || h < 1 || w > kMaxImageSide || h > kMaxImageSide || w * h > kMaxImagePixels)
+    throw InputError(fmt::format("image '{}' is {}x{} px (about {:.0f} MiB as 16-bit grey): outside 1..{} px a side "
+                                 "and {} MP; use a smaller image or a --roi of it",
+                                 path.string(), w, h, static_cast<double>(w) * static_cast<double>(h) * 2 / (1 << 20), kMaxImageSide, kMaxImagePixels / 1000000));
+}
+
+void check_png_header(const std::filesystem::path& path, const std::string& bytes) {
+  static const char kSig[] = "\x89PNG\r\n\x1a\n";
+  if (bytes.size() < 24 || bytes.compare(0, 8, kSig, 8) != 0) return;
+  auto be32 = [&](std::size_t at) {
+    std::int64_t v = 0;
+    for (std::size_t i = 0; i < 4; ++i) v = (v << 8) | static_cast<unsigned char>(bytes[at + i]);
+    return v;
+  };
+  check_image_size(path, be32(16), be32(20));  // IHDR: width, height
+}
+
+}  // namespace
 
 cv::Mat read_grey(const std::filesystem::path& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec))
     throw InputError(fmt::format("image '{}' does not exist or is not a file", path.string()));
-  cv::Mat img = cv::imread(path.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+  return decode_grey(read_file_limited(path, fmt::format("image '{}'", path.string()), kMaxImageFileBytes), path);
+}
+
+cv::Mat decode_grey(const std::string& bytes, const std::filesystem::path& path) {
+  if (bytes.empty() || bytes.size() > kMaxImageFileBytes)
+    throw InputError(fmt::format("image '{}' is empty or larger than 1 GiB", path.string()));
+  check_png_header(path, bytes);
+  cv::Mat img;
+  try {
+    img = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data())),
+                       cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+  } catch (const cv::Exception& e) {
+    throw InputError(fmt::format("image '{}' cannot be decoded ({}); use an image of at most {} MP", path.string(),
+                                 e.err, kMaxImagePixels / 1000000));
+  }
+  if (!img.empty()) check_image_size(path, img.cols, img.rows);
   if (img.empty())
     throw InputError(fmt::format("image '{}' cannot be read: not an image format OpenCV knows, or damaged",
                                  path.string()));
@@ -32,33 +73,34 @@ cv::Mat read_grey(const std::filesystem::path& path) {
 }
 
 void write_image(const std::filesystem::path& path, const cv::Mat& image) {
-  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
+  if (path.has_parent_path()) make_output_folder(path.parent_path(), fmt::format("image '{}'", path.string()));
+  // Encoded in memory, then written by the one output path (atomic, never over a link or device).
+  std::vector<std::uint8_t> bytes;
   bool ok = false;
   try {
-    ok = cv::imwrite(path.string(), image);
+    ok = cv::imencode(path.extension().string(), image, bytes);
   } catch (const cv::Exception& e) {
-    throw InputError(fmt::format("cannot write image '{}': {}", path.string(), e.what()));
+    throw InputError(fmt::format("cannot write image '{}': {}", path.string(), e.err));
   }
-  if (!ok) throw InputError(fmt::format("cannot write image '{}' (unknown extension or unwritable folder)", path.string()));
+  if (!ok) throw InputError(fmt::format("cannot write image '{}' (unknown extension)", path.string()));
+  write_file_atomically(path, std::string(bytes.begin(), bytes.end()));
 }
 
 void write_fields_csv(const std::filesystem::path& path, const std::vector<Vec2>& points,
                       const std::vector<FieldValue<double>>& fields) {
   if (points.size() != fields.size()) throw InputError("points and fields differ in length");
-  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
-  std::ofstream f(path);
-  if (!f) throw InputError(fmt::format("cannot write '{}'", path.string()));
-  f << "x,y,u_x,u_y,e_xx,e_yy,e_xy,valid,status,support\n";
+  if (path.has_parent_path()) make_output_folder(path.parent_path(), fmt::format("'{}'", path.string()));
+  std::string f = "x,y,u_x,u_y,e_xx,e_yy,e_xy,valid,status,support\n";
   for (std::size_t i = 0; i < points.size(); ++i) {
     const auto& v = fields[i];
     const bool ok = v.status == PointStatus::ok;
     if (ok)
-      f << fmt::format("{:.3f},{:.3f},{:.6f},{:.6f},{:.9g},{:.9g},{:.9g},1,ok,{}\n", points[i].x, points[i].y, v.ux,
+      f += fmt::format("{:.3f},{:.3f},{:.6f},{:.6f},{:.9g},{:.9g},{:.9g},1,ok,{}\n", points[i].x, points[i].y, v.ux,
                        v.uy, v.exx, v.eyy, v.exy, v.support);
     else
-      f << fmt::format("{:.3f},{:.3f},,,,,,0,{},{}\n", points[i].x, points[i].y, to_string(v.status), v.support);
+      f += fmt::format("{:.3f},{:.3f},,,,,,0,{},{}\n", points[i].x, points[i].y, to_string(v.status), v.support);
   }
-  if (!f) throw InputError(fmt::format("writing '{}' failed", path.string()));
+  write_file_atomically(path, f);
 }
 
 std::string field_name(Field f) {

@@ -3,6 +3,7 @@
 // on the image with a colour bar and units.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -14,10 +15,20 @@
 
 namespace dtflop::dct {
 
+// Images dtflop reads: at most kMaxImageSide px a side and kMaxImagePixels in all (the DCT
+// workload's frames go up to 24 MP), files of at most kMaxImageFileBytes.
+inline constexpr std::int64_t kMaxImageSide = 16384;
+inline constexpr std::int64_t kMaxImagePixels = 64'000'000;
+inline constexpr std::uintmax_t kMaxImageFileBytes = std::uintmax_t{1} << 30;
+
 // One-channel 8- or 16-bit image (colour is converted to grey). Throws InputError with the
-// path when the file is missing, unreadable or of an unsupported depth.
+// path when the file is missing, unreadable, too large (checked before decoding where the
+// format's header says) or of an unsupported depth.
 cv::Mat read_grey(const std::filesystem::path& path);
-// PNG or TIFF by extension; throws InputError when writing fails.
+// Decodes an image held in memory as read_grey() does a file; `name` names it in messages.
+cv::Mat decode_grey(const std::string& bytes, const std::filesystem::path& name);
+// PNG or TIFF by extension, written atomically (write_file_atomically); throws InputError when
+// writing fails.
 void write_image(const std::filesystem::path& path, const cv::Mat& image);
 
 // x, y, u_x, u_y, e_xx, e_yy, e_xy, valid, status, support (one row per point).

@@ -467,22 +467,49 @@ cv::Mat Specimen::deformed_image() const {
 
 namespace {
 
-double num(const std::map<std::string, std::string>& kv, const std::string& key, double fallback) {
+// The value of `key` (or `fallback` when absent), a finite number in [lo, hi] (whole when `whole`);
+// throws InputError naming the key and its range otherwise.
+double num(const std::map<std::string, std::string>& kv, const std::string& key, double fallback, double lo, double hi,
+           bool whole = false) {
   const auto it = kv.find(key);
   if (it == kv.end()) return fallback;
+  double v = 0;
   try {
     std::size_t used = 0;
-    const double v = std::stod(it->second, &used);
+    v = std::stod(it->second, &used);
     if (used != it->second.size() || !std::isfinite(v)) throw std::invalid_argument("trailing");
-    return v;
   } catch (const std::exception&) {
-    throw InputError(fmt::format("specimen key '{}={}' is not a number", key, it->second));
+    throw InputError(fmt::format("specimen key '{}={}' is not a finite number; give one in [{}, {}]", key,
+                                 it->second.substr(0, 40), lo, hi));
   }
+  if (v < lo || v > hi || (whole && v != std::floor(v)))
+    throw InputError(fmt::format("specimen key '{}={}' is outside [{}, {}]{}; give a value inside it", key, it->second,
+                                 lo, hi, whole ? " (a whole number)" : ""));
+  return v;
 }
 
 std::string str(const std::map<std::string, std::string>& kv, const std::string& key, const std::string& fallback) {
   const auto it = kv.find(key);
   return it == kv.end() ? fallback : it->second;
+}
+
+// Refuses `key` when given: it does not apply to this specimen (`why`), and ignoring it would
+// render something else than asked.
+void refuse(const std::map<std::string, std::string>& kv, const std::string& key, const std::string& why) {
+  if (kv.count(key))
+    throw InputError(fmt::format("specimen key '{}' {}; drop it", key, why));
+}
+
+// Dots a pattern of centre spacing `spacing` would place in `area`; refused above kMaxDots before
+// anything is allocated, with the estimate in the message.
+constexpr double kMaxDots = 1e6;
+void check_dot_estimate(const PatternArea& area, double spacing) {
+  const double w = std::max(0.0, area.x1 - area.x0), h = std::max(0.0, area.y1 - area.y0);
+  const double est = (w / spacing + 1) * (h / spacing + 1);
+  if (!(est <= kMaxDots))
+    throw InputError(fmt::format("the specimen would hold about {:.3g} dots (spacing {:.3g} px over {:.0f}x{:.0f} px), "
+                                 "more than the {:.0f} dtflop renders; make the dots larger or the image smaller",
+                                 est, spacing, w, h, kMaxDots));
 }
 
 }  // namespace
@@ -500,8 +527,9 @@ Specimen parse_specimen(const std::string& text) {
       if (!item.empty()) {
         const auto eq = item.find('=');
         if (eq == std::string::npos || eq == 0)
-          throw InputError(fmt::format("specimen item '{}' is not key=value", item));
-        kv[item.substr(0, eq)] = item.substr(eq + 1);
+          throw InputError(fmt::format("specimen item '{}' is not key=value", item.substr(0, 60)));
+        if (!kv.emplace(item.substr(0, eq), item.substr(eq + 1)).second)
+          throw InputError(fmt::format("specimen key '{}' is given twice; give it once", item.substr(0, eq)));
       }
       pos = comma + 1;
     }
@@ -509,75 +537,99 @@ Specimen parse_specimen(const std::string& text) {
   static const char* known[] = {"size", "pattern", "pitch", "radius", "gap", "count", "seed", "polarity",
                                 "blur", "noise", "lighting", "bits", "ground", "ink", "margin", "dx",
                                 "dy", "deg", "strain", "nu", "k", "a", "load", "supersample"};
-  for (const auto& [k, v] : kv)
-    if (std::find_if(std::begin(known), std::end(known), [&](const char* s) { return k == s; }) == std::end(known))
+  for (const auto& entry : kv) {
+    const std::string& k = entry.first;  // a plain name: clang 14 captures no structured binding
+    if (std::find_if(std::begin(known), std::end(known), [&k](const char* s) { return k == s; }) == std::end(known))
       throw InputError(fmt::format("specimen key '{}' is unknown; known keys: size, pattern, pitch, radius, "
                                    "gap, count, seed, polarity, blur, noise, lighting, bits, ground, ink, "
-                                   "margin, supersample, dx, dy, deg, strain, nu, k, a, load", k));
+                                   "margin, supersample, dx, dy, deg, strain, nu, k, a, load",
+                                   k.substr(0, 40)));
+  }
 
   Specimen s;
   const Size2 size = parse_size2(str(kv, "size", "1024x768"), "specimen size", 16384);
   s.render.width = static_cast<int>(size.x);
   s.render.height = static_cast<int>(size.y);
-  s.render.blur_sigma = num(kv, "blur", 0);
-  s.render.noise_sigma = num(kv, "noise", 0);
-  s.render.lighting = num(kv, "lighting", 0);
-  s.render.bit_depth = static_cast<int>(num(kv, "bits", 8));
-  s.render.ground = num(kv, "ground", 200);
-  s.render.ink = num(kv, "ink", 40);
-  s.render.supersample = static_cast<int>(num(kv, "supersample", 16));
-  s.render.seed = static_cast<std::uint64_t>(num(kv, "seed", 1));
+  s.render.blur_sigma = num(kv, "blur", 0, 0, 50);
+  s.render.noise_sigma = num(kv, "noise", 0, 0, 255);
+  s.render.lighting = num(kv, "lighting", 0, -0.99, 0.99);
+  s.render.bit_depth = static_cast<int>(num(kv, "bits", 8, 8, 16, true));
+  s.render.ground = num(kv, "ground", 200, 0, 255);
+  s.render.ink = num(kv, "ink", 40, 0, 255);
+  if (std::abs(s.render.ground - s.render.ink) < 10)
+    throw InputError(fmt::format("specimen ground={} and ink={} differ by less than 10 grey levels: the dots would "
+                                 "not show; set them further apart",
+                                 s.render.ground, s.render.ink));
+  s.render.supersample = static_cast<int>(num(kv, "supersample", 16, 1, 64, true));
+  const auto seed = static_cast<std::uint64_t>(num(kv, "seed", 1, 0, 9007199254740992.0, true));
+  s.render.seed = seed;
   const std::string pol = str(kv, "polarity", "dark");
   if (pol == "dark") s.render.polarity = Polarity::dark_dots;
   else if (pol == "light") s.render.polarity = Polarity::light_dots;
-  else throw InputError(fmt::format("polarity '{}' is unknown; use dark or light", pol));
+  else throw InputError(fmt::format("polarity '{}' is unknown; use dark or light", pol.substr(0, 40)));
   validate(s.render);
 
+  // Each key applies to some kinds only; one given where it does not apply is refused.
+  const bool kirsch = kind == "kirsch";
+  if (kind != "translation") refuse(kv, "dx", "applies to translation only"), refuse(kv, "dy", "applies to translation only");
+  if (kind != "rotation") refuse(kv, "deg", "applies to rotation only");
+  if (kind != "uniform" && !kirsch) refuse(kv, "strain", "applies to uniform and kirsch only");
+  if (kind != "uniform" && kind != "bending" && !kirsch) refuse(kv, "nu", "applies to uniform, bending and kirsch only");
+  if (kind != "bending") refuse(kv, "k", "applies to bending only");
+  if (!kirsch) refuse(kv, "a", "applies to kirsch only"), refuse(kv, "load", "applies to kirsch only");
+
   const Vec2 centre{0.5 * (s.render.width - 1), 0.5 * (s.render.height - 1)};
-  const double nu = num(kv, "nu", 0.3);
-  const double strain = num(kv, "strain", 1e-3);
+  const double side = std::min(s.render.width, s.render.height);
+  const double nu = num(kv, "nu", 0.3, 0, 0.5);
+  const double strain = num(kv, "strain", 1e-3, -0.1, 0.1);
   if (kind == "reference") {
     s.deformation = make_identity();
   } else if (kind == "translation") {
-    s.deformation = make_translation(num(kv, "dx", 0.5), num(kv, "dy", -0.25));
+    s.deformation = make_translation(num(kv, "dx", 0.5, -side, side), num(kv, "dy", -0.25, -side, side));
   } else if (kind == "rotation") {
-    s.deformation = make_rotation(centre, num(kv, "deg", 0.5) * kPi / 180);
+    s.deformation = make_rotation(centre, num(kv, "deg", 0.5, -180, 180) * kPi / 180);
   } else if (kind == "uniform") {
     s.deformation = make_uniform(centre, strain, -nu * strain);
   } else if (kind == "bending") {
-    s.deformation = make_bending(centre, num(kv, "k", 2e-6), nu);
+    s.deformation = make_bending(centre, num(kv, "k", 2e-6, -1e-3, 1e-3), nu);
   } else if (kind == "kirsch") {
-    const double a = num(kv, "a", 0.1 * std::min(s.render.width, s.render.height));
+    const double a = num(kv, "a", 0.1 * side, 1, 0.4 * side);
     const std::string load = str(kv, "load", "x");
-    if (load != "x" && load != "y") throw InputError(fmt::format("load '{}' must be x or y", load));
+    if (load != "x" && load != "y") throw InputError(fmt::format("load '{}' must be x or y", load.substr(0, 40)));
     s.deformation = make_kirsch(centre, a, strain, nu, load == "y");
     s.hole = std::make_pair(centre, a);
   } else {
     throw InputError(fmt::format("specimen kind '{}' is unknown; use reference, translation, rotation, "
-                                 "uniform, bending or kirsch", kind));
+                                 "uniform, bending or kirsch",
+                                 kind.substr(0, 40)));
   }
 
-  const double radius = num(kv, "radius", 6);
-  const double margin = num(kv, "margin", 4 * radius);
+  const double radius = num(kv, "radius", 6, 1, 0.25 * side);
+  const double margin = num(kv, "margin", std::min(4 * radius, 0.25 * side), 0, 0.25 * side);
   PatternArea area{margin, margin, s.render.width - 1 - margin, s.render.height - 1 - margin, {}, 0};
+  const std::string pattern = str(kv, "pattern", "grid");
+  if (pattern != "random") refuse(kv, "count", "applies to pattern=random only");
+  if (pattern != "random" && !kirsch) refuse(kv, "gap", "applies to pattern=random and kirsch only");
+  if (pattern == "random") refuse(kv, "pitch", "applies to pattern=grid and graded only");
+  const double gap = num(kv, "gap", radius, 0, side);
   if (s.hole) {
     area.keep_out_centre = s.hole->first;
-    area.keep_out_radius = s.hole->second + num(kv, "gap", radius);
+    area.keep_out_radius = s.hole->second + gap;
   }
-  const std::string pattern = str(kv, "pattern", "grid");
-  const auto seed = static_cast<std::uint64_t>(num(kv, "seed", 1));
   if (pattern == "grid") {
-    s.dots = grid_pattern(area, num(kv, "pitch", 4 * radius), radius);
+    const double pitch = num(kv, "pitch", 4 * radius, 2 * radius, side);
+    check_dot_estimate(area, pitch);
+    s.dots = grid_pattern(area, pitch, radius);
   } else if (pattern == "random") {
-    s.dots = random_pattern(area, radius, num(kv, "gap", radius), static_cast<int>(num(kv, "count", 0)), seed);
+    check_dot_estimate(area, 2 * radius + gap);
+    s.dots = random_pattern(area, radius, gap, static_cast<int>(num(kv, "count", 0, 1, kMaxDots, true)), seed);
   } else if (pattern == "graded") {
     const Vec2 focus = s.hole ? s.hole->first : centre;
-    const double pitch = num(kv, "pitch", 4 * radius);
-    s.dots = graded_pattern(area, {focus, pitch, 2 * pitch, radius, 2 * radius,
-                                   0.5 * std::min(s.render.width, s.render.height)},
-                            seed);
+    const double pitch = num(kv, "pitch", 4 * radius, 2 * radius, side);
+    check_dot_estimate(area, pitch);
+    s.dots = graded_pattern(area, {focus, pitch, 2 * pitch, radius, 2 * radius, 0.5 * side}, seed);
   } else {
-    throw InputError(fmt::format("pattern '{}' is unknown; use grid, random or graded", pattern));
+    throw InputError(fmt::format("pattern '{}' is unknown; use grid, random or graded", pattern.substr(0, 40)));
   }
   if (s.dots.empty()) throw InputError("the specimen holds no dot; make the image larger or the dots smaller");
   return s;

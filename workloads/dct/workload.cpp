@@ -85,6 +85,8 @@ class Run final : public wl::Run {
  public:
   Run(const BackendKind& kind, const wl::Config& c, std::int64_t steps) : kind_(kind), steps_(steps) {
     opt_ = pipeline_options(c, kind.name);
+    // Running creates the threads: no more than this machine has (counts may be for another one).
+    if (kind.name == "cpu-par") checked_threads(opt_.threads, "dct --threads");
     const Specimen sp = specimen_of(c);
     const cv::Mat reference = sp.reference_image();
     deformed_ = sp.deformed_image();

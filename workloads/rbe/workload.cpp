@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "model/units.hpp"
 #include "workloads/rbe/backend.hpp"
 
 namespace dtflop::rbe {
@@ -46,6 +47,8 @@ class RbeRun final : public workload::Run {
  public:
   RbeRun(const BackendInfo& info, const Config& c, std::int64_t steps)
       : shape_(shape_of(c)), steps_(steps), device_(info.needs_gpu) {
+    // Running creates the threads: no more than this machine has (counts may be for another one).
+    if (workload::has(c, "threads")) checked_threads(workload::get_int(c, "threads"), "rbe --threads");
     backend_ = make_backend(info.name, options_of(c, nullptr));
     problem_ = synthetic_problem(shape_, static_cast<std::uint64_t>(workload::get_int(c, "problem-seed")));
     backend_->init(problem_);
