@@ -13,7 +13,6 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -164,10 +163,7 @@ void run(const CharacterizeOptions& o) {
   if (o.quick && o.full) throw InputError("--quick and --full exclude each other; give one (or neither: the small plans with the full probe)");
   const fs::path out = o.output;
   std::error_code ec;
-  if (fs::exists(out, ec) && !fs::is_directory(out, ec))
-    throw InputError(fmt::format("'{}' exists and is not a folder; name a folder for the characterization", o.output));
-  fs::create_directories(out, ec);
-  if (ec) throw InputError(fmt::format("cannot create the folder '{}': {}; name another", o.output, ec.message()));
+  make_output_folder(out, fmt::format("-o '{}'", o.output));
   const auto t0 = std::chrono::steady_clock::now();
 
   // 1. The probe: everything after depends on what it found (a GPU or not).
@@ -221,7 +217,9 @@ void run(const CharacterizeOptions& o) {
     r.run({{"sweep", j.workload, "--backend", j.backend, "--plan", held_plan, "--store", held, "--rounds",
             std::to_string(rounds), "--seed", "2"},
            j.dir / "sweep-held.txt", {}, true});
-    r.run({{"calibrate", "--store", fit, "--machine", machine.string(), "-o", fitted.string()},
+    // A fit that ends on a physical bound is a finding about this backend here, not a reason to
+    // stop the other backends: it is written, and the headline points at it.
+    r.run({{"calibrate", "--store", fit, "--machine", machine.string(), "-o", fitted.string(), "--accept-bounds"},
            j.dir / "calibrate.txt", fitted});
     r.run({{"validate", "--store", held, "--machine", fitted.string(), "--json"}, j.dir / "validate.json"});
     r.run({{"report", "predicted", "--store", held, "--machine", fitted.string(), "-o", (j.dir / "report").string()},
@@ -245,10 +243,16 @@ void run(const CharacterizeOptions& o) {
   for (const auto& j : jobs) {
     std::string errors = "-";
     try {
-      const json v = json::parse(std::ifstream(j.dir / "validate.json"));
+      const json v = read_json_file(j.dir / "validate.json", "validation", "rerun dtflop characterize");
       const auto& t = v.at("groups").at("all").at("total");
       errors = fmt::format("{:.1f}% / {:.1f}% over {} configurations, variant {}", 100 * t.at("mean_rel").get<double>(),
                            100 * t.at("max_rel").get<double>(), t.at("n").get<int>(), v.at("variant").get<std::string>());
+    } catch (const std::exception&) {
+    }
+    try {
+      if (read_file_limited(j.dir / "calibrate.txt", "calibrate.txt", kMaxJsonFileBytes).find("at a physical bound") !=
+          std::string::npos)
+        errors += " (a fitted parameter at a physical bound: see calibrate.txt)";
     } catch (const std::exception&) {
     }
     fmt::print("  {:<4} {:<14} {}  {}\n", j.workload, j.backend, errors, (j.dir / "report" / "report.html").string());
