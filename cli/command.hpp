@@ -17,6 +17,8 @@ void add_validate_command(CLI::App& root);
 void add_specimen_command(CLI::App& root);
 void add_fields_command(CLI::App& root);
 void add_density_command(CLI::App& root);
+void add_report_command(CLI::App& root);
+void add_characterize_command(CLI::App& root);
 
 // Adds every command to `root`.
 void setup_all(CLI::App& root);

@@ -8,6 +8,7 @@
 #include "cli/command.hpp"
 #include "cli/workload_cli.hpp"
 #include "model/errors.hpp"
+#include "reports/reports.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -18,7 +19,7 @@ int main(int argc, char** argv) {
       "Exit status: 0 done; 1 failed while running (a measurement, a device); 2 bad input (an option, a file, a "
       "profile that cannot predict this); 3 a deadline (predict/run --deadline) or a target (validate --strict) "
       "missed.");
-  app.set_version_flag("--version", "dtflop 0.1.0");
+  app.set_version_flag("--version", std::string("dtflop ") + dtflop::reports::version());
   app.require_subcommand(1);
   app.fallthrough();
   // Parse errors on one line, ending with what to do.

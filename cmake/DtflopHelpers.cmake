@@ -18,7 +18,10 @@ function(dtflop_library name)
   endif()
   add_library(${name} STATIC ${srcs})
   set_property(GLOBAL APPEND PROPERTY DTFLOP_LIBRARIES ${name})
-  target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR})
+  # Headers are included as "model/profile.hpp": from the source tree, or from
+  # <prefix>/include/dtflop once installed (cmake/DtflopInstall.cmake).
+  target_include_directories(${name} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>
+                                            $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/dtflop>)
   target_link_libraries(${name} PUBLIC ${A_PUBLIC_DEPS} PRIVATE ${A_DEPS})
   dtflop_warnings(${name})
   if(DTFLOP_HAVE_CUDA AND A_CUDA_SOURCES)

@@ -1,6 +1,7 @@
 #include "probes/machine.hpp"
 
 #include <chrono>
+#include <map>
 #include <exception>
 
 #include <fmt/format.h>
@@ -99,6 +100,21 @@ MachineProfile make_profile(const MachineReport& report) {
     }
   }
   auto& md = prof.metadata;
+  // Every point of the transfer sweeps, so a report can draw them against the fitted curve:
+  // "probe.transfers.<series>" = "bytes:seconds ..." (seconds: the median of one copy's
+  // repetitions; reports/reports.hpp reads it). The series is the point's key without its size.
+  std::map<std::string, std::string> sweeps;
+  for (const auto& r : report.reports) {
+    if (r.error || r.skipped || r.probe != "gpu-transfers") continue;
+    for (const auto& m : r.measurements) {
+      if (!m.detail || m.unit != "B/s" || m.stats.n == 0 || !(m.stats.median > 0)) continue;
+      const auto cut = m.key.rfind('_');
+      if (cut == std::string::npos) continue;
+      std::string& text = sweeps[m.key.substr(0, cut)];
+      text += fmt::format("{}{:.0f}:{:.9g}", text.empty() ? "" : " ", m.value * m.stats.median, m.stats.median);
+    }
+  }
+  for (const auto& [series, text] : sweeps) md["probe.transfers." + series] = text;
   md["probe.effort"] = to_string(report.effort);
   md["probe.seconds"] = fmt::format("{:.1f}", report.seconds);
   md["probe.cpu_isa"] = std::string(cpu::to_string(cpu::best_isa()));

@@ -2,14 +2,21 @@
 # Installs what dtflop needs from Debian 12 packages (only what is missing) and builds it
 # (Release) into build/. Idempotent: run it again and it only rebuilds what changed.
 #   scripts/setup.sh [--sanitize] [--fuzz]
-#     --sanitize also builds build-asan/ (ASan + UBSan, host code)
+#     --sanitize also builds build-asan/ (ASan + UBSan, host code) and installs what the test
+#                suite alone needs (scripts/test.sh passes it)
 #     --fuzz     also builds build-fuzz/: the libFuzzer targets of fuzz/ (clang, ASan + UBSan)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(cmake ninja-build g++ pkg-config libeigen3-dev libfmt-dev nlohmann-json3-dev libcli11-dev
           libopencv-dev libceres-dev libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
-          clang libclang-rt-14-dev)  # clang + libFuzzer: the fuzz targets (fuzz/)
+          clang libclang-rt-14-dev  # clang + libFuzzer: the fuzz targets (fuzz/)
+          xz-utils)                 # the archived stores in results/
+# The test suite (--sanitize): headless Chromium and a font, with which the report tests open
+# every kind of report as a person would (tests/reports/); the main job does not need them.
+for arg in "$@"; do
+  if [ "$arg" = "--sanitize" ]; then packages+=(chromium fonts-dejavu-core); fi
+done
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
