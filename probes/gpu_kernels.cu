@@ -145,7 +145,67 @@ FmaTiming run_fma(double target_seconds, int reps) {
   return r;
 }
 
+// cuda-seed's row pass without its multiply by the likelihood: the same loop, shape and layout.
+__global__ void rows_kernel(const float* __restrict__ u, const float* __restrict__ k, int taps, int centre, int n,
+                            float* __restrict__ out) {
+  const int x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x >= n || y >= n) return;
+  float acc = 0.f;
+  for (int b = 0; b < taps; ++b) {
+    const int j = y - (b - centre);
+    acc = fmaf(k[b], (j >= 0 && j < n) ? u[std::size_t(j) * std::size_t(n) + x] : 0.f, acc);
+  }
+  out[std::size_t(y) * std::size_t(n) + x] = acc;
+}
+
 }  // namespace
+
+RowsTiming time_rows(int n, int taps, int reps, int warmup) {
+  if (n < 64 || n > 16384 || taps < 1 || taps > 1025 || reps < 1 || warmup < 0)
+    throw std::invalid_argument("time_rows: n in 64..16384, taps in 1..1025, reps >= 1, warmup >= 0");
+  detail::use_device();
+  const std::size_t cells = std::size_t(n) * std::size_t(n);
+  DeviceBuffer u(cells * sizeof(float)), out(cells * sizeof(float)), k(std::size_t(taps) * sizeof(float));
+  Stream s;
+  Event start, stop;
+  {
+    const std::vector<float> ones(cells, 1.0f), halves(std::size_t(taps), 0.5f);
+    DTFLOP_CUDA(cudaMemcpyAsync(u.get(), ones.data(), u.bytes(), cudaMemcpyHostToDevice, s.get()));
+    DTFLOP_CUDA(cudaMemcpyAsync(k.get(), halves.data(), k.bytes(), cudaMemcpyHostToDevice, s.get()));
+    s.sync();
+  }
+  const int centre = taps / 2;
+  const dim3 block(32, 8), grid(unsigned((n + 31) / 32), unsigned((n + 7) / 8));
+  auto launch = [&] {
+    rows_kernel<<<grid, block, 0, s.get()>>>(u.get<const float>(), k.get<const float>(), taps, centre, n,
+                                             out.get<float>());
+    DTFLOP_CUDA_LAUNCHED();
+  };
+  for (int i = 0; i < warmup; ++i) launch();
+  DTFLOP_CUDA(cudaMemsetAsync(out.get(), 0xFF, out.bytes(), s.get()));  // poison (NaN)
+  RowsTiming r;
+  r.n = n;
+  r.taps = taps;
+  r.flops = 2.0 * static_cast<double>(cells) * taps;
+  for (int i = 0; i < reps; ++i) {
+    start.record(s);
+    launch();
+    stop.record(s);
+    r.seconds.push_back(detail::elapsed(start, stop));
+  }
+  std::vector<float> host(cells);
+  DTFLOP_CUDA(cudaMemcpyAsync(host.data(), out.get(), out.bytes(), cudaMemcpyDeviceToHost, s.get()));
+  s.sync();
+  std::size_t bad = 0;
+  for (int y = 0; y < n; ++y) {
+    // In-grid taps of row y: j = y - b + centre in [0, n).
+    const int lo = std::max(0, y + centre - (n - 1)), hi = std::min(taps - 1, y + centre);
+    const float expect = 0.5f * static_cast<float>(hi - lo + 1);
+    for (int x = 0; x < n; ++x) bad += host[std::size_t(y) * std::size_t(n) + x] != expect;
+  }
+  if (bad != 0) detail::mismatch("GPU across-rows kernel: output cells", out.bytes(), bad, cells);
+  return r;
+}
 
 std::vector<double> time_d2d_memcpy(std::int64_t bytes, int reps, int warmup) {
   if (bytes <= 0 || bytes % 4 != 0 || reps < 1)

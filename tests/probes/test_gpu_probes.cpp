@@ -97,6 +97,17 @@ TEST(GpuProbes, FmaKernelsValidateAndCountFlops) {
   }
 }
 
+TEST(GpuProbes, AcrossRowFmasAreCheckedAndCostMoreThanThePeakRate) {
+  DTFLOP_REQUIRE_GPU();
+  const auto t = gpu::time_rows(512, 17, 3, 1);  // every cell checked inside (ValidationError)
+  ASSERT_EQ(t.seconds.size(), 3u);
+  EXPECT_DOUBLE_EQ(t.flops, 2.0 * 512 * 512 * 17);
+  const double rows = t.flops / summarize(t.seconds).median;
+  const auto f = gpu::time_fma(false, 0.002, 3);
+  EXPECT_LT(rows, f.flops / summarize(f.seconds).median);  // K_GR > 1: each tap waits on a load
+  EXPECT_THROW(gpu::time_rows(32, 17, 3, 1), std::invalid_argument);
+}
+
 TEST(GpuProbes, LaunchOverheadIsMicroseconds) {
   DTFLOP_REQUIRE_GPU();
   const auto t = gpu::time_launches(200, 3);
