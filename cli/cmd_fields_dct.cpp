@@ -1,10 +1,13 @@
 // `dtflop fields`: the DCT full-field measurement on image files or on a rendered specimen.
-// Per frame it writes a CSV of the points (u_x, u_y, e_xx, e_yy, e_xy, validity) and a
-// colour-mapped PNG overlay of each field on the image, with a colour bar and units.
+// Per frame it writes a CSV of the points (u_x, u_y in px, e_xx, e_yy, e_xy in microstrain,
+// validity) and a colour-mapped PNG overlay of each field on the image, with a colour bar and
+// units; the overlays of a sequence share one colour range per field.
 #include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <map>
+#include <optional>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -45,7 +48,26 @@ struct RunDctOptions {
   int threads = 0;
   std::string out;
   bool no_overlays = false;
+  bool per_frame_range = false;
+  std::string strain_range;        // LO:HI microstrain
+  std::string displacement_range;  // LO:HI px
 };
+
+// Why no point of a frame has a value, in words and counts, and what to try.
+std::string no_valid_point(const std::vector<dct::FieldValue<double>>& fields, const std::string& support) {
+  std::map<std::string, int> why;
+  int most_support = 0;
+  for (const auto& f : fields) {
+    why[std::string(dct::to_string(f.status))] += 1;
+    most_support = std::max(most_support, f.support);
+  }
+  std::string counts;
+  for (const auto& [w, n] : why) counts += fmt::format("{}{} {}", counts.empty() ? "" : ", ", n, w);
+  return fmt::format("no point has a valid value ({}; the largest support held {} dots): with --support {} the "
+                     "supports hold too few dots for the basis; give a support in dots (e.g. --support 60dots) or a "
+                     "larger radius",
+                     counts, most_support, support);
+}
 
 // "def_%04d.png" -> the existing files for k = 0, 1, ... (starting at 0 or 1, up to the
 // first gap). A name without '%' is one frame.
@@ -153,16 +175,29 @@ void run(const RunDctOptions& o) {
     reference = read_grey(o.reference);
   }
   const std::filesystem::path dir(o.out);
-  make_output_folder(dir, fmt::format("-o '{}'", o.out));
+  {  // Checked now, made with the first output: a run refused on its first frame leaves nothing behind.
+    std::error_code ec;
+    const auto st = std::filesystem::status(dir, ec);
+    if (std::filesystem::exists(st) && !std::filesystem::is_directory(st))
+      throw InputError(fmt::format("-o '{}' exists and is not a folder; name a new folder", o.out));
+  }
   auto backend = make_backend(o.backend, p);
   backend->set_reference(reference);
   fmt::print("backend {}: {} reference dots, {} points ({}x{}), {} {}, support {}\n", backend->name(),
              backend->reference_dots().size(), backend->points().size(), grid.x, grid.y, to_string(p.interp),
              p.interp == Interp::mls ? to_string(p.mls.weight) : "", p.mls.support.str());
 
-  Table t({"frame", "dots", "matched", "lost", "appeared", "valid points", "mean e_xx [ue]", "mean e_yy [ue]",
-           "time"});
+  // Fixed colour ranges, if given, are checked before any frame is measured.
+  std::optional<ColourRange> strain_range, displacement_range;
+  if (!o.strain_range.empty()) strain_range = parse_colour_range(o.strain_range, "--strain-range");
+  if (!o.displacement_range.empty())
+    displacement_range = parse_colour_range(o.displacement_range, "--displacement-range");
+
+  Table t({"frame", "dots", "matched", "lost", "appeared", "valid points", "mean e_xx [microstrain]",
+           "mean e_yy [microstrain]", "time"});
   const std::size_t n_frames = specimen ? 1 : frame_files.size();
+  std::vector<std::vector<FieldValue<double>>> all_fields;  // per frame, for the overlays
+  std::vector<std::string> stems;
   for (std::size_t k = 0; k < n_frames; ++k) {
     cv::Mat frame;
     std::string label;
@@ -180,22 +215,16 @@ void run(const RunDctOptions& o) {
       throw InputError(fmt::format("frame {}: {}", label, e.what()));
     }
     const std::string stem = fmt::format("frame_{:04d}", k + 1);
-    write_fields_csv(dir / (stem + ".csv"), backend->points(), out.fields);
     int valid = 0;
     double mxx = 0, myy = 0;
     for (const auto& f : out.fields)
       if (f.status == PointStatus::ok) { ++valid; mxx += f.exx; myy += f.eyy; }
-    if (!o.no_overlays)
-      for (Field f : {Field::ux, Field::uy, Field::exx, Field::eyy, Field::exy}) {
-        std::vector<double> v;
-        for (const auto& x : out.fields) v.push_back(x.status == PointStatus::ok ? field_value(x, f) : std::nan(""));
-        write_image(dir / fmt::format("{}_{}.png", stem, field_name(f)),
-                    overlay(frame, backend->points(), p.points_x, p.points_y, v, field_name(f), field_unit(f)));
-      }
+    if (valid == 0) throw InputError(fmt::format("frame {}: {}", label, no_valid_point(out.fields, o.support)));
+    write_fields_csv(dir / (stem + ".csv"), backend->points(), out.fields);
     const int lost = static_cast<int>(backend->reference_dots().size()) - out.matches.matched;
     t.row({label, fmt::format("{}", out.dots.size()), fmt::format("{}", out.matches.matched), fmt::format("{}", lost),
            fmt::format("{}", out.matches.appeared.size()), fmt::format("{} of {}", valid, out.fields.size()),
-           valid ? fmt::format("{:.1f}", 1e6 * mxx / valid) : "-", valid ? fmt::format("{:.1f}", 1e6 * myy / valid) : "-",
+           fmt::format("{:.1f}", 1e6 * mxx / valid), fmt::format("{:.1f}", 1e6 * myy / valid),
            format_duration(out.seconds["total"])});
     if (lost > 0 || !out.matches.appeared.empty()) fmt::print("frame {}: {}\n", label, out.matches.summary());
     if (specimen) {
@@ -215,6 +244,35 @@ void run(const RunDctOptions& o) {
         fmt::print("against the closed form ({}): displacement RMS error {:.4f} px, strain RMS error {:.1f} "
                    "microstrain over {} valid points\n",
                    specimen->deformation->describe(), std::sqrt(su / (2 * n)), 1e6 * std::sqrt(se / (3 * n)), n);
+    }
+    if (!o.no_overlays) {
+      all_fields.push_back(std::move(out.fields));
+      stems.push_back(stem);
+    }
+  }
+  // Overlays: one colour range per field across the whole sequence (so frames compare), unless
+  // --per-frame-range or a fixed range says otherwise.
+  if (!o.no_overlays) {
+    const std::vector<Field> kinds = {Field::ux, Field::uy, Field::exx, Field::eyy, Field::exy};
+    std::map<Field, ColourRange> sequence;
+    for (Field f : kinds) {
+      std::vector<double> every;
+      for (const auto& fields : all_fields)
+        for (const auto& x : fields)
+          if (x.status == PointStatus::ok) every.push_back(field_value(x, f));
+      sequence[f] = colour_range(every);
+    }
+    for (std::size_t k = 0; k < all_fields.size(); ++k) {
+      const cv::Mat frame = specimen ? specimen->deformed_image() : read_grey(frame_files[k]);
+      for (Field f : kinds) {
+        std::vector<double> v;
+        for (const auto& x : all_fields[k]) v.push_back(x.status == PointStatus::ok ? field_value(x, f) : std::nan(""));
+        const bool strain = f == Field::exx || f == Field::eyy || f == Field::exy;
+        std::optional<ColourRange> range = strain ? strain_range : displacement_range;
+        if (!range && !o.per_frame_range) range = sequence[f];
+        write_image(dir / fmt::format("{}_{}.png", stems[k], field_name(f)),
+                    overlay(frame, backend->points(), p.points_x, p.points_y, v, field_name(f), field_unit(f), range));
+      }
     }
   }
   fmt::print("{}", t.str());
@@ -248,6 +306,11 @@ void add_fields_command(CLI::App& root) {
   app->add_option("--threads", o->threads, "CPU threads of a parallel backend (0: all; at most this machine's)")->capture_default_str()->check(number_in(0, 1 << 20, true));
   app->add_option("-o,--out", o->out, "Output folder")->required();
   app->add_flag("--no-overlays", o->no_overlays, "Write only the CSV files");
+  app->add_flag("--per-frame-range", o->per_frame_range,
+                "Give each frame's overlay its own colour range (default: one range per field across the sequence)");
+  app->add_option("--strain-range", o->strain_range, "Fixed colour range of the strain overlays, LO:HI microstrain");
+  app->add_option("--displacement-range", o->displacement_range,
+                  "Fixed colour range of the displacement overlays, LO:HI px");
   app->callback([o] { run(*o); });
 }
 

@@ -184,6 +184,9 @@ TEST_F(Hardening, NonsenseOnTheCommandLineIsRefused) {
   expect_refused("sweep rbe -b cpu-seq --plan random:1 --store s.jsonl --warmup -1", "--warmup");
   expect_refused("fields --specimen uniform:size=400x300 --search-radius nan -o out", "--search-radius");
   expect_refused("fields --specimen uniform:size=400x300 --support infpx -o out", "infpx");
+  // A support too small for any point to hold enough dots: said why, not a blank field and exit 0.
+  expect_refused("fields --specimen uniform:size=400x300 --support 12.5px -o out", "no point has a valid value");
+  expect_refused("fields --specimen uniform:size=400x300 --strain-range 5:-5 -o out", "--strain-range");
   expect_refused("validate --store s.jsonl --machine m.json --target-mean inf", "--target-mean");
   expect_refused("calibrate --store s.jsonl --machine m.json -o f.json --loss-scale nan", "--loss-scale");
 }

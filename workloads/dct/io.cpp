@@ -90,13 +90,15 @@ void write_fields_csv(const std::filesystem::path& path, const std::vector<Vec2>
                       const std::vector<FieldValue<double>>& fields) {
   if (points.size() != fields.size()) throw InputError("points and fields differ in length");
   if (path.has_parent_path()) make_output_folder(path.parent_path(), fmt::format("'{}'", path.string()));
-  std::string f = "x,y,u_x,u_y,e_xx,e_yy,e_xy,valid,status,support\n";
+  // One unit everywhere dtflop shows a field: px for positions and displacements, microstrain for
+  // strains (kCsvHeader names them).
+  std::string f = std::string(kCsvHeader) + "\n";
   for (std::size_t i = 0; i < points.size(); ++i) {
     const auto& v = fields[i];
     const bool ok = v.status == PointStatus::ok;
     if (ok)
-      f += fmt::format("{:.3f},{:.3f},{:.6f},{:.6f},{:.9g},{:.9g},{:.9g},1,ok,{}\n", points[i].x, points[i].y, v.ux,
-                       v.uy, v.exx, v.eyy, v.exy, v.support);
+      f += fmt::format("{:.3f},{:.3f},{:.6f},{:.6f},{:.6g},{:.6g},{:.6g},1,ok,{}\n", points[i].x, points[i].y, v.ux,
+                       v.uy, v.exx * 1e6, v.eyy * 1e6, v.exy * 1e6, v.support);
     else
       f += fmt::format("{:.3f},{:.3f},,,,,,0,{},{}\n", points[i].x, points[i].y, to_string(v.status), v.support);
   }
@@ -125,8 +127,97 @@ double field_value(const FieldValue<double>& v, Field f) {
   return 0;
 }
 
+ColourRange colour_range(const std::vector<double>& values) {
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (double v : values)
+    if (std::isfinite(v)) {
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+  if (!std::isfinite(lo)) return {-1, 1, false};
+  if (lo < 0 && hi > 0) {  // signed: symmetric about zero, so zero is the diverging map's middle
+    hi = std::max(-lo, hi);
+    lo = -hi;
+  }
+  if (hi - lo < 1e-12 * std::max(1.0, std::abs(hi))) {
+    const double pad = std::max(0.5, 0.05 * std::abs(hi));
+    hi += pad;
+    lo -= pad;
+  }
+  return {lo, hi, true};
+}
+
+ColourRange parse_colour_range(const std::string& text, const std::string& option) {
+  const auto colon = text.find(':');
+  double lo = 0, hi = 0;
+  bool ok = colon != std::string::npos;
+  if (ok) {
+    try {
+      std::size_t a = 0, b = 0;
+      lo = std::stod(text.substr(0, colon), &a);
+      hi = std::stod(text.substr(colon + 1), &b);
+      ok = a == colon && b == text.size() - colon - 1;
+    } catch (const std::exception&) {
+      ok = false;
+    }
+  }
+  if (!ok || !std::isfinite(lo) || !std::isfinite(hi) || !(lo < hi))
+    throw InputError(fmt::format("{} '{}' is not LO:HI with finite LO < HI, e.g. -500:500", option, text.substr(0, 60)));
+  return {lo, hi, true};
+}
+
+std::vector<double> nice_ticks(double lo, double hi, int most) {
+  if (!(lo < hi) || most < 2) return {lo, hi};
+  const double raw = (hi - lo) / (most - 1);
+  const double mag = std::pow(10.0, std::floor(std::log10(raw)));
+  double step = mag;
+  for (double m : {1.0, 2.0, 2.5, 5.0, 10.0})
+    if (m * mag >= raw) {
+      step = m * mag;
+      break;
+    }
+  std::vector<double> out;
+  // k x step, rounded to 12 significant digits: 0.6, not 0.6000000000000001, on a label.
+  for (double k = std::ceil(lo / step - 1e-9); k * step <= hi + 1e-9 * step; k += 1)
+    out.push_back(k == 0 ? 0.0 : std::stod(fmt::format("{:.12g}", k * step)));
+  return out;
+}
+
+namespace {
+
+// 256-entry colour maps (BGR). Signed fields: a diverging blue - light grey - red map
+// (Moreland's "cool to warm" end and middle points, interpolated in CIE L*a*b* so equal steps
+// of value look like equal steps of colour); one-signed fields: viridis (OpenCV's).
+cv::Mat diverging_lut() {
+  static const cv::Mat lut = [] {
+    const cv::Vec3f ends[3] = {{59, 76, 192}, {221, 221, 221}, {180, 4, 38}};  // RGB, 0..255
+    cv::Mat rgb(1, 3, CV_32FC3), lab;
+    for (int i = 0; i < 3; ++i) rgb.at<cv::Vec3f>(0, i) = ends[i] / 255.f;
+    cv::cvtColor(rgb, lab, cv::COLOR_RGB2Lab);
+    cv::Mat steps(256, 1, CV_32FC3);  // applyColorMap takes a 256 x 1 table
+    for (int i = 0; i < 256; ++i) {
+      const float t = i / 255.f * 2;
+      const int k = std::min(1, static_cast<int>(t));
+      const float f = t - k;
+      steps.at<cv::Vec3f>(i, 0) = lab.at<cv::Vec3f>(0, k) * (1 - f) + lab.at<cv::Vec3f>(0, k + 1) * f;
+    }
+    cv::Mat back, out;
+    cv::cvtColor(steps, back, cv::COLOR_Lab2BGR);
+    back.convertTo(out, CV_8UC3, 255.0);
+    return out;
+  }();
+  return lut;
+}
+
+void colourize(const cv::Mat& index, bool diverging, cv::Mat& out) {
+  if (diverging) cv::applyColorMap(index, out, diverging_lut());
+  else cv::applyColorMap(index, out, cv::COLORMAP_VIRIDIS);
+}
+
+}  // namespace
+
 cv::Mat overlay(const cv::Mat& image, const std::vector<Vec2>& points, int nx, int ny, const std::vector<double>& values,
-                const std::string& title, const std::string& unit) {
+                const std::string& title, const std::string& unit, std::optional<ColourRange> range) {
   if (nx < 2 || ny < 2 || static_cast<std::size_t>(nx) * ny != points.size() || values.size() != points.size())
     throw InputError("an overlay needs a grid of at least 2x2 points with one value each");
   cv::Mat grey8;
@@ -134,54 +225,67 @@ cv::Mat overlay(const cv::Mat& image, const std::vector<Vec2>& points, int nx, i
   else grey8 = image;
   cv::Mat base;
   cv::cvtColor(grey8, base, cv::COLOR_GRAY2BGR);
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (double v : values)
-    if (std::isfinite(v)) { lo = std::min(lo, v); hi = std::max(hi, v); }
-  if (!std::isfinite(lo)) { lo = -1; hi = 1; }
-  if (lo < 0 && hi > 0) { hi = std::max(-lo, hi); lo = -hi; }
-  if (hi - lo < 1e-12) { hi += 0.5; lo -= 0.5; }
+  const ColourRange r = range ? *range : colour_range(values);
+  const double lo = r.lo, hi = r.hi;
+  const bool diverging = lo < 0 && hi > 0;
   // Field on the point grid (8-bit colour index + validity), resized over the grid's extent.
   cv::Mat idx(ny, nx, CV_8U), valid(ny, nx, CV_8U);
   for (int j = 0; j < ny; ++j)
     for (int i = 0; i < nx; ++i) {
       const double v = values[static_cast<std::size_t>(j) * nx + i];
       valid.at<std::uint8_t>(j, i) = std::isfinite(v) ? 255 : 0;
-      idx.at<std::uint8_t>(j, i) = std::isfinite(v) ? cv::saturate_cast<std::uint8_t>(255 * (v - lo) / (hi - lo)) : 0;
+      idx.at<std::uint8_t>(j, i) =
+          std::isfinite(v) ? cv::saturate_cast<std::uint8_t>(255 * std::clamp((v - lo) / (hi - lo), 0.0, 1.0)) : 0;
     }
   const double x0 = points.front().x, y0 = points.front().y, x1 = points.back().x, y1 = points.back().y;
   const cv::Rect area = cv::Rect(cv::Point(static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0))),
                                  cv::Point(static_cast<int>(std::ceil(x1)) + 1, static_cast<int>(std::ceil(y1)) + 1)) &
                         cv::Rect(0, 0, base.cols, base.rows);
   if (area.area() > 0) {
-    cv::Mat big, bigvalid, colour;
+    cv::Mat big, bigvalid, mask, colour;
     cv::resize(idx, big, area.size(), 0, 0, cv::INTER_LINEAR);
-    cv::resize(valid, bigvalid, area.size(), 0, 0, cv::INTER_NEAREST);
-    cv::applyColorMap(big, colour, cv::COLORMAP_JET);
+    // A pixel is painted only where every point around it is valid: a hole or an edge without
+    // valid points stays the image, following the point grid rather than a blocky square.
+    cv::resize(valid, bigvalid, area.size(), 0, 0, cv::INTER_LINEAR);
+    cv::threshold(bigvalid, mask, 254, 255, cv::THRESH_BINARY);
+    colourize(big, diverging, colour);
     cv::Mat roi = base(area), blend;
-    cv::addWeighted(roi, 0.4, colour, 0.6, 0, blend);
-    blend.copyTo(roi, bigvalid);
+    cv::addWeighted(roi, 0.35, colour, 0.65, 0, blend);
+    blend.copyTo(roi, mask);
   }
-  // Colour bar on the right with limits, title and unit.
-  const int bar_w = std::max(60, base.cols / 12), pad = 10;
-  cv::Mat canvas(base.rows, base.cols + bar_w + 2 * pad + 120, CV_8UC3, cv::Scalar(255, 255, 255));
+  // Colour bar on the right: the title and unit above it, ticks at round values.
+  const double scale = std::max(0.45, base.rows / 1200.0);
+  const int thick = std::max(1, static_cast<int>(scale * 1.5));
+  const auto ticks = nice_ticks(lo, hi, 7);
+  auto label = [](double t) { return fmt::format("{:g}", t); };
+  const std::string head = fmt::format("{} [{}]", title, unit);
+  int baseline = 0;
+  int text_w = cv::getTextSize(head, cv::FONT_HERSHEY_SIMPLEX, scale, thick, &baseline).width;
+  const int text_h = cv::getTextSize("0", cv::FONT_HERSHEY_SIMPLEX, scale, thick, &baseline).height;
+  const int ramp_w = std::max(20, base.cols / 40), pad = 12;
+  int tick_w = 0;
+  for (double t : ticks)
+    tick_w = std::max(tick_w, cv::getTextSize(label(t), cv::FONT_HERSHEY_SIMPLEX, scale, thick, &baseline).width);
+  const int panel = std::max(text_w, ramp_w + 8 + tick_w) + 2 * pad;
+  cv::Mat canvas(base.rows, base.cols + panel, CV_8UC3, cv::Scalar(255, 255, 255));
   base.copyTo(canvas(cv::Rect(0, 0, base.cols, base.rows)));
-  const int bar_h = std::max(64, base.rows - 80);
+  const int bx = base.cols + pad, by = 2 * text_h + 2 * pad;
+  const int bar_h = std::max(64, base.rows - by - pad - text_h);
   cv::Mat ramp(bar_h, 1, CV_8U);
   for (int i = 0; i < bar_h; ++i) ramp.at<std::uint8_t>(i, 0) = static_cast<std::uint8_t>(255 - (255 * i) / (bar_h - 1));
   cv::Mat ramp_c, ramp_big;
-  cv::applyColorMap(ramp, ramp_c, cv::COLORMAP_JET);
-  cv::resize(ramp_c, ramp_big, cv::Size(bar_w / 3, bar_h), 0, 0, cv::INTER_NEAREST);
-  const int bx = base.cols + pad, by = 40;
+  colourize(ramp, diverging, ramp_c);
+  cv::resize(ramp_c, ramp_big, cv::Size(ramp_w, bar_h), 0, 0, cv::INTER_NEAREST);
   ramp_big.copyTo(canvas(cv::Rect(bx, by, ramp_big.cols, ramp_big.rows)));
-  const double scale = std::max(0.4, base.rows / 1200.0);
-  const int thick = std::max(1, static_cast<int>(scale * 1.5));
   auto text = [&](const std::string& s, int x, int y) {
     cv::putText(canvas, s, cv::Point(x, y), cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(0, 0, 0), thick, cv::LINE_AA);
   };
-  text(fmt::format("{} [{}]", title, unit), bx, 25);
-  text(fmt::format("{:.4g}", hi), bx + ramp_big.cols + 4, by + 12);
-  text(fmt::format("{:.4g}", 0.5 * (lo + hi)), bx + ramp_big.cols + 4, by + bar_h / 2);
-  text(fmt::format("{:.4g}", lo), bx + ramp_big.cols + 4, by + bar_h);
+  text(head, base.cols + pad, pad + text_h);
+  for (double t : ticks) {
+    const int y = by + static_cast<int>(std::lround((hi - t) / (hi - lo) * (bar_h - 1)));
+    cv::line(canvas, {bx + ramp_w, y}, {bx + ramp_w + 5, y}, cv::Scalar(0, 0, 0), 1);
+    text(label(t), bx + ramp_w + 8, y + text_h / 2);
+  }
   return canvas;
 }
 

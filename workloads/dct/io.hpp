@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,7 +32,9 @@ cv::Mat decode_grey(const std::string& bytes, const std::filesystem::path& name)
 // writing fails.
 void write_image(const std::filesystem::path& path, const cv::Mat& image);
 
-// x, y, u_x, u_y, e_xx, e_yy, e_xy, valid, status, support (one row per point).
+// One row per point; positions and displacements in px, strains in microstrain, as the header says.
+inline constexpr const char* kCsvHeader =
+    "x_px,y_px,u_x_px,u_y_px,e_xx_microstrain,e_yy_microstrain,e_xy_microstrain,valid,status,support";
 void write_fields_csv(const std::filesystem::path& path, const std::vector<Vec2>& points,
                       const std::vector<FieldValue<double>>& fields);
 
@@ -40,10 +43,26 @@ std::string field_name(Field f);   // "u_x", ... "e_xy"
 std::string field_unit(Field f);   // "px" or "microstrain"
 double field_value(const FieldValue<double>& v, Field f);  // strain in microstrain
 
+// The limits a colour bar spans.
+struct ColourRange {
+  double lo = -1, hi = 1;
+  bool from_data = false;  // false: no finite value to take them from
+};
+// The finite values' range, symmetric about zero when they change sign, widened when flat.
+ColourRange colour_range(const std::vector<double>& values);
+// "LO:HI" (finite, LO < HI); `option` names the flag in the message.
+ColourRange parse_colour_range(const std::string& text, const std::string& option);
+// Round tick values (1, 2, 2.5 or 5 x 10^k apart) within [lo, hi], at most about `most`.
+std::vector<double> nice_ticks(double lo, double hi, int most);
+
 // Colour map of `values` (one per point of an nx x ny grid, NaN = invalid) drawn over the
-// grey `image` across the grid's extent, with a colour bar labelled with `title` and `unit`.
-// Symmetric limits when the values change sign. Returns a BGR image.
+// grey `image` across the grid's extent, with a colour bar titled `title` [`unit`] and ticks at
+// round values. The colours span `range` (values beyond it take the end colours), else
+// colour_range(values): a diverging map (blue - grey - red, perceptually even) when the range
+// spans zero, viridis otherwise. Pixels not surrounded by valid points stay the image. Returns
+// a BGR image.
 cv::Mat overlay(const cv::Mat& image, const std::vector<Vec2>& points, int nx, int ny,
-                const std::vector<double>& values, const std::string& title, const std::string& unit);
+                const std::vector<double>& values, const std::string& title, const std::string& unit,
+                std::optional<ColourRange> range = std::nullopt);
 
 }  // namespace dtflop::dct

@@ -62,8 +62,9 @@ TEST(DctIo, FieldsCsvMarksInvalidPoints) {
   std::getline(in, header);
   std::getline(in, l1);
   std::getline(in, l2);
-  EXPECT_EQ(header, "x,y,u_x,u_y,e_xx,e_yy,e_xy,valid,status,support");
-  EXPECT_EQ(l1, "1.000,2.000,0.500000,-0.250000,0.001,-0.0003,2e-05,1,ok,60");
+  EXPECT_EQ(header,
+            "x_px,y_px,u_x_px,u_y_px,e_xx_microstrain,e_yy_microstrain,e_xy_microstrain,valid,status,support");
+  EXPECT_EQ(l1, "1.000,2.000,0.500000,-0.250000,1000,-300,20,1,ok,60");  // strains in microstrain, as on screen
   EXPECT_EQ(l2, "3.000,4.000,,,,,,0,too_few_dots,4");
   EXPECT_THROW(write_fields_csv(tmp("g.csv"), pts, {}), InputError);
 }
@@ -87,6 +88,39 @@ TEST(DctIo, OverlayHasTheImageAndAColourBar) {
   const cv::Vec3b g = o.at<cv::Vec3b>(120, 140);
   EXPECT_TRUE(g[0] == g[1] && g[1] == g[2]);
   EXPECT_THROW(overlay(img, pts, 4, 4, v, "e", "u"), InputError);
+}
+
+TEST(DctIo, TicksAreRoundAndRangesSymmetricWhenSigned) {
+  EXPECT_EQ(nice_ticks(-487, 487, 7), (std::vector<double>{-400, -200, 0, 200, 400}));
+  EXPECT_EQ(nice_ticks(350, 3120, 7), (std::vector<double>{500, 1000, 1500, 2000, 2500, 3000}));
+  EXPECT_EQ(nice_ticks(0, 1, 6), (std::vector<double>{0, 0.2, 0.4, 0.6, 0.8, 1}));
+  const ColourRange signed_range = colour_range({-30, 100, std::nan("")});
+  EXPECT_DOUBLE_EQ(signed_range.lo, -100);
+  EXPECT_DOUBLE_EQ(signed_range.hi, 100);
+  const ColourRange one_signed = colour_range({1000, 1001});
+  EXPECT_DOUBLE_EQ(one_signed.lo, 1000);
+  EXPECT_DOUBLE_EQ(one_signed.hi, 1001);
+  EXPECT_FALSE(colour_range({std::nan("")}).from_data);
+  EXPECT_DOUBLE_EQ(parse_colour_range("-500:250", "--r").lo, -500);
+  for (const char* bad : {"5:-5", "1:1", "a:b", "5", "nan:1", "1:2x"})
+    EXPECT_THROW(parse_colour_range(bad, "--r"), InputError) << bad;
+}
+
+TEST(DctIo, AFixedRangeColoursAlikeAndZeroIsTheDivergingMapsGrey) {
+  cv::Mat img(200, 300, CV_8U, cv::Scalar(128));
+  std::vector<Vec2> pts;
+  for (int j = 0; j < 4; ++j)
+    for (int i = 0; i < 5; ++i) pts.push_back({20.0 + 60 * i, 20.0 + 50 * j});
+  const std::vector<double> zero(pts.size(), 0.0), big(pts.size(), 5000.0), top(pts.size(), 100.0);
+  const ColourRange r{-100, 100, true};
+  // Zero in a signed range: the map's light grey middle (blended over grey: still grey).
+  const cv::Vec3b z = overlay(img, pts, 5, 4, zero, "e_xx", "microstrain", r).at<cv::Vec3b>(60, 60);
+  EXPECT_LE(std::abs(int(z[0]) - int(z[2])), 3);
+  // Beyond the range takes the end colour: 5000 looks like 100.
+  EXPECT_EQ(overlay(img, pts, 5, 4, big, "e_xx", "microstrain", r).at<cv::Vec3b>(60, 60),
+            overlay(img, pts, 5, 4, top, "e_xx", "microstrain", r).at<cv::Vec3b>(60, 60));
+  const cv::Vec3b red = overlay(img, pts, 5, 4, top, "e_xx", "microstrain", r).at<cv::Vec3b>(60, 60);
+  EXPECT_GT(red[2], red[0] + 40);  // BGR: the warm end
 }
 
 }  // namespace
