@@ -200,8 +200,13 @@ std::string render_svg(const Chart& c) {
       "<svg xmlns=\"http://www.w3.org/2000/svg\" class=\"chart\" data-chart=\"{}\" viewBox=\"0 0 {} {}\" width=\"{}\" "
       "height=\"{}\" role=\"img\" aria-label=\"{}\">\n",
       esc(c.id), total_w, total_h, total_w, total_h, esc(c.title));
-  o += fmt::format("<text class=\"title\" x=\"{}\" y=\"24\" text-anchor=\"middle\">{}</text>\n", f.left + f.width / 2,
-                   esc(c.title));
+  // A title wider than the chart (about 8.6 px a character at 15 px bold) is squeezed to fit, not cut.
+  const double title_room = total_w - 16;
+  const std::string fit = 8.6 * static_cast<double>(c.title.size()) > title_room
+                              ? fmt::format(" textLength=\"{}\" lengthAdjust=\"spacingAndGlyphs\"", title_room)
+                              : std::string();
+  o += fmt::format("<text class=\"title\" x=\"{}\" y=\"24\" text-anchor=\"middle\"{}>{}</text>\n",
+                   fit.empty() ? f.left + f.width / 2 : total_w / 2, fit, esc(c.title));
   o += fmt::format("<rect class=\"plot\" x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\"/>\n", f.left, f.top, f.width, f.height);
   // Grid and ticks.
   for (double t : ticks(y0, y1, ylog)) {
