@@ -78,3 +78,5 @@ PY
     v "h100 host $b, probe-only" --store h100host-held.jsonl --machine h100-probed.json --backend $b
   done
 } | tee "$O/matrix.md"
+# The reports name the files as written here; keep them free of this machine's folders.
+sed -i "s|$O/||g" "$O"/*.txt "$O"/matrix.md

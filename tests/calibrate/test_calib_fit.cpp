@@ -2,11 +2,13 @@
 // intervals that cover it, flag disagreement with the start profile, keep what the samples
 // cannot determine, and refuse what it cannot do.
 #include <cmath>
+#include <filesystem>
 
 #include <gtest/gtest.h>
 
 #include "calibrate/fit.hpp"
 #include "model/errors.hpp"
+#include "model/json_io.hpp"
 #include "tests/calibrate/synthetic.hpp"
 
 namespace dtflop::calib {
@@ -316,6 +318,49 @@ TEST(CalibFit, ACalibrationCarriesABackendsEfficiencyToAnotherMachinesProbes) {
     const double want = predict(truth_b, s.counts, Variant::latency).total;
     EXPECT_NEAR(predict(a.profile, s.counts, Variant::latency).total / want, 1.0, 1e-3) << s.key;
   }
+}
+
+}  // namespace
+}  // namespace dtflop::calib
+
+namespace dtflop::calib {
+namespace {
+
+// What the repository ships holds no parameter outside its physical range: every calibration
+// (its factors against the source machine's probes) and every fitted profile kept beside the probe
+// profile it was fitted from.
+TEST(CalibBounds, ShippedCalibrationsAndFittedProfilesStayInTheirBounds) {
+  namespace fs = std::filesystem;
+  int calibrations = 0, profiles = 0;
+  for (const auto& e : fs::recursive_directory_iterator(fs::path(DTFLOP_SOURCE_DIR) / "results")) {
+    const std::string name = e.path().filename().string();
+    if (name.size() > 9 && name.ends_with(".cal.json")) {
+      ++calibrations;
+      const Calibration c = load_calibration(e.path());
+      MachineProfile source;
+      for (const auto& f : c.factors)
+        if (f.source_probed) source.set(f.id, Parameter{*f.source_probed, Provenance::probed, {}, {}, {}});
+      for (const auto& f : c.factors) {
+        if (!f.fitted) continue;
+        const Bound b = physical_bounds(f.id, source, f.value);
+        EXPECT_GE(f.value, b.lo * (1 - 1e-9)) << name << " " << info(f.id).name;
+        EXPECT_LE(f.value, b.hi * (1 + 1e-9)) << name << " " << info(f.id).name;
+      }
+    }
+    if (name.starts_with("fitted-") && name.ends_with(".json") && fs::exists(e.path().parent_path() / "probed.json")) {
+      ++profiles;
+      const MachineProfile fitted = load_profile(e.path());
+      const MachineProfile probe = load_profile(e.path().parent_path() / "probed.json");
+      for (const auto& [id, par] : fitted.params()) {
+        if (par.provenance != Provenance::fitted) continue;
+        const Bound b = physical_bounds(id, probe, par.value);
+        EXPECT_GE(par.value, b.lo * (1 - 1e-9)) << e.path() << " " << info(id).name;
+        EXPECT_LE(par.value, b.hi * (1 + 1e-9)) << e.path() << " " << info(id).name;
+      }
+    }
+  }
+  EXPECT_GE(calibrations, 8);  // results/portability/calibrations
+  EXPECT_GE(profiles, 5);
 }
 
 }  // namespace
