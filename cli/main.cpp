@@ -16,9 +16,10 @@ int main(int argc, char** argv) {
       "measure it, and tune it to a deadline.",
       "dtflop"};
   app.footer(
-      "Exit status: 0 done; 1 failed while running (a measurement, a device); 2 bad input (an option, a file, a "
-      "profile that cannot predict this); 3 a deadline (predict/run --deadline) or a target (validate --strict) "
-      "missed.");
+      "Exit status: 0 done; 1 failed while running (a measurement, a device, a fit that ends on a physical bound); "
+      "2 bad input (an option, a file, a profile that cannot predict this); 3 a deadline (predict/run --deadline) or "
+      "a target (validate --strict) missed; 4 a predicted deadline neither met nor missed within the prediction's "
+      "interval.");
   app.set_version_flag("--version", std::string("dtflop ") + dtflop::reports::version());
   app.require_subcommand(1);
   app.fallthrough();
