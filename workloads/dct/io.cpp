@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <string_view>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
@@ -38,6 +39,22 @@ void check_png_header(const std::filesystem::path& path, const std::string& byte
   check_image_size(path, be32(16), be32(20));  // IHDR: width, height
 }
 
+// Only the still formats a camera or dtflop writes are decoded: PNG, TIFF, JPEG, BMP and PGM/PPM,
+// told by their first bytes. OpenCV picks a decoder by signature among many more (DICOM, JPEG 2000,
+// OpenEXR, HDR, ...), and some of those libraries abort the process on damaged input (GDCM
+// asserts on a file with "DICM" at byte 128), so nothing else reaches them.
+void check_format(const std::filesystem::path& path, const std::string& bytes) {
+  auto starts = [&](std::string_view sig) { return bytes.compare(0, sig.size(), sig) == 0; };
+  using namespace std::string_view_literals;
+  const bool known = starts("\x89PNG\r\n\x1a\n"sv) || starts("II*\0"sv) || starts("MM\0*"sv) ||
+                     starts("II+\0"sv) || starts("MM\0+"sv) || starts("\xff\xd8\xff"sv) || starts("BM"sv) ||
+                     (bytes.size() >= 2 && bytes[0] == 'P' && bytes[1] >= '1' && bytes[1] <= '6');
+  if (!known)
+    throw InputError(fmt::format("image '{}' is not a PNG, TIFF, JPEG, BMP or PGM/PPM file (judged by its first "
+                                 "bytes); convert it to PNG or TIFF",
+                                 path.string()));
+}
+
 }  // namespace
 
 cv::Mat read_grey(const std::filesystem::path& path) {
@@ -50,6 +67,7 @@ cv::Mat read_grey(const std::filesystem::path& path) {
 cv::Mat decode_grey(const std::string& bytes, const std::filesystem::path& path) {
   if (bytes.empty() || bytes.size() > kMaxImageFileBytes)
     throw InputError(fmt::format("image '{}' is empty or larger than 1 GiB", path.string()));
+  check_format(path, bytes);
   check_png_header(path, bytes);
   cv::Mat img;
   try {

@@ -3,8 +3,10 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "model/errors.hpp"
@@ -48,6 +50,29 @@ TEST(DctIo, BadFilesSayWhichAndWhy) {
   std::ofstream(tmp("junk.png")) << "not an image";
   EXPECT_THROW(read_grey(tmp("junk.png")), InputError);
   EXPECT_THROW(write_image(tmp("x.unknownext"), cv::Mat(4, 4, CV_8U, cv::Scalar(0))), InputError);
+}
+
+TEST(DctIo, DecodesTheStillFormatsAndRefusesOthersBeforeOpenCv) {
+  const cv::Mat a(6, 9, CV_8U, cv::Scalar(77));
+  for (const char* ext : {".png", ".tiff", ".jpg", ".bmp", ".pgm"}) {
+    std::vector<std::uint8_t> buf;
+    ASSERT_TRUE(cv::imencode(ext, a, buf)) << ext;
+    const cv::Mat r = decode_grey(std::string(buf.begin(), buf.end()), std::string("x") + ext);
+    EXPECT_EQ(r.cols, 9) << ext;
+    EXPECT_EQ(r.rows, 6) << ext;
+  }
+  // A DICOM preamble ("DICM" at byte 128) would reach GDCM through OpenCV, which aborts on damaged
+  // files (found by fuzz_image; the input is in fuzz/corpus/image).
+  std::string dicom(128, '\0');
+  dicom += "DICM";
+  dicom += std::string(64, '\x25');
+  try {
+    (void)decode_grey(dicom, "scan.dcm");
+    FAIL() << "a DICOM file was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("'scan.dcm' is not a PNG, TIFF, JPEG, BMP or PGM/PPM"), std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(DctIo, FieldsCsvMarksInvalidPoints) {
