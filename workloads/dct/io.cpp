@@ -42,13 +42,16 @@ void check_png_header(const std::filesystem::path& path, const std::string& byte
 // Only the still formats a camera or dtflop writes are decoded: PNG, TIFF, JPEG, BMP and PGM/PPM,
 // told by their first bytes. OpenCV picks a decoder by signature among many more (DICOM, JPEG 2000,
 // OpenEXR, HDR, ...), and some of those libraries abort the process on damaged input (GDCM
-// asserts on a file with "DICM" at byte 128), so nothing else reaches them.
+// asserts on a file with "DICM" at byte 128), so nothing else reaches them. A PGM/PPM magic number
+// must be followed by white space as the format says: OpenCV's own check wants it, and without
+// it a "P5" file with "DICM" at byte 128 still went to GDCM.
 void check_format(const std::filesystem::path& path, const std::string& bytes) {
   auto starts = [&](std::string_view sig) { return bytes.compare(0, sig.size(), sig) == 0; };
   using namespace std::string_view_literals;
   const bool known = starts("\x89PNG\r\n\x1a\n"sv) || starts("II*\0"sv) || starts("MM\0*"sv) ||
                      starts("II+\0"sv) || starts("MM\0+"sv) || starts("\xff\xd8\xff"sv) || starts("BM"sv) ||
-                     (bytes.size() >= 2 && bytes[0] == 'P' && bytes[1] >= '1' && bytes[1] <= '6');
+                     (bytes.size() >= 3 && bytes[0] == 'P' && bytes[1] >= '1' && bytes[1] <= '6' &&
+                      std::string_view(" \t\n\v\f\r").find(bytes[2]) != std::string_view::npos);
   if (!known)
     throw InputError(fmt::format("image '{}' is not a PNG, TIFF, JPEG, BMP or PGM/PPM file (judged by its first "
                                  "bytes); convert it to PNG or TIFF",

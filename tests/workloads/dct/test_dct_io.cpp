@@ -66,6 +66,10 @@ TEST(DctIo, DecodesTheStillFormatsAndRefusesOthersBeforeOpenCv) {
   std::string dicom(128, '\0');
   dicom += "DICM";
   dicom += std::string(64, '\x25');
+  // The same behind a PGM magic number without the white space PGM needs after it.
+  std::string pgm = dicom;
+  pgm.replace(0, 3, "P5\x01");
+  EXPECT_THROW((void)decode_grey(pgm, "scan.pgm"), InputError);
   try {
     (void)decode_grey(dicom, "scan.dcm");
     FAIL() << "a DICOM file was accepted";
