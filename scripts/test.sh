@@ -17,8 +17,10 @@ export ASAN_OPTIONS=abort_on_error=1:detect_leaks=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 ctest --test-dir build-asan --output-on-failure -j "$(nproc)" -L unit
 if ((${#fuzz[@]})); then
-  # Each libFuzzer target for DTFLOP_FUZZ_SECONDS (5 s) from its corpus; a crash, leak, timeout or
-  # sanitizer report fails the run (the input that did it is left in the build folder).
+  # Each libFuzzer target for DTFLOP_FUZZ_SECONDS (5 s) from its corpus, one after another (about
+  # 10 s each with loading and the leak check; ctest stops one at 2 minutes over); a crash, leak,
+  # timeout or sanitizer report fails the run (the input that did it is left in
+  # build-fuzz/fuzz/artifacts/).
   echo "== fuzz targets (libFuzzer, bounded) ==" >&2
   ctest --test-dir build-fuzz --output-on-failure -L fuzz
 else

@@ -3,7 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <limits>
+#include <optional>
+#include <string_view>
+#include <utility>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
@@ -18,8 +22,7 @@ namespace dtflop::dct {
 namespace {
 
 // Refuses an image whose declared size exceeds what dtflop processes, before it is decoded (a
-// header may declare 100000x100000 in a few bytes). PNG's size is in its header; other formats
-// are checked by OpenCV's own limit while decoding and by the size of the result.
+// header may declare 100000x100000 in a few bytes); the decoded result is checked again.
 void check_image_size(const std::filesystem::path& path, std::int64_t w, std::int64_t h) {
   if (w < 1 || h < 1 || w > kMaxImageSide || h > kMaxImageSide || w * h > kMaxImagePixels)
     throw InputError(fmt::format("image '{}' is {}x{} px (about {:.0f} MiB as 16-bit grey): outside 1..{} px a side "
@@ -27,15 +30,118 @@ void check_image_size(const std::filesystem::path& path, std::int64_t w, std::in
                                  path.string(), w, h, static_cast<double>(w) * static_cast<double>(h) * 2 / (1 << 20), kMaxImageSide, kMaxImagePixels / 1000000));
 }
 
-void check_png_header(const std::filesystem::path& path, const std::string& bytes) {
-  static const char kSig[] = "\x89PNG\r\n\x1a\n";
-  if (bytes.size() < 24 || bytes.compare(0, 8, kSig, 8) != 0) return;
-  auto be32 = [&](std::size_t at) {
+// The size an image's header declares, for each format check_format lets through; nullopt where
+// the header cannot be read (the file is then refused as damaged). OpenCV allocates the declared
+// size before it reads a pixel, so a 20-byte PPM declaring 8577x85777 took 2.2 GB (fuzz_image).
+std::optional<std::pair<std::int64_t, std::int64_t>> declared_size(const std::string& bytes) {
+  const std::size_t n = bytes.size();
+  auto u8 = [&](std::size_t at) -> std::int64_t { return static_cast<unsigned char>(bytes[at]); };
+  auto be = [&](std::size_t at, std::size_t len) {
     std::int64_t v = 0;
-    for (std::size_t i = 0; i < 4; ++i) v = (v << 8) | static_cast<unsigned char>(bytes[at + i]);
+    for (std::size_t i = 0; i < len; ++i) v = (v << 8) | u8(at + i);
     return v;
   };
-  check_image_size(path, be32(16), be32(20));  // IHDR: width, height
+  auto le = [&](std::size_t at, std::size_t len) {
+    std::int64_t v = 0;
+    for (std::size_t i = len; i-- > 0;) v = (v << 8) | u8(at + i);
+    return v;
+  };
+  using Size = std::pair<std::int64_t, std::int64_t>;
+  if (bytes.compare(0, 4, "\x89PNG") == 0) {  // IHDR: width, height
+    if (n < 24) return std::nullopt;
+    return Size{be(16, 4), be(20, 4)};
+  }
+  if (bytes.compare(0, 2, "BM") == 0) {  // BITMAPCOREHEADER (12 bytes): 16-bit sizes; later ones 32-bit
+    if (n < 26) return std::nullopt;
+    if (le(14, 4) == 12) return Size{le(18, 2), le(20, 2)};
+    const auto s32 = [&](std::size_t at) { return static_cast<std::int64_t>(static_cast<std::int32_t>(le(at, 4))); };
+    return Size{s32(18), std::abs(s32(22))};  // a negative height is a top-down image
+  }
+  if (bytes[0] == 'P') {  // PNM: magic, then width and height in decimal, with # comments
+    std::size_t at = 2;
+    auto number = [&]() -> std::optional<std::int64_t> {
+      for (;;) {
+        while (at < n && std::string_view(" \t\n\v\f\r").find(bytes[at]) != std::string_view::npos) ++at;
+        if (at < n && bytes[at] == '#') {
+          while (at < n && bytes[at] != '\n' && bytes[at] != '\r') ++at;
+          continue;
+        }
+        break;
+      }
+      std::int64_t v = 0;
+      const std::size_t first = at;
+      while (at < n && bytes[at] >= '0' && bytes[at] <= '9') {
+        v = std::min<std::int64_t>(v * 10 + (bytes[at] - '0'), std::int64_t{1} << 40);  // no overflow
+        ++at;
+      }
+      if (at == first) return std::nullopt;
+      return v;
+    };
+    const auto w = number();
+    const auto h = w ? number() : std::nullopt;
+    if (!h) return std::nullopt;
+    return Size{*w, *h};
+  }
+  if (bytes.compare(0, 2, "\xff\xd8") == 0) {  // JPEG: the first start-of-frame marker's height, width
+    std::size_t at = 2;
+    while (at + 4 <= n) {
+      if (u8(at) != 0xff) return std::nullopt;
+      const std::int64_t m = u8(at + 1);
+      if (m == 0xff) {  // fill byte
+        ++at;
+        continue;
+      }
+      if (m == 0x01 || (m >= 0xd0 && m <= 0xd7)) {  // markers without a length
+        at += 2;
+        continue;
+      }
+      if (m == 0xd9 || m == 0xda) return std::nullopt;  // end of image or start of scan before a frame
+      const bool sof = m >= 0xc0 && m <= 0xcf && m != 0xc4 && m != 0xc8 && m != 0xcc;
+      if (sof) {
+        if (at + 9 > n) return std::nullopt;
+        return Size{be(at + 7, 2), be(at + 5, 2)};
+      }
+      at += 2 + static_cast<std::size_t>(be(at + 2, 2));
+    }
+    return std::nullopt;
+  }
+  // TIFF: ImageWidth (256) and ImageLength (257) in the first IFD, SHORT or LONG, in the file's
+  // byte order.
+  if (n < 8) return std::nullopt;
+  const bool little = bytes[0] == 'I';
+  auto get = [&](std::size_t at, std::size_t len) { return little ? le(at, len) : be(at, len); };
+  const auto ifd = static_cast<std::size_t>(get(4, 4));
+  if (ifd > n || n - ifd < 2) return std::nullopt;
+  const auto entries = static_cast<std::size_t>(get(ifd, 2));
+  std::int64_t w = -1, h = -1;
+  for (std::size_t i = 0; i < entries && ifd + 2 + 12 * (i + 1) <= n; ++i) {
+    const std::size_t e = ifd + 2 + 12 * i;
+    const std::int64_t tag = get(e, 2), type = get(e + 2, 2);
+    if (tag != 256 && tag != 257) continue;
+    const std::int64_t v = type == 3 ? get(e + 8, 2) : type == 4 ? get(e + 8, 4) : -1;
+    (tag == 256 ? w : h) = v;
+  }
+  if (w < 0 || h < 0) return std::nullopt;
+  return Size{w, h};
+}
+
+// Only the still formats a camera or dtflop writes are decoded: PNG, TIFF, JPEG, BMP and PGM/PPM,
+// told by their first bytes. OpenCV picks a decoder by signature among many more (DICOM, JPEG 2000,
+// OpenEXR, HDR, ...), and some of those libraries abort the process on damaged input (GDCM
+// asserts on a file with "DICM" at byte 128), so nothing else reaches them. A PGM/PPM magic number
+// must be followed by white space as the format says: OpenCV's own check wants it, and without
+// it a "P5" file with "DICM" at byte 128 still went to GDCM.
+void check_format(const std::filesystem::path& path, const std::string& bytes) {
+  auto starts = [&](std::string_view sig) { return bytes.compare(0, sig.size(), sig) == 0; };
+  using namespace std::string_view_literals;
+  const bool known = starts("\x89PNG\r\n\x1a\n"sv) || starts("II*\0"sv) || starts("MM\0*"sv) ||
+                     starts("\xff\xd8\xff"sv) || starts("BM"sv) ||
+                     (bytes.size() >= 3 && bytes[0] == 'P' && bytes[1] >= '1' && bytes[1] <= '6' &&
+                      std::string_view(" \t\n\v\f\r").find(bytes[2]) != std::string_view::npos);
+  if (!known)
+    throw InputError(fmt::format("image '{}' is not a PNG, TIFF, JPEG, BMP or PGM/PPM file (judged by its first "
+                                 "bytes); convert it to PNG or TIFF",
+                                 path.string()));
 }
 
 }  // namespace
@@ -50,7 +156,15 @@ cv::Mat read_grey(const std::filesystem::path& path) {
 cv::Mat decode_grey(const std::string& bytes, const std::filesystem::path& path) {
   if (bytes.empty() || bytes.size() > kMaxImageFileBytes)
     throw InputError(fmt::format("image '{}' is empty or larger than 1 GiB", path.string()));
-  check_png_header(path, bytes);
+  check_format(path, bytes);
+  // A header that does not say the size as its format does is refused, not left to OpenCV, whose
+  // readers are laxer ("P6 8554& 85777" still allocated 2.2 GB).
+  const auto size = declared_size(bytes);
+  if (!size)
+    throw InputError(fmt::format("image '{}' is damaged: its header does not give its width and height as its format "
+                                 "says; use an undamaged image",
+                                 path.string()));
+  check_image_size(path, size->first, size->second);
   cv::Mat img;
   try {
     img = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data())),

@@ -3,8 +3,11 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "model/errors.hpp"
@@ -48,6 +51,84 @@ TEST(DctIo, BadFilesSayWhichAndWhy) {
   std::ofstream(tmp("junk.png")) << "not an image";
   EXPECT_THROW(read_grey(tmp("junk.png")), InputError);
   EXPECT_THROW(write_image(tmp("x.unknownext"), cv::Mat(4, 4, CV_8U, cv::Scalar(0))), InputError);
+}
+
+TEST(DctIo, DecodesTheStillFormatsAndRefusesOthersBeforeOpenCv) {
+  const cv::Mat a(6, 9, CV_8U, cv::Scalar(77));
+  for (const char* ext : {".png", ".tiff", ".jpg", ".bmp", ".pgm"}) {
+    std::vector<std::uint8_t> buf;
+    ASSERT_TRUE(cv::imencode(ext, a, buf)) << ext;
+    const cv::Mat r = decode_grey(std::string(buf.begin(), buf.end()), std::string("x") + ext);
+    EXPECT_EQ(r.cols, 9) << ext;
+    EXPECT_EQ(r.rows, 6) << ext;
+  }
+  // A DICOM preamble ("DICM" at byte 128) would reach GDCM through OpenCV, which aborts on damaged
+  // files (found by fuzz_image; the input is in fuzz/corpus/image).
+  std::string dicom(128, '\0');
+  dicom += "DICM";
+  dicom += std::string(64, '\x25');
+  // The same behind a PGM magic number without the white space PGM needs after it.
+  std::string pgm = dicom;
+  pgm.replace(0, 3, "P5\x01");
+  EXPECT_THROW((void)decode_grey(pgm, "scan.pgm"), InputError);
+  try {
+    (void)decode_grey(dicom, "scan.dcm");
+    FAIL() << "a DICOM file was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("'scan.dcm' is not a PNG, TIFF, JPEG, BMP or PGM/PPM"), std::string::npos)
+        << e.what();
+  }
+}
+
+// A header declaring a huge image is refused before OpenCV allocates it (a 20-byte PPM declaring
+// 8577x85777 made it allocate 2.2 GB; found by fuzz_image), in every format that is decoded.
+TEST(DctIo, HugeDeclaredSizesAreRefusedBeforeDecoding) {
+  auto encoded = [](const char* ext) {
+    std::vector<std::uint8_t> buf;
+    EXPECT_TRUE(cv::imencode(ext, cv::Mat(6, 9, CV_8U, cv::Scalar(50)), buf)) << ext;
+    return std::string(buf.begin(), buf.end());
+  };
+  auto put16 = [](std::string& b, std::size_t at, unsigned v, bool big) {
+    b[at + (big ? 1 : 0)] = static_cast<char>(v & 0xff);
+    b[at + (big ? 0 : 1)] = static_cast<char>(v >> 8);
+  };
+  std::vector<std::pair<std::string, std::string>> cases;  // name, bytes
+  cases.emplace_back("ppm", "P6\n8577\n85777\n255\n\x1a\x0a\x74\xdc");
+  cases.emplace_back("pgm", "P5 # comment\n40000 40000 255\n");
+  cases.emplace_back("ppm-junk", "P6\n8554&\n85777\x1a\n7\nt");  // a header OpenCV read as 8554x85777
+  std::string bmp = encoded(".bmp");  // BITMAPINFOHEADER: 32-bit width and height at bytes 18 and 22
+  put16(bmp, 18, 40000, false);
+  put16(bmp, 22, 40000, false);
+  cases.emplace_back("bmp", bmp);
+  std::string jpg = encoded(".jpg");  // SOF0: height and width after length and precision
+  const std::size_t sof = jpg.find("\xff\xc0");
+  ASSERT_NE(sof, std::string::npos);
+  put16(jpg, sof + 5, 40000, true);
+  put16(jpg, sof + 7, 40000, true);
+  cases.emplace_back("jpg", jpg);
+  // TIFF, little-endian: first IFD at 8 holding ImageWidth and ImageLength as SHORTs.
+  std::string tif("II*\0\x08\0\0\0\x02\0", 10);
+  for (unsigned tag : {256u, 257u}) {
+    std::string e(12, '\0');
+    put16(e, 0, tag, false);
+    put16(e, 2, 3, false);
+    e[4] = 1;
+    put16(e, 8, 40000, false);
+    tif += e;
+  }
+  tif += std::string(4, '\0');
+  cases.emplace_back("tif", tif);
+  for (const auto& [name, bytes] : cases) {
+    try {
+      (void)decode_grey(bytes, "big." + name);
+      ADD_FAILURE() << name << " was decoded";
+    } catch (const InputError& e) {
+      const std::string m = e.what();
+      EXPECT_TRUE(m.find("40000x40000 px") != std::string::npos || m.find("8577x85777 px") != std::string::npos ||
+                  m.find("'big.ppm-junk' is damaged: its header") != std::string::npos)
+          << name << ": " << m;
+    }
+  }
 }
 
 TEST(DctIo, FieldsCsvMarksInvalidPoints) {
