@@ -35,16 +35,18 @@ struct RunCommon {
 void run(const RunCommon& o, const WorkloadArgs& a) {
   const workload::Workload& w = *a.workload;
   const Chosen c = choose(a);
-  check_output(o.result.output, {o.predict.machine});
+  check_output(o.result.output, {o.predict.machine, o.predict.calibration});
   const std::optional<double> deadline = deadline_of(o.predict);
-  // Everything that can be wrong with the profile is found before anything is measured.
-  std::optional<MachineProfile> profile;
+  // Everything that can be wrong with the profile (and a calibration) is found before anything is measured.
+  std::optional<PredictionProfile> pp;
   std::optional<Variant> wanted;
-  if (!o.predict.machine.empty()) {
-    profile = load_profile(o.predict.machine);
-    wanted = wanted_variant(o.predict, *profile);
-    (void)predict_with_fallback(*profile, c.backend->counts(c.config, &profile->identity), *wanted);
+  if (!o.predict.machine.empty() || !o.predict.calibration.empty()) {
+    pp = prediction_profile(o.predict, w, *c.backend, c.config);
+    for (const auto& n : pp->notes) fmt::print(stderr, "dtflop: note: {}\n", n);
+    wanted = wanted_variant(o.predict, pp->profile);
+    (void)predict_with_fallback(pp->profile, c.backend->counts(c.config, &pp->profile.identity), *wanted);
   }
+  const MachineProfile* profile = pp ? &pp->profile : nullptr;
   Protocol protocol = open_protocol(w, *c.backend, o.measure, o.no_cupti);
   const MachineIdentity here = this_machine();
   const MeasureSettings& st = protocol.settings;
@@ -56,7 +58,11 @@ void run(const RunCommon& o, const WorkloadArgs& a) {
   const double steps = static_cast<double>(s.steps);
 
   std::optional<Predicted> pred;
-  if (profile) pred = predict_with_fallback(*profile, s.counts, *wanted);
+  std::optional<Judged> judged;
+  if (profile) {
+    pred = predict_with_fallback(*profile, s.counts, *wanted);
+    judged = judge(*pred, *pp, s.counts, std::nullopt);
+  }
   if (pred && !pred->fallback.empty()) fmt::print(stderr, "dtflop: note: {}\n", pred->fallback);
   for (const char* k : {"counts_mismatch", "work_mismatch"})
     if (s.detail.contains(k))
@@ -89,6 +95,8 @@ void run(const RunCommon& o, const WorkloadArgs& a) {
     if (!pred->fallback.empty()) out["variant_fallback"] = pred->fallback;
     out["prediction_per_repetition"] = to_json(pred->prediction);
     out["predicted_over_measured"] = pred->prediction.total / total.median;
+    out["uncertainty"] = uncertainty_json(*judged, std::nullopt);  // interval per repetition, as the prediction
+    out["measured_within_interval"] = total.median >= judged->interval.lo && total.median <= judged->interval.hi;
     if (deadline) {
       out["deadline"] = *deadline;
       out["meets_deadline"] = total.median / steps <= *deadline;
@@ -131,6 +139,7 @@ void run(const RunCommon& o, const WorkloadArgs& a) {
                to_string(pred->variant), machine_name(*profile), s.steps, w.step_name(), s.steps == 1 ? "" : "s");
     print_prediction(pred->prediction);
     fmt::print("predicted / measured: {:.2f}\n", pred->prediction.total / total.median);
+    fmt::print("{}", judged_text(*pred, *judged, std::nullopt));
   }
   if (deadline) {
     const bool ok = total.median / steps <= *deadline;

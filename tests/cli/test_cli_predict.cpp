@@ -185,6 +185,35 @@ TEST_F(PredictCli, EveryExampleProfilePredictsEveryBackendItsMachineCanRun) {
   EXPECT_GE(profiles, 3);  // a CPU-only machine, the H100 and the H200
 }
 
+// `run` applies a calibration as `predict` does, and says whether the measured time fell inside
+// the stated interval.
+TEST_F(PredictCli, RunAppliesACalibrationToItsPrediction) {
+  Calibration c;
+  c.workload = "rbe";
+  c.backend = "cpu-seq";
+  c.variant = Variant::seed;
+  c.fitted_on = profile_.identity;
+  c.fitted_on.cpu_model = "Source CPU";
+  CalibrationFactor v;  // the taps run at a tenth of the probed rate
+  v.id = Param::V_C1_fp64;
+  v.relative = true;
+  v.factor = 0.1;
+  v.value = 1;
+  c.factors = {v};
+  c.fit_error = {50, 0.02, 0.05, 0.03, "test"};
+  save_calibration(c, dir_ / "cal.json");
+  const auto r = test::run_dtflop("run --machine " + path("m.json") + " --calibration " + path("cal.json") +
+                                  " rbe -b cpu-seq --grid 40x30 --kernel 5x5 --steps 2 --reps 2 --warmup 0 --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j.at("uncertainty").at("basis"), "transferred");
+  EXPECT_TRUE(j.at("measured_within_interval").is_boolean());
+  auto m = profile_;
+  m.set(Param::V_C1_fp64, Parameter{0.1 * profile_.get(Param::V_C1_fp64).value, Provenance::fitted, {}, {}, {}});
+  const auto counts = counts_from_json(j.at("counts_per_repetition"));
+  EXPECT_DOUBLE_EQ(j.at("prediction_per_repetition").at("total").get<double>(), predict(m, counts, Variant::seed).total);
+}
+
 TEST_F(PredictCli, BadInputGivesOneLineAndExitStatusTwo) {
   expect_one_line_error("predict nosuch-workload --grid 10x10", "nosuch-workload");
   expect_one_line_error("predict", "rbe");
