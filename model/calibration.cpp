@@ -85,24 +85,10 @@ Applied apply_calibration(const Calibration& c, const MachineProfile& target) {
 
 namespace {
 
-[[noreturn]] void bad(const std::string& field, const json& value, const std::string& expected) {
-  std::string shown = value.is_null() ? std::string("nothing") : value.dump();
-  if (shown.size() > 60) shown = shown.substr(0, 57) + "...";
-  throw InputError(fmt::format("field '{}' is {}, expected {}", field, shown, expected));
-}
-const json& need(const json& o, const std::string& key, const std::string& path) {
-  auto it = o.find(key);
-  if (it == o.end()) bad(path + key, json(), "to be present");
-  return *it;
-}
+using json_field::bad;
+using json_field::need;
 std::string str(const json& o, const std::string& key, const std::string& path, bool required = true) {
-  auto it = o.find(key);
-  if (it == o.end()) {
-    if (required) bad(path + key, json(), "a string");
-    return {};
-  }
-  if (!it->is_string()) bad(path + key, *it, "a string");
-  return it->get<std::string>();
+  return json_field::get_string(o, key, path, required);
 }
 double number(const json& v, const std::string& field, double lo, double hi) {
   if (!v.is_number()) bad(field, v, fmt::format("a number in [{}, {}]", lo, hi));
@@ -226,13 +212,7 @@ Calibration calibration_from_json(const json& j) {
     c.transfer_error = error_figure_from_json(*it, "transfer_error");
     c.transfer_measured_on = str(j, "transfer_measured_on", "", false);
   }
-  if (auto it = j.find("metadata"); it != j.end()) {
-    if (!it->is_object()) bad("metadata", *it, "an object of strings");
-    for (const auto& [k, val] : it->items()) {
-      if (!val.is_string()) bad("metadata." + k, val, "a string");
-      c.metadata[k] = val.get<std::string>();
-    }
-  }
+  c.metadata = json_field::string_map(j, "metadata");
   return c;
 }
 

@@ -19,19 +19,9 @@ namespace dtflop {
 
 using nlohmann::json;
 
-namespace {
+namespace json_field {
 
-std::string errno_text(int e) { return std::error_code(e, std::generic_category()).message(); }
-
-std::string format_limit(std::uintmax_t bytes) {
-  if (bytes >= (std::uintmax_t{1} << 30) && bytes % (std::uintmax_t{1} << 30) == 0)
-    return fmt::format("{} GiB", bytes >> 30);
-  if (bytes >= (std::uintmax_t{1} << 20) && bytes % (std::uintmax_t{1} << 20) == 0)
-    return fmt::format("{} MiB", bytes >> 20);
-  return fmt::format("{} bytes", bytes);
-}
-
-[[noreturn]] void bad(const std::string& field, const json& value, const std::string& expected) {
+void bad(const std::string& field, const json& value, const std::string& expected) {
   std::string shown = value.is_null() ? std::string("nothing") : value.dump();
   if (shown.size() > 60) shown = shown.substr(0, 57) + "...";
   throw InputError(fmt::format("field '{}' is {}, expected {}", field, shown, expected));
@@ -51,6 +41,34 @@ std::string get_string(const json& obj, const std::string& key, const std::strin
   }
   if (!it->is_string()) bad(path + key, *it, "a string");
   return it->get<std::string>();
+}
+
+std::map<std::string, std::string> string_map(const json& obj, const std::string& key) {
+  std::map<std::string, std::string> out;
+  auto it = obj.find(key);
+  if (it == obj.end()) return out;
+  if (!it->is_object()) bad(key, *it, "an object of strings");
+  for (const auto& [k, v] : it->items()) {
+    if (!v.is_string()) bad(key + "." + k, v, "a string");
+    out[k] = v.get<std::string>();
+  }
+  return out;
+}
+
+}  // namespace json_field
+
+using namespace json_field;
+
+namespace {
+
+std::string errno_text(int e) { return std::error_code(e, std::generic_category()).message(); }
+
+std::string format_limit(std::uintmax_t bytes) {
+  if (bytes >= (std::uintmax_t{1} << 30) && bytes % (std::uintmax_t{1} << 30) == 0)
+    return fmt::format("{} GiB", bytes >> 30);
+  if (bytes >= (std::uintmax_t{1} << 20) && bytes % (std::uintmax_t{1} << 20) == 0)
+    return fmt::format("{} MiB", bytes >> 20);
+  return fmt::format("{} bytes", bytes);
 }
 
 int get_count(const json& obj, const std::string& key, const std::string& path) {
@@ -162,13 +180,7 @@ MachineProfile profile_from_json(const json& j) {
     par.note = get_string(e, "note", path + ".", false);
     p.set(*id_, std::move(par));
   }
-  if (auto it = j.find("metadata"); it != j.end()) {
-    if (!it->is_object()) bad("metadata", *it, "an object of strings");
-    for (const auto& [k, v] : it->items()) {
-      if (!v.is_string()) bad("metadata." + k, v, "a string");
-      p.metadata[k] = v.get<std::string>();
-    }
-  }
+  p.metadata = string_map(j, "metadata");
   return p;
 }
 

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <string_view>
 
@@ -16,6 +17,17 @@ namespace dtflop {
 
 inline constexpr int kProfileSchemaVersion = 1;
 inline constexpr const char* kProfileSchemaName = "dtflop.machine-profile";
+
+// Reading the fields of dtflop's JSON files (profiles, calibrations): each failure is an InputError
+// naming the field (path + key), what it held and what was expected.
+namespace json_field {
+[[noreturn]] void bad(const std::string& field, const nlohmann::json& value, const std::string& expected);
+const nlohmann::json& need(const nlohmann::json& obj, const std::string& key, const std::string& path);
+// Absent: empty, or an error when `required`.
+std::string get_string(const nlohmann::json& obj, const std::string& key, const std::string& path, bool required);
+// An optional object of strings (e.g. "metadata").
+std::map<std::string, std::string> string_map(const nlohmann::json& obj, const std::string& key);
+}  // namespace json_field
 
 nlohmann::json to_json(const MachineProfile& p);
 // Validates every field; throws InputError naming the field, the value and what was expected.

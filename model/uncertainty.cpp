@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "model/errors.hpp"
+#include "model/terms.hpp"
 
 namespace dtflop {
 
@@ -15,9 +16,11 @@ constexpr double kZ95 = 1.959963984540054;
 
 double normal_cdf(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
 
-// Does the prediction of `counts` have device terms (a GPU backend's)?
+// Does the prediction of `counts` have device terms (a GPU backend's), by the term table?
 bool on_device(const CostCounts& c) {
-  return c.N_CG > 0 || c.N_GC > 0 || c.N_GG > 0 || c.N_G > 0 || c.launches > 0 || c.host_waits > 0;
+  for (Phase p : all_phases())
+    if (p != Phase::C && counts_phase(c, p)) return true;
+  return false;
 }
 
 double metadata_number(const MachineProfile& p, const char* key) {
