@@ -10,6 +10,7 @@ void setup_all(CLI::App& root) {
   add_sweep_command(root);
   add_calibrate_command(root);
   add_validate_command(root);
+  add_tune_command(root);
   add_report_command(root);
 #ifdef DTFLOP_IMAGE_IO
   add_specimen_command(root);  // these two read or write image files

@@ -14,6 +14,7 @@ void add_run_command(CLI::App& root);
 void add_sweep_command(CLI::App& root);
 void add_calibrate_command(CLI::App& root);
 void add_validate_command(CLI::App& root);
+void add_tune_command(CLI::App& root);
 void add_specimen_command(CLI::App& root);
 void add_fields_command(CLI::App& root);
 void add_density_command(CLI::App& root);

@@ -1,0 +1,446 @@
+// `dtflop tune --scenario S.yaml`: which configuration of a workload meets the scenario's deadline
+// with the accuracy it needs, on this machine (ranked by the model, the most promising measured
+// through the sample store) or, with --no-measure, on a machine not at hand (ranked by prediction
+// alone, each with its interval). docs/tune.md.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "calibrate/machine.hpp"
+#include "calibrate/measure.hpp"
+#include "calibrate/store.hpp"
+#include "cli/command.hpp"
+#include "cli/table.hpp"
+#include "cli/workload_cli.hpp"
+#include "model/calibration.hpp"
+#include "model/errors.hpp"
+#include "model/json_io.hpp"
+#include "model/units.hpp"
+#include "model/uncertainty.hpp"
+#include "tune/tuner.hpp"
+
+namespace dtflop::cli {
+namespace {
+
+using nlohmann::json;
+
+inline constexpr const char* kTunedSchema = "dtflop.tuned";
+
+struct TuneOptions {
+  std::string scenario;
+  std::string machine;
+  std::vector<std::string> calibrations;
+  std::string strategy = "model";
+  std::int64_t budget = -1;  // -1: the strategy's default
+  bool no_measure = false;
+  std::string store;
+  std::string output;
+  bool json = false;
+  bool quiet = false;
+  std::uint64_t seed = 1;
+  int patience = 6;
+  calib::MeasureSettings measure;
+  bool no_cupti = false;
+  std::string replay;       // budgets, e.g. "5,10,20,50": measure everything, then replay the strategies
+  int replay_seeds = 10;
+  std::string space_csv;    // the measured space, for peers (benchmarks/tune)
+};
+
+// A calibration, applied once to the machine's profile, and what it matches.
+struct LoadedCalibration {
+  std::string file;
+  Calibration calibration;
+  Applied applied;
+  BasisError basis;
+};
+
+std::vector<std::size_t> parse_budgets(const std::string& text) {
+  std::vector<std::size_t> out;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    char* end = nullptr;
+    const long long v = std::strtoll(item.c_str(), &end, 10);
+    if (item.empty() || *end || v < 1 || v > 100000)
+      throw InputError(fmt::format("--replay: '{}' is not a budget in 1..100000 (e.g. --replay 5,10,20,50)", item));
+    out.push_back(static_cast<std::size_t>(v));
+  }
+  if (out.empty()) throw InputError("--replay lists no budget (e.g. --replay 5,10,20,50)");
+  return out;
+}
+
+std::string csv_cell(const json& v) {
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_array() && v.size() == 2) return fmt::format("{}x{}", v[0].dump(), v[1].dump());
+  return v.dump();
+}
+
+void run(const TuneOptions& o) {
+  if (o.budget == 0)
+    throw InputError("--budget 0 measures nothing: give a budget of at least 1, or --no-measure to rank by "
+                     "prediction alone");
+  if (o.no_measure && !o.replay.empty())
+    throw InputError("--replay replays measurements; it cannot go with --no-measure");
+  const tune::StrategyInfo& strategy_info = tune::find_strategy(o.strategy);
+  const std::vector<std::size_t> replay_budgets = o.replay.empty() ? std::vector<std::size_t>{} : parse_budgets(o.replay);
+  const tune::Scenario s = tune::load_scenario(o.scenario);
+  const workload::Workload& w = workload::find(s.workload);
+  const std::string machine_file = o.machine.empty() ? s.machine : o.machine;
+  if (machine_file.empty())
+    throw InputError(fmt::format("scenario '{}' names no machine: give --machine profile.json (`dtflop probe` or "
+                                 "`dtflop calibrate` writes one)",
+                                 o.scenario));
+  std::vector<std::string> inputs = {o.scenario, machine_file};
+  const MachineProfile machine = load_profile(machine_file);
+  const MachineIdentity here = calib::this_machine();
+  std::string why_other;
+  const bool machine_is_here = same_machine(machine.identity, here, &why_other);
+  if (!o.no_measure && !machine_is_here)
+    throw InputError(fmt::format("--machine '{}' describes {}, not this machine ({}): measuring here needs this "
+                                 "machine's profile; add --no-measure to rank for that machine by prediction alone",
+                                 machine_file, describe(machine.identity), why_other));
+  if (!o.output.empty()) check_output(o.output, inputs);
+  if (!o.space_csv.empty()) check_output(o.space_csv, inputs);
+
+  // Calibrations: each applied once to the profile.
+  std::vector<LoadedCalibration> calibrations;
+  std::vector<std::string> calibration_files = s.calibrations;
+  calibration_files.insert(calibration_files.end(), o.calibrations.begin(), o.calibrations.end());
+  for (const auto& f : calibration_files) {
+    LoadedCalibration lc;
+    lc.file = f;
+    lc.calibration = load_calibration(f);
+    if (lc.calibration.workload != w.name())
+      throw InputError(fmt::format("calibration '{}' is of {}, and the scenario tunes {}: use a calibration of {}", f,
+                                   lc.calibration.workload, w.name(), w.name()));
+    lc.applied = apply_calibration(lc.calibration, machine);
+    lc.basis = basis_of(lc.calibration, lc.applied.basis);
+    calibrations.push_back(std::move(lc));
+    inputs.push_back(f);
+  }
+  const bool progress_on = !o.quiet;
+  std::FILE* progress = progress_on ? stderr : nullptr;
+
+  // Backends the scenario names must be able to run where the tuning happens.
+  auto unavailable = [&](const workload::Backend& b) -> std::string {
+    if (o.no_measure) {
+      if (b.needs_gpu() && machine.identity.gpu_name.empty())
+        return fmt::format("backend {} needs a GPU and the machine profile '{}' has none", b.name(), machine_file);
+      return {};
+    }
+    return b.unavailable();
+  };
+  for (const auto& name : s.backends) {
+    const std::string why = unavailable(w.backend(name));
+    if (!why.empty())
+      throw InputError(fmt::format("scenario '{}' names backend {}, which cannot run {}: {}; remove it from "
+                                   "space.backend, tune where it runs, or rank with --no-measure",
+                                   o.scenario, name, o.no_measure ? "on that machine" : "here", why));
+  }
+
+  auto predict = [&](const workload::Backend& b, const workload::Config& c) {
+    const std::string key = w.key(b, c);
+    const LoadedCalibration* cal = nullptr;
+    for (const auto& lc : calibrations) {
+      if (lc.calibration.backend != b.name()) continue;
+      bool match = true;
+      for (const auto& m : lc.calibration.match) match = match && key.find(m) != std::string::npos;
+      if (match) cal = &lc;
+    }
+    const MachineProfile& profile = cal ? cal->applied.profile : machine;
+    const CostCounts counts = b.counts(c, &machine.identity);
+    const Variant wanted = cal ? cal->calibration.variant : chosen_variant(profile).value_or(Variant::extended);
+    const Predicted p = predict_with_fallback(profile, counts, wanted);
+    const BasisError basis = cal ? cal->basis : basis_of(profile, counts, p.variant);
+    const Interval iv = interval_of(p.prediction, profile, counts, basis);
+    tune::Predicted out;
+    out.seconds = p.prediction.total;
+    out.lo = iv.lo;
+    out.hi = iv.hi;
+    out.sigma = iv.sigma;
+    out.basis = std::string(to_string(basis.basis));
+    out.note = p.fallback;
+    if (s.deadline) {
+      const DeadlineVerdict v = judge_deadline(p.prediction.total, iv, *s.deadline, s.confidence);
+      out.p_met = v.probability_met;
+      out.verdict = std::string(to_string(v.verdict));
+    }
+    return out;
+  };
+
+  std::unique_ptr<tune::AccuracyModel> accuracy = tune::make_accuracy_model(w.name(), s.accuracy);
+  if (progress)
+    fmt::print(stderr, "tune: scenario {} ({}), {} on {}{}\n", s.name, o.scenario, w.name(), describe(machine.identity),
+               o.no_measure ? " (not measured: ranked by prediction alone)" : "");
+  tune::Space space = tune::constrain(s, w, *accuracy, unavailable, predict, progress);
+  if (progress) {
+    fmt::print(stderr, "tune: {} valid configurations of {} enumerated", space.valid.size(), space.enumerated);
+    for (const auto& [c, n] : space.removed) fmt::print(stderr, "; {} removed by {}", n, c);
+    fmt::print(stderr, "\n");
+  }
+
+  // ---- Measuring through the store -----------------------------------------------------------
+  std::string store = o.store;
+  if (!o.no_measure && store.empty()) store = s.name + ".samples.jsonl";
+  std::map<std::string, double> stored;  // key -> seconds per step
+  if (!o.no_measure) {
+    const calib::StoreContents contents = calib::read_store(store);
+    for (const auto& warning : contents.warnings) fmt::print(stderr, "dtflop: warning: {}\n", warning);
+    for (const auto& sm : contents.samples) {
+      std::string why;
+      if (!same_machine(sm.machine, here, &why))
+        throw InputError(fmt::format("store '{}' holds samples of {} ({}); a tuning measures this machine: use "
+                                     "another --store",
+                                     store, describe(sm.machine), why));
+      const Stats* total = sm.find(calib::Component::total);
+      if (sm.round == 1 && total && sm.steps > 0) stored[sm.key] = total->median / static_cast<double>(sm.steps);
+    }
+  }
+  std::map<std::string, calib::Protocol> protocols;
+  std::unique_ptr<calib::StoreWriter> writer;
+  std::vector<std::string> store_warnings;
+  int measured_now = 0;
+  tune::MeasureFn measure = [&](const tune::Candidate& c) -> tune::Measurement {
+    if (auto it = stored.find(c.key); it != stored.end()) return {it->second, true};
+    auto pit = protocols.find(c.backend->name());
+    if (pit == protocols.end()) {
+      pit = protocols.emplace(c.backend->name(), calib::open_protocol(w, *c.backend, o.measure, o.no_cupti)).first;
+      // The first configuration a process measures on a backend runs slower (clocks, first
+      // allocations, module loading): once, unrecorded.
+      calib::measure(w, *c.backend, c.config, pit->second, here, c.key, "tune:" + s.name);
+    }
+    if (!writer) writer = std::make_unique<calib::StoreWriter>(store, store_warnings);
+    const calib::Sample sm = calib::measure(w, *c.backend, c.config, pit->second, here, c.key, "tune:" + s.name);
+    writer->append(sm);
+    ++measured_now;
+    const double seconds = sm.find(calib::Component::total)->median / static_cast<double>(sm.steps);
+    stored[c.key] = seconds;
+    return {seconds, false};
+  };
+
+  tune::Search result;
+  std::vector<tune::ReplayRow> replayed;
+  if (!o.no_measure) {
+    tune::StrategyOptions so;
+    so.seed = o.seed;
+    so.patience = o.patience;
+    if (!replay_budgets.empty()) {
+      // Everything measured (exhaustive), then every strategy replayed on the stored times.
+      auto all = tune::make_exhaustive_strategy(so);
+      result = tune::search(space, *all, 0, measure, progress);
+      result.stop_reason = "every valid configuration measured, for the replay";
+      replayed = tune::replay(space, {"model", "random"}, replay_budgets, o.replay_seeds);
+    } else {
+      auto strategy = strategy_info.make(so);
+      const std::size_t budget = o.budget > 0 ? static_cast<std::size_t>(o.budget)
+                                 : o.strategy == "exhaustive" ? 0
+                                                              : 20;
+      result = tune::search(space, *strategy, budget, measure, progress);
+    }
+  }
+  for (const auto& warning : store_warnings) fmt::print(stderr, "dtflop: warning: {}\n", warning);
+
+  // ---- The choice ---------------------------------------------------------------------------
+  const auto& c = space.valid;
+  const bool by_measure = !o.no_measure;
+  const std::optional<std::size_t> chosen = by_measure ? tune::fastest_measured(c) : tune::fastest_predicted(c, s.deadline.has_value());
+  const auto time_of = [&](std::size_t i) { return by_measure ? *c[i].measured : c[i].predicted.seconds; };
+  std::vector<std::size_t> ranked;
+  for (std::size_t i = 0; i < c.size(); ++i)
+    if (!by_measure || c[i].measured) ranked.push_back(i);
+  std::sort(ranked.begin(), ranked.end(), [&](std::size_t a, std::size_t b) { return time_of(a) < time_of(b); });
+  const std::vector<std::size_t> front = tune::pareto_front(c, by_measure);
+  const bool meets = chosen && s.deadline &&
+                     (by_measure ? *c[*chosen].measured <= *s.deadline : c[*chosen].predicted.verdict == "met");
+
+  auto candidate_json = [&](std::size_t i) {
+    const auto& x = c[i];
+    json j = {{"backend", x.backend->name()},
+              {"config", x.config},
+              {"key", x.key},
+              {"label", x.label},
+              {"predicted", {{"seconds", x.predicted.seconds},
+                             {"interval90", {x.predicted.lo, x.predicted.hi}},
+                             {"basis", x.predicted.basis}}},
+              {"accuracy", {{"error", x.accuracy.error}, {"figures", x.accuracy.figures}}}};
+    if (x.predicted.p_met) {
+      j["predicted"]["verdict"] = x.predicted.verdict;
+      j["predicted"]["probability_met"] = *x.predicted.p_met;
+    }
+    if (!x.predicted.note.empty()) j["predicted"]["note"] = x.predicted.note;
+    if (x.measured) j["measured_seconds"] = *x.measured;
+    if (s.deadline) j["margin_seconds"] = *s.deadline - time_of(i);
+    return j;
+  };
+
+  json out = {{"schema", kTunedSchema},
+              {"version", 1},
+              {"scenario", s.name},
+              {"workload", std::string(w.name())},
+              {"machine", describe(machine.identity)},
+              {"strategy", by_measure ? (replay_budgets.empty() ? o.strategy : "exhaustive") : "none (--no-measure)"},
+              {"verdicts", by_measure ? "measured" : "predicted"},
+              {"accuracy_figure", {{"name", accuracy->error_name()}, {"unit", accuracy->error_unit()}}},
+              {"accuracy_needs", accuracy->needs()},
+              {"space", {{"enumerated", space.enumerated}, {"valid", c.size()}, {"removed", space.removed},
+                         {"removed_example", space.example}}},
+              {"measured", result.order.size()},
+              {"measured_now", measured_now},
+              {"stop_reason", by_measure ? result.stop_reason : "not measured"}};
+  if (s.deadline) out["deadline_seconds"] = *s.deadline;
+  if (!store.empty()) out["store"] = store;
+  if (chosen) {
+    out["chosen"] = candidate_json(*chosen);
+    // What `dtflop run` takes: the backend and the configuration.
+    out["backend"] = c[*chosen].backend->name();
+    out["config"] = c[*chosen].config;
+  }
+  out["meets_deadline"] = s.deadline ? json(meets) : json(nullptr);
+  json runners = json::array();
+  for (std::size_t k = 1; k < ranked.size() && k <= 5; ++k) runners.push_back(candidate_json(ranked[k]));
+  out["runners_up"] = runners;
+  json pf = json::array();
+  for (std::size_t i : front) pf.push_back(candidate_json(i));
+  out["pareto_front"] = pf;
+  if (!replayed.empty()) {
+    json rows = json::array();
+    for (const auto& r : replayed)
+      rows.push_back({{"strategy", r.strategy}, {"budget", r.budget}, {"median_fraction_of_optimum", r.median},
+                      {"fractions", r.fractions}, {"median_measured", r.measured_median}});
+    out["replay"] = {{"seeds", o.replay_seeds}, {"rows", rows}};
+  }
+
+  if (!o.space_csv.empty()) {
+    std::string csv = "key,backend";
+    std::vector<std::string> params;
+    for (const auto& p : w.params()) params.push_back(p.name);
+    for (const auto& p : params) csv += "," + p;
+    csv += ",predicted_s,interval_lo_s,interval_hi_s,accuracy_error,measured_s\n";
+    for (const auto& x : c) {
+      csv += fmt::format("\"{}\",{}", x.key, x.backend->name());
+      for (const auto& p : params) csv += "," + (x.config.contains(p) ? csv_cell(x.config[p]) : std::string());
+      csv += fmt::format(",{:.6e},{:.6e},{:.6e},{:.6g},{}\n", x.predicted.seconds, x.predicted.lo, x.predicted.hi,
+                         x.accuracy.error, x.measured ? fmt::format("{:.6e}", *x.measured) : "");
+    }
+    write_file_atomically(o.space_csv, csv);
+  }
+  if (!o.output.empty()) write_file_atomically(o.output, out.dump(2) + "\n");
+
+  if (o.json) {
+    fmt::print("{}\n", out.dump(2));
+  } else {
+    const std::string unit = accuracy->error_unit();
+    auto acc = [&](std::size_t i) {
+      return accuracy->error_name() == "none" ? std::string("-") : fmt::format("{:.3g} {}", c[i].accuracy.error, unit);
+    };
+    fmt::print("scenario {}: {} on {}\n", s.name, w.name(), describe(machine.identity));
+    fmt::print("space: {} enumerated, {} valid", space.enumerated, c.size());
+    for (const auto& [k, n] : space.removed) fmt::print("; {} removed by {}", n, k);
+    fmt::print("\n");
+    for (const auto& [k, e] : space.example) fmt::print("  {}: e.g. {}\n", k, e);
+    if (by_measure)
+      fmt::print("measured {} of {} valid ({} now, {} from the store '{}'), strategy {}: {}\n", result.order.size(),
+                 c.size(), measured_now, result.order.size() - static_cast<std::size_t>(measured_now), store,
+                 out["strategy"].get<std::string>(), result.stop_reason);
+    else
+      fmt::print("not measured: every verdict below is a prediction ({} basis){}\n",
+                 chosen ? c[*chosen].predicted.basis : "-",
+                 calibrations.empty() ? "" : fmt::format(", with {} calibration(s)", calibrations.size()));
+    if (chosen) {
+      const auto& x = c[*chosen];
+      fmt::print("\nchosen: {}\n  {}\n", x.label, w.describe(*x.backend, x.config));
+      fmt::print("  predicted {} (90% interval {} .. {}, {})\n", format_duration(x.predicted.seconds),
+                 format_duration(x.predicted.lo), format_duration(x.predicted.hi), x.predicted.basis);
+      if (x.measured) fmt::print("  measured  {}\n", format_duration(*x.measured));
+      if (s.deadline)
+        fmt::print("  deadline  {}: {} (margin {}{})\n", format_duration(*s.deadline),
+                   meets ? "met" : "NOT met", format_duration(std::abs(*s.deadline - time_of(*chosen))),
+                   *s.deadline >= time_of(*chosen) ? "" : " over");
+      fmt::print("  accuracy  {} = {}; {}\n", accuracy->error_name(), acc(*chosen), x.accuracy.figures.dump());
+      if (s.deadline && !meets)
+        fmt::print("nothing {} meets the deadline of {}: the configuration above comes closest\n",
+                   by_measure ? "measured" : "predicted with confidence", format_duration(*s.deadline));
+    }
+    Table t({"runner-up", by_measure ? "measured" : "predicted", "90% interval", accuracy->error_name()});
+    for (std::size_t k = 1; k < ranked.size() && k <= 5; ++k) {
+      const auto& x = c[ranked[k]];
+      t.row({x.label, format_duration(time_of(ranked[k])),
+             fmt::format("{} .. {}", format_duration(x.predicted.lo), format_duration(x.predicted.hi)), acc(ranked[k])});
+    }
+    if (ranked.size() > 1) fmt::print("\n{}", t.str());
+    Table p({"Pareto front: configuration", by_measure ? "measured" : "predicted", accuracy->error_name(),
+             s.deadline ? "deadline" : ""});
+    for (std::size_t i : front)
+      p.row({c[i].label, format_duration(time_of(i)), acc(i),
+             s.deadline ? (time_of(i) <= *s.deadline ? "met" : "missed") : ""});
+    fmt::print("\n{}", p.str());
+    if (!replayed.empty()) {
+      Table r({"strategy", "budget", "median fraction of optimum", "min", "median measured"});
+      for (const auto& row : replayed)
+        r.row({row.strategy, fmt::format("{}", row.budget), fmt::format("{:.3f}", row.median),
+               fmt::format("{:.3f}", *std::min_element(row.fractions.begin(), row.fractions.end())),
+               fmt::format("{:.0f}", row.measured_median)});
+      fmt::print("\nreplayed on the {} measured configurations, {} seeds each:\n{}", c.size(), o.replay_seeds, r.str());
+    }
+    if (!o.output.empty()) fmt::print("\nwritten: {} (`dtflop run {} --tuned {}` runs the choice)\n", o.output, w.name(), o.output);
+  }
+  if (s.deadline && !meets) set_exit_status(kExitMissed);
+}
+
+}  // namespace
+
+void add_tune_command(CLI::App& root) {
+  auto* app = root.add_subcommand(
+      "tune",
+      "Choose the configuration of a workload that meets a scenario's deadline with the accuracy it needs: rank the "
+      "scenario's space by the model, measure the most promising through the sample store, and report the choice, "
+      "its runners-up and the Pareto front of time against accuracy; or, with --no-measure, rank for a machine not "
+      "at hand by prediction alone (docs/tune.md)");
+  auto o = std::make_shared<TuneOptions>();
+  app->add_option("--scenario", o->scenario, "Scenario file (YAML; tune/scenarios/ holds examples)")->required();
+  app->add_option("--machine", o->machine, "Machine profile (overrides the scenario's machine)");
+  app->add_option("--calibration", o->calibrations,
+                  "Backend calibration to apply to the profile (repeatable; added to the scenario's)");
+  app->add_option("--strategy", o->strategy, "Search strategy: " + tune::strategy_names())->capture_default_str();
+  app->add_option("--budget", o->budget,
+                  "Most configurations to measure (default 20; exhaustive: every valid one). Configurations found "
+                  "in the store count but cost nothing")
+      ->check(number_in(0, 1'000'000, true));
+  app->add_flag("--no-measure", o->no_measure,
+                "Rank by prediction alone (a machine not at hand: its probe profile plus carried calibrations); "
+                "every verdict is a prediction");
+  app->add_option("--store,-s", o->store,
+                  "Sample store measurements go through (default: <scenario name>.samples.jsonl); a tuning resumes "
+                  "from it and reuses a sweep's samples of the same configurations");
+  app->add_option("--output,-o", o->output, "Write the result as JSON (`dtflop run --tuned` takes it)");
+  app->add_flag("--json", o->json, "Print the result as JSON on stdout");
+  app->add_flag("--quiet,-q", o->quiet, "No progress on stderr");
+  app->add_option("--seed", o->seed, "Seed of the random strategy")
+      ->capture_default_str()
+      ->check(number_in(0, std::numeric_limits<std::uint64_t>::max(), true));
+  app->add_option("--patience", o->patience,
+                  "model: stop after this many measurements in a row that did not improve the best by 1%")
+      ->capture_default_str()
+      ->check(number_in(1, 1000, true));
+  add_measure_options(*app, o->measure, o->no_cupti);
+  app->add_option("--replay", o->replay,
+                  "Benchmark the strategies: measure every valid configuration, then replay model and random on "
+                  "the stored times at these budgets (e.g. 5,10,20,50) and report the fraction of the optimum each "
+                  "reached (median over --replay-seeds)");
+  app->add_option("--replay-seeds", o->replay_seeds, "Seeds per strategy and budget for --replay")
+      ->capture_default_str()
+      ->check(number_in(1, 1000, true));
+  app->add_option("--space-csv", o->space_csv,
+                  "Write every valid configuration with its prediction and measured time as CSV (for peers)");
+  app->callback([o] { run(*o); });
+}
+
+}  // namespace dtflop::cli
