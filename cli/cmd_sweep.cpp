@@ -33,6 +33,9 @@ struct SweepOptions {
 
 void run(const SweepOptions& o, const WorkloadArgs& a) {
   const workload::Workload& w = *a.workload;
+  if (!a.tuned.empty())
+    throw InputError("--tuned names one configuration; a sweep measures a plan (--plan), so drop --tuned");
+  if (a.backend.empty()) throw InputError(fmt::format("name the backend to sweep with --backend ({})", w.backend_names()));
   const workload::Backend& b = w.backend(a.backend);
   nlohmann::json fixed = nlohmann::json::object();
   for (const auto& [k, v] : a.values) fixed[k] = v;

@@ -142,8 +142,10 @@ void run(const TuneOptions& o) {
     const std::string why = unavailable(w.backend(name));
     if (!why.empty())
       throw InputError(fmt::format("scenario '{}' names backend {}, which cannot run {}: {}; remove it from "
-                                   "space.backend, tune where it runs, or rank with --no-measure",
-                                   o.scenario, name, o.no_measure ? "on that machine" : "here", why));
+                                   "space.backend, or {}",
+                                   o.scenario, name, o.no_measure ? "on the machine of the profile" : "here", why,
+                                   o.no_measure ? "give the profile of a machine that runs it (--machine)"
+                                                : "tune where it runs, or rank for such a machine with --no-measure"));
   }
 
   auto predict = [&](const workload::Backend& b, const workload::Config& c) {
@@ -176,17 +178,6 @@ void run(const TuneOptions& o) {
     return out;
   };
 
-  std::unique_ptr<tune::AccuracyModel> accuracy = tune::make_accuracy_model(w.name(), s.accuracy);
-  if (progress)
-    fmt::print(stderr, "tune: scenario {} ({}), {} on {}{}\n", s.name, o.scenario, w.name(), describe(machine.identity),
-               o.no_measure ? " (not measured: ranked by prediction alone)" : "");
-  tune::Space space = tune::constrain(s, w, *accuracy, unavailable, predict, progress);
-  if (progress) {
-    fmt::print(stderr, "tune: {} valid configurations of {} enumerated", space.valid.size(), space.enumerated);
-    for (const auto& [c, n] : space.removed) fmt::print(stderr, "; {} removed by {}", n, c);
-    fmt::print(stderr, "\n");
-  }
-
   // ---- Measuring through the store -----------------------------------------------------------
   std::string store = o.store;
   if (!o.no_measure && store.empty()) store = s.name + ".samples.jsonl";
@@ -204,6 +195,16 @@ void run(const TuneOptions& o) {
       if (sm.round == 1 && total && sm.steps > 0) stored[sm.key] = total->median / static_cast<double>(sm.steps);
     }
   }
+  std::unique_ptr<tune::AccuracyModel> accuracy = tune::make_accuracy_model(w.name(), s.accuracy);
+  tune::Space space = tune::constrain(s, w, *accuracy, unavailable, predict, progress);
+  if (progress) {
+    fmt::print(stderr, "tune: scenario {} ({}), {} on {}{}\n", s.name, o.scenario, w.name(), describe(machine.identity),
+               o.no_measure ? " (not measured: ranked by prediction alone)" : "");
+    fmt::print(stderr, "tune: {} valid configurations of {} enumerated", space.valid.size(), space.enumerated);
+    for (const auto& [c, n] : space.removed) fmt::print(stderr, "; {} removed by {}", n, c);
+    fmt::print(stderr, "\n");
+  }
+
   std::map<std::string, calib::Protocol> protocols;
   std::unique_ptr<calib::StoreWriter> writer;
   std::vector<std::string> store_warnings;

@@ -22,9 +22,14 @@ std::shared_ptr<WorkloadArgs> add_workload_options(CLI::App& app, const workload
   std::string backends;
   for (const auto& b : w.backends())
     backends += fmt::format("\n  {}{}: {}", b->name(), b->needs_gpu() ? " (GPU)" : "", b->info().description);
-  auto* opt = app.add_option("--backend,-b", a->backend, "Backend:" + backends);
-  if (default_backend.empty()) opt->required();
-  else opt->capture_default_str();
+  auto* opt = app.add_option("--backend,-b", a->backend,
+                             "Backend" + std::string(default_backend.empty() ? " (required unless --tuned names it)" : "") +
+                                 ":" + backends);
+  if (!default_backend.empty()) opt->capture_default_str();
+  app.add_option("--tuned", a->tuned,
+                 "The configuration `dtflop tune -o tuned.json` chose (its backend and parameters; options given "
+                 "beside it override them)")
+      ->check(CLI::ExistingFile);
   for (const auto& p : w.params()) {
     std::string help = p.help;
     if (!p.fallback.is_null())
@@ -106,10 +111,31 @@ void add_measure_options(CLI::App& app, calib::MeasureSettings& settings, bool& 
 }
 
 Chosen choose(const WorkloadArgs& a) {
-  const workload::Backend& b = a.workload->backend(a.backend);
+  const workload::Workload& w = *a.workload;
   nlohmann::json given = nlohmann::json::object();
+  std::string backend = a.backend;
+  if (!a.tuned.empty()) {
+    const std::string what = fmt::format("--tuned '{}'", a.tuned);
+    const nlohmann::json t = parse_json_limited(read_file_limited(a.tuned, what, kMaxJsonFileBytes), what);
+    if (!t.is_object() || t.value("schema", "") != "dtflop.tuned" || !t.contains("workload") ||
+        !t.contains("backend") || !t.contains("config") || !t["config"].is_object() || !t["backend"].is_string())
+      throw InputError(fmt::format("{} is not a result of `dtflop tune -o` (schema dtflop.tuned with workload, backend "
+                                   "and config); give the file tune wrote",
+                                   what));
+    if (t["workload"] != w.name())
+      throw InputError(fmt::format("{} is a configuration of {}, not {}: run it with `dtflop run {} --tuned {}`", what,
+                                   t["workload"].dump(), w.name(), t["workload"].get<std::string>(), a.tuned));
+    if (!backend.empty() && backend != t["backend"].get<std::string>())
+      throw InputError(fmt::format("{} chose backend {}, and --backend says {}: drop --backend, or drop --tuned", what,
+                                   t["backend"].get<std::string>(), backend));
+    backend = t["backend"].get<std::string>();
+    given = t["config"];
+  }
+  if (backend.empty())
+    throw InputError(fmt::format("name the backend with --backend ({}), or give --tuned tuned.json", w.backend_names()));
+  const workload::Backend& b = w.backend(backend);
   for (const auto& [name, text] : a.values) given[name] = text;
-  return {&b, a.workload->validate(given, b)};
+  return {&b, w.validate(given, b)};
 }
 
 void add_result_options(CLI::App& app, ResultArgs& args) {

@@ -29,6 +29,7 @@ struct WorkloadArgs {
   CLI::App* app = nullptr;
   std::string backend;
   std::map<std::string, std::string> values;  // parameter -> text as typed (given ones only count)
+  std::string tuned;  // --tuned: a `dtflop tune -o` result naming the backend and configuration
 };
 // Adds --backend and one option per parameter of `w` to `app`.
 std::shared_ptr<WorkloadArgs> add_workload_options(CLI::App& app, const workload::Workload& w,
@@ -53,8 +54,10 @@ struct Chosen {
   const workload::Backend* backend = nullptr;
   workload::Config config;
 };
-// The backend and the validated configuration the command line names (defaults for the rest).
-// Throws InputError for an unknown backend, an option that does not apply to it, a bad value.
+// The backend and the validated configuration the command line names (defaults for the rest), or
+// --tuned's (a `dtflop tune -o` file of this workload; options given beside it override its values).
+// Throws InputError for an unknown or missing backend, an option that does not apply to it, a bad
+// value, and a tuned file of another workload or backend.
 Chosen choose(const WorkloadArgs& args);
 
 // --json and -o: how `predict` and `run` give their result (tables or JSON; JSON also to a file).

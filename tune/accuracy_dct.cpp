@@ -92,7 +92,7 @@ class DctAccuracy final : public AccuracyModel {
   };
   Measured measure(const workload::Config& c) const {
     const dct::Specimen s = dct::specimen_of(c);
-    dct::PipelineOptions o = dct::pipeline_options(c, "cpu-par");
+    dct::PipelineOptions o = dct::pipeline_options(c, "cpu-seq");  // the fields do not depend on the backend
     o.threads = 0;
     auto b = dct::make_backend("cpu-par", o);
     b->set_reference(s.reference_image());
