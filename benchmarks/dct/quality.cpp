@@ -4,6 +4,7 @@
 //   dct_quality centroids [margin]                                   centroid error vs radius, blur, noise
 // Results and how they were made: results/dct-quality/README.md.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -12,6 +13,7 @@
 #include "render.hpp"
 #include "workloads/dct/backend.hpp"
 #include "workloads/dct/tracking.hpp"
+#include "workloads/dct/uncertainty.hpp"
 
 using namespace dtflop::dct;
 
@@ -125,12 +127,76 @@ int centroids(int margin) {
   return 0;
 }
 
+// Stated against observed: `runs` renders of one pattern under tension with fresh noise;
+// per point the scatter of each value over the runs against the mean stated deviation.
+int sigma(int argc, char** argv) {
+  const std::string backend = argc > 2 ? argv[2] : "cpu-par";
+  PipelineOptions o;
+  if (argc > 3) o.mls.support = parse_support(argv[3]);
+  if (argc > 4) o.interp = interp_from_string(argv[4]);
+  const int runs = argc > 5 ? std::stoi(argv[5]) : 20;
+  const dct_indep::Scene s = dct_indep::make_scene(params("tension", 3));
+  const cv::Mat cref = dct_indep::render_clean(s, false), cdef = dct_indep::render_clean(s, true);
+  const int n = o.points_x * o.points_y;
+  std::vector<std::array<double, 5>> sum(n), sum2(n), stated(n);
+  std::vector<int> cnt(n, 0);
+  double noise = 0, csig = 0, cobs = 0;
+  std::vector<Vec2> c1, c2;  // first dot's centroid per run
+  for (int r = 0; r < runs; ++r) {
+    const cv::Mat ref = dct_indep::finish(cref, 1, 1000 + 2 * r), def = dct_indep::finish(cdef, 1, 1001 + 2 * r);
+    auto b = make_backend(backend, o);
+    b->set_reference(ref);
+    const FrameOutput out = b->process(def);
+    const FrameUncertainty u = frame_uncertainty(ref, def, *b, out);
+    noise += u.reference_noise.sigma / runs;
+    c1.push_back({b->reference_dots()[0].x, b->reference_dots()[0].y});
+    csig += u.reference_dots[0].x / runs;
+    for (int m = 0; m < n; ++m) {
+      const auto& f = out.fields[m];
+      if (f.status != PointStatus::ok) continue;
+      const double v[5] = {f.ux, f.uy, f.exx, f.eyy, f.exy};
+      const auto& q = u.points[m];
+      const double sd[5] = {q.ux, q.uy, q.exx, q.eyy, q.exy};
+      for (int i = 0; i < 5; ++i) {
+        sum[m][i] += v[i];
+        sum2[m][i] += v[i] * v[i];
+        stated[m][i] += sd[i] * sd[i];
+      }
+      ++cnt[m];
+    }
+  }
+  {
+    double mx = 0, vx = 0;
+    for (auto c : c1) mx += c.x / runs;
+    for (auto c : c1) vx += (c.x - mx) * (c.x - mx) / (runs - 1);
+    cobs = std::sqrt(vx);
+  }
+  std::printf("noise estimate %.3f grey levels (rendered 1, plus rounding: %.3f)\n", noise, std::sqrt(1 + 1.0 / 12));
+  std::printf("one dot's centroid: stated %.4f px, observed %.4f px over %d runs\n", csig, cobs, runs);
+  const char* names[5] = {"u_x", "u_y", "e_xx", "e_yy", "e_xy"};
+  for (int i = 0; i < 5; ++i) {
+    double obs = 0, st = 0;
+    int k = 0;
+    for (int m = 0; m < n; ++m) {
+      if (cnt[m] != runs) continue;
+      const double mean = sum[m][i] / runs;
+      obs += (sum2[m][i] - runs * mean * mean) / (runs - 1);
+      st += stated[m][i] / runs;
+      ++k;
+    }
+    std::printf("%s: stated %.4g, observed %.4g (RMS over %d points), ratio %.3f\n", names[i], std::sqrt(st / k),
+                std::sqrt(obs / k), k, std::sqrt(st / obs));
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   const std::string mode = argc > 1 ? argv[1] : "";
   try {
     if (mode == "fields") return fields(argc, argv);
+    if (mode == "sigma") return sigma(argc, argv);
     if (mode == "centroids") return centroids(argc > 2 ? std::stoi(argv[2]) : AnalysisOptions{}.margin);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dct_quality: %s\n", e.what());
