@@ -36,7 +36,7 @@ struct RunDctOptions {
   std::string reference;
   std::string frames;
   std::string specimen;
-  std::string support = "60dots";
+  std::string support = "200dots";
   std::string interp = "mls";
   std::string weight = "cubic";
   std::string points = "32x32";

@@ -109,8 +109,9 @@ MlsTable build_mls_table(const std::vector<Vec2>& reference, const std::vector<V
   if (reference.size() < 6)
     throw InputError(fmt::format("the reference frame holds {} dot(s); MLS needs at least 6", reference.size()));
   if (o.support.kind == Support::Kind::dots && o.support.dots > static_cast<int>(reference.size()))
-    throw InputError(fmt::format("support of {} dots asks for more than the {} dots found", o.support.dots,
-                                 reference.size()));
+    throw InputError(fmt::format("support of {} dots asks for more than the {} dots found; give a smaller --support "
+                                 "(e.g. {}dots)",
+                                 o.support.dots, reference.size(), std::max<std::size_t>(6, reference.size() / 3)));
   PointIndex index(reference);
   const double gap = o.max_gap * median_spacing(reference);
   MlsTable t;

@@ -22,7 +22,7 @@ std::vector<Vec2> grid_points_over(const std::vector<Vec2>& dots, int nx, int ny
 struct Support {
   enum class Kind { radius, dots } kind = Kind::dots;
   double radius = 0;  // px, for Kind::radius
-  int dots = 60;      // for Kind::dots: the radius at each point is set so that exactly this
+  int dots = 200;     // for Kind::dots: the radius at each point is set so that exactly this
                       // many dots lie inside (midway between the n-th and (n+1)-th nearest)
   std::string str() const;  // "60dots" or "12.5px"
 };
