@@ -313,7 +313,7 @@ void add_fields_command(CLI::App& root) {
   app->add_option("--reference", o->reference, "Reference (undeformed) image");
   app->add_option("--frames", o->frames, "Deformed frames: a file or a printf pattern, e.g. 'def_%04d.png'");
   app->add_option("--specimen", o->specimen, "Render a specimen instead (see `dtflop specimen --help`) and compare with its truth");
-  app->add_option("--support", o->support, "MLS support domain: dots per support (60dots) or radius (12.5px)")
+  app->add_option("--support", o->support, "MLS support domain: dots per support (200dots) or radius (12.5px)")
       ->capture_default_str();
   app->add_option("--interp", o->interp, "mls or fe")->capture_default_str();
   app->add_option("--weight", o->weight, "MLS weight: cubic, quartic or gaussian")->capture_default_str();
