@@ -37,6 +37,7 @@ struct RunDctOptions {
   std::string frames;
   std::string specimen;
   std::string support = "200dots";
+  bool support_given = false;
   std::string interp = "mls";
   std::string weight = "cubic";
   std::string points = "32x32";
@@ -140,6 +141,7 @@ void run(const RunDctOptions& o) {
   PipelineOptions p;
   p.interp = interp_from_string(o.interp);
   p.mls.support = parse_support(o.support);
+  p.mls.support_at_most_found = !o.support_given;  // the default shrinks to small patterns
   p.mls.weight = weight_from_string(o.weight);
   const Size2 grid = parse_size2(o.points, "--points", 4096);
   if (grid.x < 2 || grid.y < 2) throw InputError("--points needs at least 2x2 points");
@@ -313,8 +315,11 @@ void add_fields_command(CLI::App& root) {
   app->add_option("--reference", o->reference, "Reference (undeformed) image");
   app->add_option("--frames", o->frames, "Deformed frames: a file or a printf pattern, e.g. 'def_%04d.png'");
   app->add_option("--specimen", o->specimen, "Render a specimen instead (see `dtflop specimen --help`) and compare with its truth");
-  app->add_option("--support", o->support, "MLS support domain: dots per support (200dots) or radius (12.5px)")
-      ->capture_default_str();
+  app->add_option("--support", o->support,
+                  "MLS support domain: dots per support (200dots; the default takes every dot where fewer were "
+                  "found) or radius (12.5px)")
+      ->capture_default_str()
+      ->each([o](const std::string&) { o->support_given = true; });
   app->add_option("--interp", o->interp, "mls or fe")->capture_default_str();
   app->add_option("--weight", o->weight, "MLS weight: cubic, quartic or gaussian")->capture_default_str();
   app->add_option("--points", o->points, "Interpolation grid over the reference dots, e.g. 64x32")->capture_default_str();

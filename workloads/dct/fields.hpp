@@ -39,6 +39,9 @@ std::string to_string(PointStatus s);
 struct MlsOptions {
   Weight weight = Weight::cubic_spline;
   Support support;
+  // A support in dots larger than the reference holds: true (the default support) takes every
+  // dot; false (a support the user gave) is refused with what to do.
+  bool support_at_most_found = true;
   int min_dots = 6;                // the quadratic basis has 6 terms
   double min_pivot_ratio = 1e-5;   // smallest / largest LDL' pivot of A
   double max_gap = 2.5;            // nearest dot farther than this x median spacing: invalid
