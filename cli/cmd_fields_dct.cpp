@@ -26,6 +26,7 @@
 #include "workloads/dct/backend.hpp"
 #include "workloads/dct/io.hpp"
 #include "workloads/dct/specimen.hpp"
+#include "workloads/dct/uncertainty.hpp"
 
 namespace dtflop::cli {
 namespace {
@@ -35,7 +36,8 @@ struct RunDctOptions {
   std::string reference;
   std::string frames;
   std::string specimen;
-  std::string support = "60dots";
+  std::string support = "200dots";
+  bool support_given = false;
   std::string interp = "mls";
   std::string weight = "cubic";
   std::string points = "32x32";
@@ -139,6 +141,7 @@ void run(const RunDctOptions& o) {
   PipelineOptions p;
   p.interp = interp_from_string(o.interp);
   p.mls.support = parse_support(o.support);
+  p.mls.support_at_most_found = !o.support_given;  // the default shrinks to small patterns
   p.mls.weight = weight_from_string(o.weight);
   const Size2 grid = parse_size2(o.points, "--points", 4096);
   if (grid.x < 2 || grid.y < 2) throw InputError("--points needs at least 2x2 points");
@@ -220,7 +223,27 @@ void run(const RunDctOptions& o) {
     for (const auto& f : out.fields)
       if (f.status == PointStatus::ok) { ++valid; mxx += f.exx; myy += f.eyy; }
     if (valid == 0) throw InputError(fmt::format("frame {}: {}", label, no_valid_point(out.fields, o.support)));
-    write_fields_csv(dir / (stem + ".csv"), backend->points(), out.fields);
+    // Uncertainty from the images' own noise (uncertainty.hpp), the dots table, and one line
+    // counting the invalid points by reason.
+    const FrameUncertainty unc = frame_uncertainty(reference, frame, *backend, out);
+    if (!unc.reference_noise.ok() || !unc.frame_noise.ok())
+      fmt::print("frame {}: no standard deviations: {}\n", label,
+                 unc.reference_noise.ok() ? unc.frame_noise.why_not : "reference: " + unc.reference_noise.why_not);
+    else
+      fmt::print("frame {}: noise {:.2f} grey levels (reference {:.2f}; from {} dots' background rings)\n", label,
+                 unc.frame_noise.sigma, unc.reference_noise.sigma, unc.frame_noise.dots_used);
+    if (valid < static_cast<int>(out.fields.size())) {
+      std::map<std::string, int> why;
+      for (const auto& f : out.fields)
+        if (f.status != PointStatus::ok) why[to_string(f.status)] += 1;
+      std::string list;
+      for (const auto& [w, n] : why) list += fmt::format("{}{} {}", list.empty() ? "" : ", ", n, w);
+      fmt::print("frame {}: {} of {} points invalid ({})\n", label, out.fields.size() - static_cast<std::size_t>(valid),
+                 out.fields.size(), list);
+    }
+    write_fields_csv(dir / (stem + ".csv"), backend->points(), out.fields, unc.points);
+    write_dots_csv(dir / (stem + "_dots.csv"), backend->reference_dots(), out.dots, out.matches, frame,
+                   out.stats.threshold, p.analysis.polarity, &unc);
     const int lost = static_cast<int>(backend->reference_dots().size()) - out.matches.matched;
     t.row({label, fmt::format("{}", out.dots.size()), fmt::format("{}", out.matches.matched), fmt::format("{}", lost),
            fmt::format("{}", out.matches.appeared.size()), fmt::format("{} of {}", valid, out.fields.size()),
@@ -276,7 +299,7 @@ void run(const RunDctOptions& o) {
     }
   }
   fmt::print("{}", t.str());
-  fmt::print("wrote per frame: {0}/frame_NNNN.csv{1}\n", dir.string(),
+  fmt::print("wrote per frame: {0}/frame_NNNN.csv, {0}/frame_NNNN_dots.csv{1}\n", dir.string(),
              o.no_overlays ? "" : fmt::format(" and {}/frame_NNNN_{{u_x,u_y,e_xx,e_yy,e_xy}}.png", dir.string()));
 }
 
@@ -292,8 +315,11 @@ void add_fields_command(CLI::App& root) {
   app->add_option("--reference", o->reference, "Reference (undeformed) image");
   app->add_option("--frames", o->frames, "Deformed frames: a file or a printf pattern, e.g. 'def_%04d.png'");
   app->add_option("--specimen", o->specimen, "Render a specimen instead (see `dtflop specimen --help`) and compare with its truth");
-  app->add_option("--support", o->support, "MLS support domain: dots per support (60dots) or radius (12.5px)")
-      ->capture_default_str();
+  app->add_option("--support", o->support,
+                  "MLS support domain: dots per support (200dots; the default takes every dot where fewer were "
+                  "found) or radius (12.5px)")
+      ->capture_default_str()
+      ->each([o](const std::string&) { o->support_given = true; });
   app->add_option("--interp", o->interp, "mls or fe")->capture_default_str();
   app->add_option("--weight", o->weight, "MLS weight: cubic, quartic or gaussian")->capture_default_str();
   app->add_option("--points", o->points, "Interpolation grid over the reference dots, e.g. 64x32")->capture_default_str();

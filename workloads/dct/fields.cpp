@@ -108,9 +108,14 @@ std::string to_string(PointStatus s) {
 MlsTable build_mls_table(const std::vector<Vec2>& reference, const std::vector<Vec2>& points, const MlsOptions& o) {
   if (reference.size() < 6)
     throw InputError(fmt::format("the reference frame holds {} dot(s); MLS needs at least 6", reference.size()));
-  if (o.support.kind == Support::Kind::dots && o.support.dots > static_cast<int>(reference.size()))
-    throw InputError(fmt::format("support of {} dots asks for more than the {} dots found", o.support.dots,
-                                 reference.size()));
+  // The default support (200 dots) shrinks to the dots there are; one asked for does not.
+  const int count = o.support.kind == Support::Kind::dots && o.support_at_most_found
+                        ? std::min(o.support.dots, static_cast<int>(reference.size()))
+                        : o.support.dots;
+  if (o.support.kind == Support::Kind::dots && count > static_cast<int>(reference.size()))
+    throw InputError(fmt::format("support of {} dots asks for more than the {} dots found; give a smaller --support "
+                                 "(e.g. {}dots)",
+                                 o.support.dots, reference.size(), std::max<std::size_t>(6, reference.size() / 3)));
   PointIndex index(reference);
   const double gap = o.max_gap * median_spacing(reference);
   MlsTable t;
@@ -124,12 +129,12 @@ MlsTable build_mls_table(const std::vector<Vec2>& reference, const std::vector<V
   for (const auto& p : points) {
     double rho;
     if (o.support.kind == Support::Kind::dots) {
-      index.knn(p, o.support.dots + 1, idx, d2);
-      const double dn = std::sqrt(d2[static_cast<std::size_t>(o.support.dots) - 1]);
-      const double dn1 = idx.size() > static_cast<std::size_t>(o.support.dots) ? std::sqrt(d2.back()) : dn * 1.05;
+      index.knn(p, count + 1, idx, d2);
+      const double dn = std::sqrt(d2[static_cast<std::size_t>(count) - 1]);
+      const double dn1 = idx.size() > static_cast<std::size_t>(count) ? std::sqrt(d2.back()) : dn * 1.05;
       rho = 0.5 * (dn + dn1);
       if (!(rho > dn)) rho = std::nextafter(dn, 2 * dn + 1);  // two dots at one distance
-      idx.resize(static_cast<std::size_t>(o.support.dots));
+      idx.resize(static_cast<std::size_t>(count));
       for (auto k : idx) t.dots.push_back(static_cast<std::int32_t>(k));
       t.geometry.push_back(gap > 0 && std::sqrt(d2[0]) > gap ? PointStatus::far_from_dots : PointStatus::ok);
     } else {

@@ -22,7 +22,7 @@ std::vector<Vec2> grid_points_over(const std::vector<Vec2>& dots, int nx, int ny
 struct Support {
   enum class Kind { radius, dots } kind = Kind::dots;
   double radius = 0;  // px, for Kind::radius
-  int dots = 60;      // for Kind::dots: the radius at each point is set so that exactly this
+  int dots = 200;     // for Kind::dots: the radius at each point is set so that exactly this
                       // many dots lie inside (midway between the n-th and (n+1)-th nearest)
   std::string str() const;  // "60dots" or "12.5px"
 };
@@ -39,6 +39,9 @@ std::string to_string(PointStatus s);
 struct MlsOptions {
   Weight weight = Weight::cubic_spline;
   Support support;
+  // A support in dots larger than the reference holds: true (the default support) takes every
+  // dot; false (a support the user gave) is refused with what to do.
+  bool support_at_most_found = true;
   int min_dots = 6;                // the quadratic basis has 6 terms
   double min_pivot_ratio = 1e-5;   // smallest / largest LDL' pivot of A
   double max_gap = 2.5;            // nearest dot farther than this x median spacing: invalid

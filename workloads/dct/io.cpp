@@ -200,9 +200,17 @@ void write_image(const std::filesystem::path& path, const cv::Mat& image) {
   write_file_atomically(path, std::string(bytes.begin(), bytes.end()));
 }
 
+namespace {
+// A finite value with `digits` significant digits, or nothing.
+std::string num_or_empty(double v, double scale = 1) {
+  return std::isfinite(v) ? fmt::format("{:.4g}", v * scale) : std::string();
+}
+}  // namespace
+
 void write_fields_csv(const std::filesystem::path& path, const std::vector<Vec2>& points,
-                      const std::vector<FieldValue<double>>& fields) {
+                      const std::vector<FieldValue<double>>& fields, const std::vector<FieldSigma>& sigma) {
   if (points.size() != fields.size()) throw InputError("points and fields differ in length");
+  if (!sigma.empty() && sigma.size() != fields.size()) throw InputError("points and deviations differ in length");
   if (path.has_parent_path()) make_output_folder(path.parent_path(), fmt::format("'{}'", path.string()));
   // One unit everywhere dtflop shows a field: px for positions and displacements, microstrain for
   // strains (kCsvHeader names them).
@@ -211,10 +219,69 @@ void write_fields_csv(const std::filesystem::path& path, const std::vector<Vec2>
     const auto& v = fields[i];
     const bool ok = v.status == PointStatus::ok;
     if (ok)
-      f += fmt::format("{:.3f},{:.3f},{:.6f},{:.6f},{:.6g},{:.6g},{:.6g},1,ok,{}\n", points[i].x, points[i].y, v.ux,
+      f += fmt::format("{:.3f},{:.3f},{:.6f},{:.6f},{:.6g},{:.6g},{:.6g},1,ok,{}", points[i].x, points[i].y, v.ux,
                        v.uy, v.exx * 1e6, v.eyy * 1e6, v.exy * 1e6, v.support);
     else
-      f += fmt::format("{:.3f},{:.3f},,,,,,0,{},{}\n", points[i].x, points[i].y, to_string(v.status), v.support);
+      f += fmt::format("{:.3f},{:.3f},,,,,,0,{},{}", points[i].x, points[i].y, to_string(v.status), v.support);
+    if (ok && !sigma.empty()) {
+      const FieldSigma& s = sigma[i];
+      f += fmt::format(",{},{},{},{},{}\n", num_or_empty(s.ux), num_or_empty(s.uy), num_or_empty(s.exx, 1e6),
+                       num_or_empty(s.eyy, 1e6), num_or_empty(s.exy, 1e6));
+    } else {
+      f += ",,,,,\n";
+    }
+  }
+  write_file_atomically(path, f);
+}
+
+void write_dots_csv(const std::filesystem::path& path, const std::vector<DotObservation>& reference,
+                    const std::vector<DotObservation>& frame, const Matches& matches, const cv::Mat& frame_image,
+                    double threshold, Polarity polarity, const FrameUncertainty* uncertainty) {
+  if (matches.ref_to_def.size() != reference.size()) throw InputError("the matches do not fit the reference dots");
+  if (path.has_parent_path()) make_output_folder(path.parent_path(), fmt::format("'{}'", path.string()));
+  const bool dark = polarity == Polarity::dark_dots;
+  auto mean_intensity = [&](const DotObservation& d) -> std::string {
+    if (threshold < 0 || frame_image.empty()) return {};
+    const cv::Rect box = d.box & cv::Rect(0, 0, frame_image.cols, frame_image.rows);
+    double sum = 0;
+    long n = 0;
+    for (int y = box.y; y < box.y + box.height; ++y)
+      for (int x = box.x; x < box.x + box.width; ++x) {
+        const double v = frame_image.depth() == CV_16U ? frame_image.at<std::uint16_t>(y, x)
+                                                       : frame_image.at<std::uint8_t>(y, x);
+        if (dark ? v <= threshold : v > threshold) { sum += v; ++n; }
+      }
+    return n ? fmt::format("{:.2f}", sum / static_cast<double>(n)) : std::string();
+  };
+  auto sd = [&](const std::vector<CentroidSigma>* v, std::size_t k) -> std::string {
+    if (!v || k >= v->size()) return {};
+    const CentroidSigma& s = (*v)[k];
+    return num_or_empty(std::sqrt(0.5 * (s.x * s.x + s.y * s.y)));
+  };
+  std::string f = std::string(kDotsCsvHeader) + "\n";
+  for (std::size_t j = 0; j < reference.size(); ++j) {
+    const DotObservation& r = reference[j];
+    const int k = matches.ref_to_def[j];
+    const std::string why = j < matches.lost_reason.size() && k < 0
+                                ? (matches.lost_reason[j] == LostReason::ambiguous          ? "ambiguous"
+                                   : matches.lost_reason[j] == LostReason::claimed_by_other ? "claimed_by_other"
+                                                                                            : "nothing_near")
+                                : "";
+    f += fmt::format("{},{},{},{},{:.4f},{:.4f},{}", j, k >= 0 ? std::to_string(k) : "", k >= 0 ? "matched" : "lost",
+                     why, r.x, r.y, r.area);
+    if (k >= 0) {
+      const DotObservation& d = frame[static_cast<std::size_t>(k)];
+      f += fmt::format(",{:.4f},{:.4f},{},{:.5f},{:.5f},{}", d.x, d.y, d.area, d.x - r.x, d.y - r.y, mean_intensity(d));
+    } else {
+      f += ",,,,,,";
+    }
+    f += fmt::format(",{},{}\n", sd(uncertainty ? &uncertainty->reference_dots : nullptr, j),
+                     k >= 0 ? sd(uncertainty ? &uncertainty->frame_dots : nullptr, static_cast<std::size_t>(k)) : "");
+  }
+  for (int k : matches.appeared) {
+    const DotObservation& d = frame[static_cast<std::size_t>(k)];
+    f += fmt::format(",{},appeared,unclaimed,,,,{:.4f},{:.4f},{},,,{},,{}\n", k, d.x, d.y, d.area, mean_intensity(d),
+                     sd(uncertainty ? &uncertainty->frame_dots : nullptr, static_cast<std::size_t>(k)));
   }
   write_file_atomically(path, f);
 }

@@ -13,6 +13,7 @@
 
 #include "workloads/dct/kernels.hpp"
 #include "workloads/dct/specimen.hpp"
+#include "workloads/dct/uncertainty.hpp"
 
 namespace dtflop::dct {
 
@@ -32,11 +33,24 @@ cv::Mat decode_grey(const std::string& bytes, const std::filesystem::path& name)
 // writing fails.
 void write_image(const std::filesystem::path& path, const cv::Mat& image);
 
-// One row per point; positions and displacements in px, strains in microstrain, as the header says.
+// One row per point; positions and displacements in px, strains in microstrain, as the header says;
+// sd_* is each value's standard deviation (uncertainty.hpp), empty where unknown.
 inline constexpr const char* kCsvHeader =
-    "x_px,y_px,u_x_px,u_y_px,e_xx_microstrain,e_yy_microstrain,e_xy_microstrain,valid,status,support";
+    "x_px,y_px,u_x_px,u_y_px,e_xx_microstrain,e_yy_microstrain,e_xy_microstrain,valid,status,support,"
+    "sd_u_x_px,sd_u_y_px,sd_e_xx_microstrain,sd_e_yy_microstrain,sd_e_xy_microstrain";
 void write_fields_csv(const std::filesystem::path& path, const std::vector<Vec2>& points,
-                      const std::vector<FieldValue<double>>& fields);
+                      const std::vector<FieldValue<double>>& fields, const std::vector<FieldSigma>& sigma = {});
+
+// The dots of one frame, one row per reference dot (matched or lost, with why) and one per dot
+// of the frame no reference dot matched (appeared): reference and deformed centroid, labelled
+// area, displacement, the deformed dot's mean grey level (over its box's pixels on the dot side
+// of the threshold; empty with an adaptive threshold) and the centroids' standard deviations.
+inline constexpr const char* kDotsCsvHeader =
+    "ref_id,frame_id,status,reason,x_ref_px,y_ref_px,area_ref_px,x_px,y_px,area_px,u_x_px,u_y_px,"
+    "mean_intensity,sd_ref_px,sd_px";
+void write_dots_csv(const std::filesystem::path& path, const std::vector<DotObservation>& reference,
+                    const std::vector<DotObservation>& frame, const Matches& matches, const cv::Mat& frame_image,
+                    double threshold, Polarity polarity, const FrameUncertainty* uncertainty = nullptr);
 
 enum class Field { ux, uy, exx, eyy, exy };
 std::string field_name(Field f);   // "u_x", ... "e_xy"

@@ -144,10 +144,46 @@ TEST(DctIo, FieldsCsvMarksInvalidPoints) {
   std::getline(in, l1);
   std::getline(in, l2);
   EXPECT_EQ(header,
-            "x_px,y_px,u_x_px,u_y_px,e_xx_microstrain,e_yy_microstrain,e_xy_microstrain,valid,status,support");
-  EXPECT_EQ(l1, "1.000,2.000,0.500000,-0.250000,1000,-300,20,1,ok,60");  // strains in microstrain, as on screen
-  EXPECT_EQ(l2, "3.000,4.000,,,,,,0,too_few_dots,4");
+            "x_px,y_px,u_x_px,u_y_px,e_xx_microstrain,e_yy_microstrain,e_xy_microstrain,valid,status,support,"
+            "sd_u_x_px,sd_u_y_px,sd_e_xx_microstrain,sd_e_yy_microstrain,sd_e_xy_microstrain");
+  EXPECT_EQ(l1, "1.000,2.000,0.500000,-0.250000,1000,-300,20,1,ok,60,,,,,");  // strains in microstrain, as on screen
+  EXPECT_EQ(l2, "3.000,4.000,,,,,,0,too_few_dots,4,,,,,");
+  // With deviations: px and microstrain like the values.
+  std::vector<FieldSigma> sd(2);
+  sd[0] = {0.001, 0.002, 3e-6, 4e-6, 5e-6};
+  write_fields_csv(tmp("s.csv"), pts, f, sd);
+  std::ifstream in2(tmp("s.csv"));
+  std::getline(in2, header);
+  std::getline(in2, l1);
+  std::getline(in2, l2);
+  EXPECT_EQ(l1, "1.000,2.000,0.500000,-0.250000,1000,-300,20,1,ok,60,0.001,0.002,3,4,5");
+  EXPECT_EQ(l2, "3.000,4.000,,,,,,0,too_few_dots,4,,,,,");
   EXPECT_THROW(write_fields_csv(tmp("g.csv"), pts, {}), InputError);
+}
+
+TEST(DctIo, DotsCsvSaysWhatWasMatchedLostAndAppeared) {
+  std::vector<DotObservation> ref(2), def(2);
+  ref[0].x = 10; ref[0].y = 20; ref[0].area = 50;
+  ref[1].x = 40; ref[1].y = 20; ref[1].area = 52;
+  def[0].x = 10.5; def[0].y = 19.75; def[0].area = 49; def[0].box = cv::Rect(6, 16, 9, 9);
+  def[1].x = 80; def[1].y = 30; def[1].area = 40; def[1].box = cv::Rect(76, 26, 9, 9);
+  Matches m;
+  m.ref_to_def = {0, -1};
+  m.lost_reason = {LostReason::none, LostReason::ambiguous};
+  m.appeared = {1};
+  cv::Mat img(60, 100, CV_8U, cv::Scalar(200));
+  img(cv::Rect(8, 18, 5, 5)).setTo(40);
+  write_dots_csv(tmp("d.csv"), ref, def, m, img, 120, Polarity::dark_dots);
+  std::ifstream in(tmp("d.csv"));
+  std::string header, a, b, c;
+  std::getline(in, header);
+  std::getline(in, a);
+  std::getline(in, b);
+  std::getline(in, c);
+  EXPECT_EQ(header, kDotsCsvHeader);
+  EXPECT_EQ(a, "0,0,matched,,10.0000,20.0000,50,10.5000,19.7500,49,0.50000,-0.25000,40.00,,");
+  EXPECT_EQ(b, "1,,lost,ambiguous,40.0000,20.0000,52,,,,,,,,");
+  EXPECT_EQ(c, ",1,appeared,unclaimed,,,,80.0000,30.0000,40,,,,,");
 }
 
 TEST(DctIo, OverlayHasTheImageAndAColourBar) {

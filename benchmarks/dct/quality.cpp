@@ -1,0 +1,207 @@
+// dct_quality: the DCT workload's measurement quality on images from the independent renderer
+// (tests/workloads/dct/independent_renderer), which shares no code with workloads/dct.
+//   dct_quality fields  [backend] [support] [interp] [seeds]  displacement / strain errors per deformation
+//   dct_quality centroids [margin]                                   centroid error vs radius, blur, noise
+// Results and how they were made: results/dct-quality/README.md.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "render.hpp"
+#include "workloads/dct/backend.hpp"
+#include "workloads/dct/tracking.hpp"
+#include "workloads/dct/uncertainty.hpp"
+
+using namespace dtflop::dct;
+
+namespace {
+
+struct Errors {
+  double u_rms = 0, exx = 0, eyy = 0, exy = 0, e_max = 0;
+  int valid = 0, points = 0, interior = 0, interior_valid = 0;
+};
+
+dct_indep::Params params(const std::string& deformation, std::uint64_t seed) {
+  dct_indep::Params p;
+  p.deformation = deformation;
+  p.seed = seed;
+  return p;
+}
+
+Errors measure(const dct_indep::Scene& s, const std::string& backend, const PipelineOptions& o, std::uint64_t noise_seed) {
+  const cv::Mat ref = dct_indep::finish(dct_indep::render_clean(s, false), s.p.noise, noise_seed * 2);
+  const cv::Mat def = dct_indep::finish(dct_indep::render_clean(s, true), s.p.noise, noise_seed * 2 + 1);
+  auto b = make_backend(backend, o);
+  b->set_reference(ref);
+  const FrameOutput out = b->process(def);
+  Errors e;
+  double su = 0, sxx = 0, syy = 0, sxy = 0;
+  const auto& pts = b->points();
+  for (std::size_t m = 0; m < pts.size(); ++m) {
+    ++e.points;
+    const dct_indep::P2 P{pts[m].x, pts[m].y};
+    if (!s.field->material(P)) continue;
+    ++e.interior;
+    const auto& f = out.fields[m];
+    if (f.status != PointStatus::ok) continue;
+    ++e.interior_valid;
+    ++e.valid;
+    const dct_indep::P2 u = s.field->u(P);
+    const dct_indep::Grad g = s.field->grad(P);
+    su += (f.ux - u.x) * (f.ux - u.x) + (f.uy - u.y) * (f.uy - u.y);
+    const double dxx = f.exx - dct_indep::exx(g), dyy = f.eyy - dct_indep::eyy(g), dxy = f.exy - dct_indep::exy(g);
+    sxx += dxx * dxx;
+    syy += dyy * dyy;
+    sxy += dxy * dxy;
+    e.e_max = std::max({e.e_max, std::abs(dxx), std::abs(dyy), std::abs(dxy)});
+  }
+  if (e.valid) {
+    e.u_rms = std::sqrt(su / (2 * e.valid));
+    e.exx = std::sqrt(sxx / e.valid);
+    e.eyy = std::sqrt(syy / e.valid);
+    e.exy = std::sqrt(sxy / e.valid);
+  }
+  return e;
+}
+
+int fields(int argc, char** argv) {
+  const std::string backend = argc > 2 ? argv[2] : "cpu-par";
+  PipelineOptions o;
+  if (argc > 3) o.mls.support = parse_support(argv[3]);
+  if (argc > 4) o.interp = interp_from_string(argv[4]);
+  const int seeds = argc > 5 ? std::stoi(argv[5]) : 1;
+  if (argc > 6) o.mls.weight = weight_from_string(argv[6]);
+  std::printf("| deformation | seed | valid / interior points | u RMS [px] | e_xx RMS | e_yy RMS | e_xy RMS | max |e| "
+              "[microstrain] |\n|---|---|---|---|---|---|---|---|\n");
+  for (const char* d : {"tension", "bending", "rotation"})
+    for (int seed = 1; seed <= seeds; ++seed) {
+      const dct_indep::Scene s = dct_indep::make_scene(params(d, seed));
+      const Errors e = measure(s, backend, o, seed);
+      std::printf("| %s | %d | %d / %d | %.4f | %.1f | %.1f | %.1f | %.1f |\n", d, seed, e.interior_valid, e.interior,
+                  e.u_rms, 1e6 * e.exx, 1e6 * e.eyy, 1e6 * e.exy, 1e6 * e.e_max);
+      std::fflush(stdout);
+    }
+  return 0;
+}
+
+// Centroid error: the reference image of each specimen analysed; every found dot matched to its
+// true centre (nearest within 2 px).
+int centroids(int margin) {
+  std::printf("| radius [px] | blur [px] | noise [grey] | dots found | centroid RMS error [px] | max [px] |\n"
+              "|---|---|---|---|---|---|\n");
+  struct Case { double radius, blur, noise; };
+  for (const Case c : {Case{4, 0, 1}, Case{5, 0, 1}, Case{7, 0, 0}, Case{7, 0, 1}, Case{7, 0, 2}, Case{7, 0, 4},
+                       Case{7, 0.5, 1}, Case{7, 1, 1}, Case{7, 2, 1}, Case{10, 0, 1}, Case{14, 0, 1}}) {
+    dct_indep::Params p = params("none", 11);
+    p.radius = c.radius;
+    p.blur = c.blur;
+    p.noise = c.noise;
+    p.min_gap = std::max(7.0, c.radius);
+    p.dots = c.radius > 10 ? 300 : 500;
+    const dct_indep::Scene s = dct_indep::make_scene(p);
+    const cv::Mat img = dct_indep::finish(dct_indep::render_clean(s, false), p.noise, 5);
+    AnalysisOptions ao;
+    ao.margin = margin;
+    const AnalysisResult r = analyze(img, ao, 2);
+    std::vector<Vec2> truth;
+    for (const auto& d : s.dots) truth.push_back({d.x, d.y});
+    PointIndex idx(truth);
+    double se = 0, mx = 0;
+    int n = 0;
+    std::vector<std::uint32_t> k;
+    std::vector<double> d2;
+    for (const auto& d : r.dots) {
+      idx.knn({d.x, d.y}, 1, k, d2);
+      if (d2.empty() || d2[0] > 4) continue;
+      se += d2[0];
+      mx = std::max(mx, std::sqrt(d2[0]));
+      ++n;
+    }
+    std::printf("| %g | %g | %g | %d of %zu | %.4f | %.4f |\n", c.radius, c.blur, c.noise, n, s.dots.size(),
+                n ? std::sqrt(se / (2 * n)) : NAN, mx);
+    std::fflush(stdout);
+  }
+  return 0;
+}
+
+// Stated against observed: `runs` renders of one pattern under tension with fresh noise;
+// per point the scatter of each value over the runs against the mean stated deviation.
+int sigma(int argc, char** argv) {
+  const std::string backend = argc > 2 ? argv[2] : "cpu-par";
+  PipelineOptions o;
+  if (argc > 3) o.mls.support = parse_support(argv[3]);
+  if (argc > 4) o.interp = interp_from_string(argv[4]);
+  const int runs = argc > 5 ? std::stoi(argv[5]) : 20;
+  const dct_indep::Scene s = dct_indep::make_scene(params("tension", 3));
+  const cv::Mat cref = dct_indep::render_clean(s, false), cdef = dct_indep::render_clean(s, true);
+  const int n = o.points_x * o.points_y;
+  std::vector<std::array<double, 5>> sum(n), sum2(n), stated(n);
+  std::vector<int> cnt(n, 0);
+  double noise = 0, csig = 0, cobs = 0;
+  std::vector<Vec2> c1, c2;  // first dot's centroid per run
+  for (int r = 0; r < runs; ++r) {
+    const cv::Mat ref = dct_indep::finish(cref, 1, 1000 + 2 * r), def = dct_indep::finish(cdef, 1, 1001 + 2 * r);
+    auto b = make_backend(backend, o);
+    b->set_reference(ref);
+    const FrameOutput out = b->process(def);
+    const FrameUncertainty u = frame_uncertainty(ref, def, *b, out);
+    noise += u.reference_noise.sigma / runs;
+    c1.push_back({b->reference_dots()[0].x, b->reference_dots()[0].y});
+    csig += u.reference_dots[0].x / runs;
+    for (int m = 0; m < n; ++m) {
+      const auto& f = out.fields[m];
+      if (f.status != PointStatus::ok) continue;
+      const double v[5] = {f.ux, f.uy, f.exx, f.eyy, f.exy};
+      const auto& q = u.points[m];
+      const double sd[5] = {q.ux, q.uy, q.exx, q.eyy, q.exy};
+      for (int i = 0; i < 5; ++i) {
+        sum[m][i] += v[i];
+        sum2[m][i] += v[i] * v[i];
+        stated[m][i] += sd[i] * sd[i];
+      }
+      ++cnt[m];
+    }
+  }
+  {
+    double mx = 0, vx = 0;
+    for (auto c : c1) mx += c.x / runs;
+    for (auto c : c1) vx += (c.x - mx) * (c.x - mx) / (runs - 1);
+    cobs = std::sqrt(vx);
+  }
+  std::printf("noise estimate %.3f grey levels (rendered 1, plus rounding: %.3f)\n", noise, std::sqrt(1 + 1.0 / 12));
+  std::printf("one dot's centroid: stated %.4f px, observed %.4f px over %d runs\n", csig, cobs, runs);
+  const char* names[5] = {"u_x", "u_y", "e_xx", "e_yy", "e_xy"};
+  for (int i = 0; i < 5; ++i) {
+    double obs = 0, st = 0;
+    int k = 0;
+    for (int m = 0; m < n; ++m) {
+      if (cnt[m] != runs) continue;
+      const double mean = sum[m][i] / runs;
+      obs += (sum2[m][i] - runs * mean * mean) / (runs - 1);
+      st += stated[m][i] / runs;
+      ++k;
+    }
+    std::printf("%s: stated %.4g, observed %.4g (RMS over %d points), ratio %.3f\n", names[i], std::sqrt(st / k),
+                std::sqrt(obs / k), k, std::sqrt(st / obs));
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::string mode = argc > 1 ? argv[1] : "";
+  try {
+    if (mode == "fields") return fields(argc, argv);
+    if (mode == "sigma") return sigma(argc, argv);
+    if (mode == "centroids") return centroids(argc > 2 ? std::stoi(argv[2]) : AnalysisOptions{}.margin);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "dct_quality: %s\n", e.what());
+    return 2;
+  }
+  std::fprintf(stderr, "usage: dct_quality fields [backend] [support] [mls|fe] [seeds] [weight] | centroids [margin]\n");
+  return 2;
+}

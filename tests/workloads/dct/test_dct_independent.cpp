@@ -1,0 +1,252 @@
+// The DCT workload against images from the independent renderer (independent_renderer/),
+// which shares no code with workloads/dct.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+
+#include <gtest/gtest.h>
+
+#include "render.hpp"
+#include "tests/support/gpu.hpp"
+#include "workloads/dct/backend.hpp"
+#include "workloads/dct/tracking.hpp"
+#include "workloads/dct/uncertainty.hpp"
+
+namespace {
+
+using namespace dtflop::dct;
+
+// The renderer itself: a disc's covered area and centroid, and Kirsch's closed form.
+TEST(DctIndependentRenderer, DiscAreaAndCentroidExact) {
+  dct_indep::Params p;
+  p.width = 96;
+  p.height = 96;
+  p.dots = 1;
+  p.noise = 0;
+  p.deformation = "none";
+  p.seed = 4;
+  dct_indep::Scene s = dct_indep::make_scene(p);
+  // Centred on a pixel's centre in x and on a pixel's edge in y: the pixel grid is then
+  // symmetric about the dot, so its intensity-weighted centroid is exact. (Elsewhere the
+  // pixels' partial coverage biases it by up to ~1e-3 px; that is the image, not the renderer.)
+  s.dots = {{47, 47.5}};
+  const cv::Mat img = dct_indep::render_clean(s, false);
+  double a = 0, sx = 0, sy = 0;
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x) {
+      const double c = (p.background - img.at<double>(y, x)) / (p.background - p.ink);
+      a += c;
+      sx += c * x;
+      sy += c * y;
+    }
+  const double pi = 3.14159265358979323846;
+  EXPECT_NEAR(a, pi * p.radius * p.radius, 1e-3);  // coverage error bound x ~100 edge pixels
+  EXPECT_NEAR(sx / a, 47, 1e-9);  // pixel (c, r) centred on (c, r)
+  EXPECT_NEAR(sy / a, 47.5, 1e-9);
+}
+
+TEST(DctIndependentRenderer, KirschConcentrationAndFarField) {
+  dct_indep::Params p;
+  p.deformation = "kirsch";
+  p.dots = 10;
+  const dct_indep::Scene s = dct_indep::make_scene(p);
+  // Load along y: e_yy = 3 e0 at (+-a, 0) from the centre; the far field is uniaxial.
+  for (double side : {-1.0, 1.0}) {
+    const dct_indep::Grad g = s.field->grad({s.centre.x + side * p.hole, s.centre.y});
+    EXPECT_NEAR(g.yy, 3 * p.strain, 1e-9);
+  }
+  const dct_indep::Grad far = s.field->grad({s.centre.x + 1e6, s.centre.y + 1e6});
+  EXPECT_NEAR(far.yy, p.strain, 1e-8);
+  EXPECT_NEAR(far.xx, -p.nu * p.strain, 1e-8);
+}
+
+// The targets on 1600x1200 8-bit images, 500 dots of radius 7 px, 1 grey level of noise,
+// with the defaults (MLS, 200 dots per support, 32x32 points): displacement RMS <= 0.005 px, each
+// strain component's RMS <= 15 microstrain, no valid point beyond 60; every value within 4 of its
+// stated standard deviations of the truth (rotation: the small-strain tensor of the rotation,
+// cos t - 1 on the diagonal, which is what a displacement gradient gives).
+TEST(DctIndependent, DefaultsMeetTheTargetsInTensionBendingAndRotation) {
+  for (const char* d : {"tension", "bending", "rotation"}) {
+    dct_indep::Params p;
+    p.deformation = d;
+    p.seed = 21;
+    const dct_indep::Scene s = dct_indep::make_scene(p);
+    const cv::Mat ref = dct_indep::finish(dct_indep::render_clean(s, false), p.noise, 7);
+    const cv::Mat def = dct_indep::finish(dct_indep::render_clean(s, true), p.noise, 8);
+    PipelineOptions o;
+    auto b = make_backend("cpu-par", o);
+    b->set_reference(ref);
+    const FrameOutput out = b->process(def);
+    const FrameUncertainty u = frame_uncertainty(ref, def, *b, out);
+    ASSERT_TRUE(u.frame_noise.ok()) << u.frame_noise.why_not;
+    double su = 0, se[3] = {0, 0, 0}, emax = 0;
+    int n = 0, beyond = 0;
+    for (std::size_t m = 0; m < out.fields.size(); ++m) {
+      const auto& f = out.fields[m];
+      if (f.status != PointStatus::ok) continue;
+      const dct_indep::P2 P{b->points()[m].x, b->points()[m].y};
+      const dct_indep::P2 t = s.field->u(P);
+      const dct_indep::Grad g = s.field->grad(P);
+      su += (f.ux - t.x) * (f.ux - t.x) + (f.uy - t.y) * (f.uy - t.y);
+      const double e[3] = {f.exx - dct_indep::exx(g), f.eyy - dct_indep::eyy(g), f.exy - dct_indep::exy(g)};
+      const double sd[3] = {u.points[m].exx, u.points[m].eyy, u.points[m].exy};
+      for (int i = 0; i < 3; ++i) {
+        se[i] += e[i] * e[i];
+        emax = std::max(emax, std::abs(e[i]));
+        beyond += !(std::abs(e[i]) <= 4 * sd[i]);
+      }
+      ++n;
+    }
+    ASSERT_GE(n, 1000) << d;  // of 1024; the corners' nearest dots may lie beyond the gap
+    const double u_rms = std::sqrt(su / (2 * n));
+    std::printf("%s: u RMS %.4f px, strain RMS %.1f %.1f %.1f, max %.1f microstrain, %d values beyond 4 sd\n", d,
+                u_rms, 1e6 * std::sqrt(se[0] / n), 1e6 * std::sqrt(se[1] / n), 1e6 * std::sqrt(se[2] / n), 1e6 * emax,
+                beyond);
+    EXPECT_LE(u_rms, 0.005) << d;
+    for (int i = 0; i < 3; ++i) EXPECT_LE(std::sqrt(se[i] / n), 15e-6) << d << " component " << i;
+    EXPECT_LE(emax, 60e-6) << d;
+    EXPECT_LE(beyond, 3 * n / 100) << d;
+  }
+}
+
+// Centroids (eq. 7.1 over the dot and a 2 px margin, background plane removed) against the
+// true centres: noiseless, the pixels' partial coverage leaves ~0.001 px; with 1 grey level
+// of noise ~0.0035 px (the thresholded region alone: ~0.03 px).
+TEST(DctIndependent, CentroidsWithinTheNoiseFloor) {
+  for (double noise : {0.0, 1.0}) {
+    dct_indep::Params p;
+    p.deformation = "none";
+    p.width = 800;
+    p.height = 600;
+    p.dots = 200;
+    p.noise = noise;
+    p.seed = 31;
+    const dct_indep::Scene s = dct_indep::make_scene(p);
+    const cv::Mat img = dct_indep::finish(dct_indep::render_clean(s, false), noise, 3);
+    const AnalysisResult r = analyze(img, AnalysisOptions{});
+    ASSERT_EQ(r.dots.size(), s.dots.size());
+    std::vector<Vec2> truth;
+    for (const auto& d : s.dots) truth.push_back({d.x, d.y});
+    PointIndex idx(truth);
+    std::vector<std::uint32_t> k;
+    std::vector<double> d2;
+    double se = 0;
+    for (const auto& d : r.dots) {
+      idx.knn({d.x, d.y}, 1, k, d2);
+      se += d2[0];
+    }
+    const double rms = std::sqrt(se / (2.0 * static_cast<double>(r.dots.size())));
+    std::printf("noise %g: centroid RMS error %.4f px\n", noise, rms);
+    EXPECT_LE(rms, noise == 0 ? 0.0015 : 0.005);
+  }
+}
+
+// Stated standard deviations against the scatter over many noisy renders of one pattern
+// (800x600, 125 dots; fresh noise in both images each run): within 20% for every value.
+TEST(DctIndependent, StatedDeviationMatchesObservedScatter) {
+  dct_indep::Params p;
+  p.width = 800;
+  p.height = 600;
+  p.dots = 125;
+  p.seed = 5;
+  const dct_indep::Scene s = dct_indep::make_scene(p);
+  const cv::Mat cref = dct_indep::render_clean(s, false), cdef = dct_indep::render_clean(s, true);
+  PipelineOptions o;
+  o.mls.support = parse_support("60dots");
+  o.points_x = o.points_y = 12;
+  const int runs = 30, n = 144;
+  std::vector<std::array<double, 5>> sum(n), sum2(n), stated(n);
+  std::vector<int> count(n, 0);
+  for (int r = 0; r < runs; ++r) {
+    const cv::Mat ref = dct_indep::finish(cref, 1, 100 + 2 * r), def = dct_indep::finish(cdef, 1, 101 + 2 * r);
+    auto b = make_backend("cpu-seq", o);
+    b->set_reference(ref);
+    const FrameOutput out = b->process(def);
+    const FrameUncertainty u = frame_uncertainty(ref, def, *b, out);
+    ASSERT_TRUE(u.reference_noise.ok() && u.frame_noise.ok());
+    EXPECT_NEAR(u.frame_noise.sigma, std::sqrt(1 + 1.0 / 12), 0.05);  // 1 grey level and the rounding
+    for (int m = 0; m < n; ++m) {
+      const auto& f = out.fields[static_cast<std::size_t>(m)];
+      if (f.status != PointStatus::ok) continue;
+      const auto& q = u.points[static_cast<std::size_t>(m)];
+      const double v[5] = {f.ux, f.uy, f.exx, f.eyy, f.exy}, sd[5] = {q.ux, q.uy, q.exx, q.eyy, q.exy};
+      for (int i = 0; i < 5; ++i) {
+        sum[m][i] += v[i];
+        sum2[m][i] += v[i] * v[i];
+        stated[m][i] += sd[i] * sd[i];
+      }
+      ++count[m];
+    }
+  }
+  for (int i = 0; i < 5; ++i) {
+    double obs = 0, st = 0;
+    int k = 0;
+    for (int m = 0; m < n; ++m) {
+      if (count[m] != runs) continue;
+      const double mean = sum[m][i] / runs;
+      obs += (sum2[m][i] - runs * mean * mean) / (runs - 1);
+      st += stated[m][i] / runs;
+      ++k;
+    }
+    ASSERT_GT(k, 100);
+    const double ratio = std::sqrt(st / obs);
+    std::printf("value %d: stated / observed deviation %.3f over %d points\n", i, ratio, k);
+    EXPECT_GT(ratio, 0.8) << i;
+    EXPECT_LT(ratio, 1.2) << i;
+  }
+}
+
+// The cuda backend (float32) on the same images as the float64 cpu-seq: every valid point's
+// strains within 2 microstrain and displacements within 1e-4 px, the same points valid.
+TEST(DctIndependent, CudaMatchesFloat64WithinTwoMicrostrain) {
+  DTFLOP_REQUIRE_GPU();
+  for (const char* d : {"tension", "bending", "rotation"}) {
+    dct_indep::Params p;
+    p.deformation = d;
+    p.seed = 22;
+    const dct_indep::Scene s = dct_indep::make_scene(p);
+    const cv::Mat ref = dct_indep::finish(dct_indep::render_clean(s, false), p.noise, 9);
+    const cv::Mat def = dct_indep::finish(dct_indep::render_clean(s, true), p.noise, 10);
+    for (Interp interp : {Interp::mls, Interp::fe}) {
+      PipelineOptions o;
+      o.interp = interp;
+      auto cpu = make_backend("cpu-seq", o), gpu = make_backend("cuda", o);
+      cpu->set_reference(ref);
+      gpu->set_reference(ref);
+      const FrameOutput a = cpu->process(def), g = gpu->process(def);
+      ASSERT_EQ(a.fields.size(), g.fields.size());
+      double worst = 0;
+      for (std::size_t m = 0; m < a.fields.size(); ++m) {
+        ASSERT_EQ(a.fields[m].status, g.fields[m].status) << d << " point " << m;
+        if (a.fields[m].status != PointStatus::ok) continue;
+        EXPECT_NEAR(a.fields[m].ux, g.fields[m].ux, 1e-4);
+        EXPECT_NEAR(a.fields[m].uy, g.fields[m].uy, 1e-4);
+        for (double e : {a.fields[m].exx - g.fields[m].exx, a.fields[m].eyy - g.fields[m].eyy,
+                         a.fields[m].exy - g.fields[m].exy})
+          worst = std::max(worst, std::abs(e));
+      }
+      std::printf("%s %s: cuda vs cpu-seq worst strain difference %.3f microstrain\n", d, to_string(interp).c_str(),
+                  1e6 * worst);
+      EXPECT_LE(worst, 2e-6) << d;
+    }
+  }
+}
+
+// Too few dots for a noise estimate: no deviations, and why.
+TEST(DctIndependent, NoNoiseEstimateFromTooFewDots) {
+  dct_indep::Params p;
+  p.width = 200;
+  p.height = 200;
+  p.dots = 8;
+  p.deformation = "none";
+  const dct_indep::Scene s = dct_indep::make_scene(p);
+  const cv::Mat img = dct_indep::finish(dct_indep::render_clean(s, false), 1, 1);
+  const AnalysisResult r = analyze(img, AnalysisOptions{});
+  const NoiseEstimate e = estimate_noise(img, r.dots, AnalysisOptions{});
+  EXPECT_FALSE(e.ok());
+  EXPECT_NE(e.why_not.find("10 needed"), std::string::npos) << e.why_not;
+  EXPECT_TRUE(std::isnan(e.sigma));
+}
+
+}  // namespace
