@@ -293,11 +293,16 @@ void run(const TuneOptions& o) {
               {"accuracy_needs", accuracy->needs()},
               {"space", {{"enumerated", space.enumerated}, {"valid", c.size()}, {"removed", space.removed},
                          {"removed_example", space.example}}},
-              {"measured", result.order.size()},
+              {"measured", result.order.size() - static_cast<std::size_t>(result.failed)},
+              {"failed", result.failed},
               {"measured_now", measured_now},
               {"stop_reason", by_measure ? result.stop_reason : "not measured"}};
   if (s.deadline) out["deadline_seconds"] = *s.deadline;
   if (!store.empty()) out["store"] = store;
+  json failures = json::array();
+  for (const auto& x : c)
+    if (!x.failure.empty()) failures.push_back({{"label", x.label}, {"key", x.key}, {"failure", x.failure}});
+  out["failures"] = failures;
   if (chosen) {
     out["chosen"] = candidate_json(*chosen);
     // What `dtflop run` takes: the backend and the configuration.
@@ -347,10 +352,14 @@ void run(const TuneOptions& o) {
     for (const auto& [k, n] : space.removed) fmt::print("; {} removed by {}", n, k);
     fmt::print("\n");
     for (const auto& [k, e] : space.example) fmt::print("  {}: e.g. {}\n", k, e);
-    if (by_measure)
-      fmt::print("measured {} of {} valid ({} now, {} from the store '{}'), strategy {}: {}\n", result.order.size(),
-                 c.size(), measured_now, result.order.size() - static_cast<std::size_t>(measured_now), store,
-                 out["strategy"].get<std::string>(), result.stop_reason);
+    if (by_measure) {
+      const std::size_t ok = result.order.size() - static_cast<std::size_t>(result.failed);
+      fmt::print("measured {} of {} valid ({} now, {} from the store '{}'), strategy {}: {}\n", ok, c.size(),
+                 measured_now, ok - static_cast<std::size_t>(measured_now), store, out["strategy"].get<std::string>(),
+                 result.stop_reason);
+      for (const auto& x : c)
+        if (!x.failure.empty()) fmt::print("  failed: {}: {}\n", x.label, x.failure);
+    }
     else
       fmt::print("not measured: every verdict below is a prediction ({} basis){}\n",
                  chosen ? c[*chosen].predicted.basis : "-",

@@ -14,7 +14,7 @@ class ExhaustiveStrategy final : public Strategy {
  public:
   std::optional<std::size_t> next(const SearchState& s) override {
     for (std::size_t i = 0; i < s.candidates.size(); ++i)
-      if (!s.candidates[i].measured) return i;
+      if (!s.candidates[i].done()) return i;
     return std::nullopt;
   }
 };

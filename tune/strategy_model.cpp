@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 
 #include <fmt/format.h>
 
@@ -26,11 +27,16 @@ class ModelStrategy final : public Strategy {
   std::optional<std::size_t> next(const SearchState& s) override {
     const auto corr = corrections(s.candidates, s.measured);
     // Phase 1: a group nothing was measured of gets its best-ranked configuration measured.
+    // A group whose configurations failed and none ran is not explored further: its others would
+    // likely fail the same way (a group that ran has only its failed configurations left out).
+    std::set<std::string> failed;
+    for (std::size_t i : s.measured)
+      if (!s.candidates[i].failure.empty() && !corr.count(s.candidates[i].group)) failed.insert(s.candidates[i].group);
     {
       std::map<std::string, std::size_t> first;
       for (std::size_t i = 0; i < s.candidates.size(); ++i) {
         const Candidate& c = s.candidates[i];
-        if (corr.count(c.group)) continue;
+        if (corr.count(c.group) || failed.count(c.group) || c.done()) continue;
         auto [it, added] = first.emplace(c.group, i);
         if (!added && c.predicted.seconds < s.candidates[it->second].predicted.seconds) it->second = i;
       }
@@ -45,6 +51,7 @@ class ModelStrategy final : public Strategy {
     double best = INFINITY;
     std::size_t since = 0;
     for (std::size_t k = 0; k < s.measured.size(); ++k) {
+      if (!s.candidates[s.measured[k]].measured) continue;  // failed
       const double m = *s.candidates[s.measured[k]].measured;
       if (k < explored_) {  // the groups' first measurements set the best; patience counts after them
         best = std::min(best, m);
@@ -66,7 +73,7 @@ class ModelStrategy final : public Strategy {
     double pick_score = INFINITY, chance_max = 0;
     for (std::size_t i = 0; i < s.candidates.size(); ++i) {
       const Candidate& c = s.candidates[i];
-      if (c.measured) continue;
+      if (c.done() || failed.count(c.group)) continue;
       double score = c.predicted.seconds, sigma = c.predicted.sigma;
       if (auto it = corr.find(c.group); it != corr.end()) {
         score *= it->second.factor;

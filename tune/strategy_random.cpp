@@ -29,7 +29,7 @@ class RandomStrategy final : public Strategy {
       }
     }
     while (at_ < order_.size())
-      if (!s.candidates[order_[at_++]].measured) return order_[at_ - 1];
+      if (!s.candidates[order_[at_++]].done()) return order_[at_ - 1];
     return std::nullopt;
   }
 

@@ -161,9 +161,18 @@ Search search(Space& space, Strategy& strategy, std::size_t budget, const Measur
       out.stop_reason = strategy.stop_reason();
       return out;
     }
-    if (*i >= c.size() || c[*i].measured)
+    if (*i >= c.size() || c[*i].done())
       throw std::logic_error("tune: a strategy chose a configuration out of range or already measured");
-    const Measurement m = measure(c[*i]);
+    Measurement m;
+    try {
+      m = measure(c[*i]);
+    } catch (const std::exception& e) {
+      c[*i].failure = e.what();
+      out.order.push_back(*i);
+      ++out.failed;
+      if (progress) fmt::print(progress, "tune: [{}] {}: failed: {}\n", out.order.size(), c[*i].label, e.what());
+      continue;
+    }
     if (!(m.seconds > 0) || !std::isfinite(m.seconds))
       throw std::runtime_error(fmt::format("tune: {} measured {} s per step", c[*i].label, m.seconds));
     c[*i].measured = m.seconds;
@@ -221,8 +230,8 @@ std::vector<ReplayRow> replay(const Space& space, const std::vector<std::string>
                               const std::vector<std::size_t>& budgets, int seeds) {
   double optimum = INFINITY;
   for (const auto& c : space.valid) {
-    if (!c.measured) throw InputError("tune: replaying strategies needs every valid configuration measured");
-    optimum = std::min(optimum, *c.measured);
+    if (!c.done()) throw InputError("tune: replaying strategies needs every valid configuration measured");
+    if (c.measured) optimum = std::min(optimum, *c.measured);
   }
   std::vector<ReplayRow> rows;
   for (const auto& name : names) {
@@ -232,7 +241,7 @@ std::vector<ReplayRow> replay(const Space& space, const std::vector<std::string>
       std::vector<double> used;
       for (int seed = 1; seed <= seeds; ++seed) {
         Space copy = space;
-        for (auto& c : copy.valid) c.measured.reset();
+        for (auto& c : copy.valid) c.measured.reset();  // failures stay: they would fail again
         StrategyOptions o;
         o.seed = static_cast<std::uint64_t>(seed);
         auto strategy = info.make(o);
@@ -243,7 +252,8 @@ std::vector<ReplayRow> replay(const Space& space, const std::vector<std::string>
             },
             nullptr);
         double best = INFINITY;
-        for (std::size_t i : r.order) best = std::min(best, *copy.valid[i].measured);
+        for (std::size_t i : r.order)
+          if (copy.valid[i].measured) best = std::min(best, *copy.valid[i].measured);
         row.fractions.push_back(optimum / best);
         used.push_back(static_cast<double>(r.order.size()));
       }

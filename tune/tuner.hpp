@@ -51,9 +51,12 @@ struct Candidate {
   Predicted predicted;
   std::optional<double> measured;  // seconds per step (median), once measured
   bool from_store = false;         // the measurement was already in the store
+  std::string failure;             // why measuring it failed (then it has no time and is not chosen)
+  bool done() const { return measured.has_value() || !failure.empty(); }
 };
 
-// Seconds per step (frame) of a candidate, and whether it was already stored.
+// Seconds per step (frame) of a candidate, and whether it was already stored. A measure function
+// throws (std::exception) for a configuration that cannot run: the search records why and goes on.
 struct Measurement {
   double seconds = 0;
   bool from_store = false;
@@ -137,11 +140,14 @@ std::map<std::string, Correction> corrections(const std::vector<Candidate>& cand
 // ---- A tuning -----------------------------------------------------------------------------
 
 struct Search {
-  std::vector<std::size_t> order;  // measured, in order
+  std::vector<std::size_t> order;  // measured (or failed), in order
   std::string stop_reason;
+  int failed = 0;
 };
 // Runs `strategy` over `space` (measuring with `measure`, at most `budget` candidates: 0 means no
-// limit) and records each measurement in the candidates. Progress lines to `progress` unless null.
+// limit) and records each measurement in the candidates; a candidate whose measurement throws
+// gets the message as its failure and counts against the budget. Progress lines to `progress`
+// unless null.
 Search search(Space& space, Strategy& strategy, std::size_t budget, const MeasureFn& measure, std::FILE* progress);
 
 // The fastest measured candidate (`measured`), or by prediction the fastest whose deadline verdict

@@ -7,6 +7,7 @@
 # e.g. on the lent H100 with a bundle (scripts/device-bundle.sh dtflop) in BUNDLE=.carry:
 #   bash benchmarks/tune/device.sh tune/scenarios/sar-drift-gpu.yaml docs/examples/h100.json $OUT/h100 \
 #        --calibration results/portability/calibrations/h100-cuda-resident.cal.json ...
+# PEER=0 leaves the peer out (run it later on the space.csv, e.g. in a call of its own);
 # and here, on the 2-core machine (BUNDLE=build, where build/dtflop is):
 #   BUNDLE=build bash benchmarks/tune/device.sh tune/scenarios/sar-drift-cpu.yaml docs/examples/vm-2vcpu.json out/cpu
 set -uo pipefail
@@ -32,7 +33,9 @@ echo "== exhaustive, then replay" >&2
 echo "== model at budget 20 (from the store: nothing is measured again)" >&2
 "$dtflop" tune "${common[@]}" --strategy model --budget 20 -o "$out/model.json" >"$out/model.txt" ||
   echo "tune --strategy model exited $?" >&2
-if python3 -c "import botorch" 2>/dev/null; then
+if [ "${PEER:-1}" = 0 ]; then
+  echo "(PEER=0: no peer run)" >&2
+elif python3 -c "import botorch" 2>/dev/null; then
   echo "== BoTorch peer" >&2
   python3 benchmarks/tune/peer_botorch.py "$out/space.csv" --budgets 5,10,20,50 --seeds 10 >"$out/botorch.json" ||
     echo "peer_botorch exited $?" >&2

@@ -149,6 +149,29 @@ TEST(Search, ReplayReachesTheOptimumWithTheWholeSpaceAndNeverPassesIt) {
   for (std::size_t i = 0; i < s.truth.size(); ++i) EXPECT_EQ(*s.space.valid[i].measured, s.truth[i]);
 }
 
+TEST(Search, AConfigurationThatFailsIsRecordedAndTheSearchGoesOnWithoutItsGroup) {
+  Synthetic s = synthetic(6);
+  const MeasureFn truth = truth_of(s, s.space);
+  const MeasureFn some_fail = [&](const Candidate& c) {
+    if (c.group == "g0") throw std::runtime_error("g0 cannot run here");
+    return truth(c);
+  };
+  auto st = make_model_strategy({});
+  const Search r = search(s.space, *st, 20, some_fail, nullptr);
+  EXPECT_EQ(r.failed, 1);  // its group is not explored further
+  int failed = 0;
+  for (const auto& c : s.space.valid) {
+    if (c.failure.empty()) continue;
+    ++failed;
+    EXPECT_EQ(c.failure, "g0 cannot run here");
+    EXPECT_FALSE(c.measured);
+  }
+  EXPECT_EQ(failed, 1);
+  const auto best = fastest_measured(s.space.valid);
+  ASSERT_TRUE(best);
+  EXPECT_NE(s.space.valid[*best].group, "g0");
+}
+
 TEST(Search, ABudgetIsNeverExceeded) {
   Synthetic s = synthetic(3);
   auto st = make_model_strategy({.patience = 1000, .min_chance = 0});

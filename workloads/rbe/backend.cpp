@@ -195,7 +195,13 @@ const std::vector<BackendInfo>& backends() {
        true, detail::make_cuda_resident},
       {"cuda-seed",
        "the seed's GPU pipeline (5.3.1): belief to the device and back every step, sum on the CPU", true,
-       detail::make_cuda_seed},
+       [](const BackendOptions& o) {
+         // Refused when the configuration is made, not when it first runs (resolve_prediction).
+         if (o.prediction == Convolution::full)
+           throw InputError("cuda-seed computes only the separable prediction (5.3-5.4): use --prediction "
+                            "separable (or auto), or the full 2D prediction on cpu-seq or cpu-par");
+         return detail::make_cuda_seed(o);
+       }},
   };
   return list;
 }
