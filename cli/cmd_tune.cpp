@@ -316,6 +316,12 @@ void run(const TuneOptions& o) {
   json pf = json::array();
   for (std::size_t i : front) pf.push_back(candidate_json(i));
   out["pareto_front"] = pf;
+  // What accuracy the deadline affords: the most accurate configuration of the front that meets it.
+  std::optional<std::size_t> most_accurate;
+  if (s.deadline)
+    for (std::size_t i : front)
+      if (time_of(i) <= *s.deadline) most_accurate = i;  // the front is fastest first
+  if (most_accurate) out["most_accurate_meeting_deadline"] = candidate_json(*most_accurate);
   if (!replayed.empty()) {
     json rows = json::array();
     for (const auto& r : replayed)
@@ -392,6 +398,9 @@ void run(const TuneOptions& o) {
       p.row({c[i].label, format_duration(time_of(i)), acc(i),
              s.deadline ? (time_of(i) <= *s.deadline ? "met" : "missed") : ""});
     fmt::print("\n{}", p.str());
+    if (most_accurate && accuracy->error_name() != "none")
+      fmt::print("most accurate within the deadline: {} ({}, {} {})\n", c[*most_accurate].label,
+                 format_duration(time_of(*most_accurate)), accuracy->error_name(), acc(*most_accurate));
     if (!replayed.empty()) {
       Table r({"strategy", "budget", "median fraction of optimum", "min", "median measured"});
       for (const auto& row : replayed)
