@@ -39,7 +39,8 @@ class AccuracyModel {
 };
 
 // The accuracy model of `workload` for the scenario's `accuracy:` block. Throws InputError naming
-// the field for a bad block; a workload without a model gets one that accepts everything (error 0).
+// the field for a bad block, and for a block given to a workload without a model. An empty block
+// (a scenario that needs no accuracy) gets a model that accepts everything (error 0).
 std::unique_ptr<AccuracyModel> make_accuracy_model(std::string_view workload, const nlohmann::json& needs);
 
 // ---- Workloads' models (one factory each) ----------------------------------------------------

@@ -80,6 +80,29 @@ TEST_F(CliTune, MeasuresThroughTheStoreResumesAndItsChoiceRuns) {
   EXPECT_EQ(nlohmann::json::parse(r.out)["backend"], j["backend"]);
 }
 
+TEST_F(CliTune, ReusesWhatASweepOfThisMachineMeasured) {
+  write("two.yaml", R"(
+name: two
+workload: rbe
+machine: here.json
+space:
+  backend: [cpu-seq]
+  grid: [64x64, 96x96]
+  kernel: [9x9]
+  prediction: [full]
+)");
+  write("plan.json", R"({"description": "one", "configs": [{"grid": "96x96", "kernel": "9x9", "prediction": "full"}]})");
+  CliResult r = run_dtflop("sweep rbe --backend cpu-seq --plan plan.json --store st.jsonl --reps 2 --warmup 0 -q",
+                           dir_.string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  r = tune("--scenario two.yaml --strategy exhaustive --store st.jsonl --reps 2 --warmup 0 --json -q");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["measured"], 2);
+  EXPECT_EQ(j["measured_now"], 1);  // the sweep's configuration came from the store
+  EXPECT_EQ(lines_of(dir_ / "st.jsonl"), 2);
+}
+
 TEST_F(CliTune, RanksWithoutMeasuringAndSaysTheVerdictsArePredictions) {
   const CliResult r = tune("--scenario s.yaml --no-measure");
   ASSERT_EQ(r.status, 0) << r.err;
