@@ -83,6 +83,334 @@ std::string csv_cell(const json& v) {
   return v.dump();
 }
 
+// ---- Inputs -------------------------------------------------------------------------------------
+
+// The scenario, the workload, the machine's profile and the calibrations applied to it, checked
+// before anything is enumerated or measured.
+struct Inputs {
+  tune::Scenario s;
+  const workload::Workload* w = nullptr;
+  std::string machine_file;
+  MachineProfile machine;
+  MachineIdentity here;
+  std::vector<LoadedCalibration> calibrations;
+  std::vector<std::string> files;  // every input file (no output may replace one)
+};
+
+Inputs load_inputs(const TuneOptions& o) {
+  Inputs in;
+  in.s = tune::load_scenario(o.scenario);
+  in.w = &workload::find(in.s.workload);
+  in.machine_file = o.machine.empty() ? in.s.machine : o.machine;
+  if (in.machine_file.empty())
+    throw InputError(fmt::format("scenario '{}' names no machine: give --machine profile.json (`dtflop probe` or "
+                                 "`dtflop calibrate` writes one)",
+                                 o.scenario));
+  in.files = {o.scenario, in.machine_file};
+  in.machine = load_profile(in.machine_file);
+  in.here = calib::this_machine();
+  std::string why_other;
+  if (!o.no_measure && !same_machine(in.machine.identity, in.here, &why_other))
+    throw InputError(fmt::format("--machine '{}' describes {}, not this machine ({}): measuring here needs this "
+                                 "machine's profile; add --no-measure to rank for that machine by prediction alone",
+                                 in.machine_file, describe(in.machine.identity), why_other));
+  std::vector<std::string> calibration_files = in.s.calibrations;
+  calibration_files.insert(calibration_files.end(), o.calibrations.begin(), o.calibrations.end());
+  for (const auto& f : calibration_files) {
+    LoadedCalibration lc;
+    lc.file = f;
+    lc.calibration = load_calibration(f);
+    if (lc.calibration.workload != in.w->name())
+      throw InputError(fmt::format("calibration '{}' is of {}, and the scenario tunes {}: use a calibration of {}", f,
+                                   lc.calibration.workload, in.w->name(), in.w->name()));
+    lc.applied = apply_calibration(lc.calibration, in.machine);
+    lc.basis = basis_of(lc.calibration, lc.applied.basis);
+    in.calibrations.push_back(std::move(lc));
+    in.files.push_back(f);
+  }
+  return in;
+}
+
+// Why `b` cannot run where the tuning happens: here when measuring, else on the profile's machine.
+std::string why_unavailable(const Inputs& in, bool no_measure, const workload::Backend& b) {
+  if (!no_measure) return b.unavailable();
+  if (b.needs_gpu() && in.machine.identity.gpu_name.empty())
+    return fmt::format("backend {} needs a GPU and the machine profile '{}' has none", b.name(), in.machine_file);
+  return {};
+}
+
+// A configuration's prediction: the profile with the calibration of its backend (and host memory
+// kind) applied where one was given, its interval, and the deadline verdict at the scenario's
+// confidence.
+tune::Predicted predict_one(const Inputs& in, const workload::Backend& b, const workload::Config& c) {
+  const std::string key = in.w->key(b, c);
+  const LoadedCalibration* cal = nullptr;
+  for (const auto& lc : in.calibrations) {
+    if (lc.calibration.backend != b.name()) continue;
+    bool match = true;
+    for (const auto& m : lc.calibration.match) match = match && key.find(m) != std::string::npos;
+    if (match) cal = &lc;
+  }
+  const MachineProfile& profile = cal ? cal->applied.profile : in.machine;
+  const CostCounts counts = b.counts(c, &in.machine.identity);
+  const Variant wanted = cal ? cal->calibration.variant : chosen_variant(profile).value_or(Variant::extended);
+  const Predicted p = predict_with_fallback(profile, counts, wanted);
+  const BasisError basis = cal ? cal->basis : basis_of(profile, counts, p.variant);
+  const Interval iv = interval_of(p.prediction, profile, counts, basis);
+  tune::Predicted out;
+  out.seconds = p.prediction.total;
+  out.lo = iv.lo;
+  out.hi = iv.hi;
+  out.sigma = iv.sigma;
+  out.basis = std::string(to_string(basis.basis));
+  out.note = p.fallback;
+  if (in.s.deadline) {
+    const DeadlineVerdict v = judge_deadline(p.prediction.total, iv, *in.s.deadline, in.s.confidence);
+    out.p_met = v.probability_met;
+    out.verdict = std::string(to_string(v.verdict));
+  }
+  return out;
+}
+
+// ---- Measuring through the store ------------------------------------------------------------
+
+// Seconds per step of a configuration: from the store when it holds the configuration (measured
+// on this machine: a store of another is refused when opened), else measured by the protocol of
+// its backend and appended to the store before it is used.
+class StoreMeasurer {
+ public:
+  StoreMeasurer(const Inputs& in, const TuneOptions& o, std::string store) : in_(in), o_(o), store_(std::move(store)) {
+    const calib::StoreContents contents = calib::read_store(store_);
+    for (const auto& warning : contents.warnings) fmt::print(stderr, "dtflop: warning: {}\n", warning);
+    for (const auto& sm : contents.samples) {
+      std::string why;
+      if (!same_machine(sm.machine, in.here, &why))
+        throw InputError(fmt::format("store '{}' holds samples of {} ({}); a tuning measures this machine: use "
+                                     "another --store",
+                                     store_, describe(sm.machine), why));
+      const Stats* total = sm.find(calib::Component::total);
+      if (sm.round == 1 && total && sm.steps > 0) stored_[sm.key] = total->median / static_cast<double>(sm.steps);
+    }
+  }
+  tune::Measurement operator()(const tune::Candidate& c) {
+    if (auto it = stored_.find(c.key); it != stored_.end()) return {it->second, true};
+    const workload::Workload& w = *in_.w;
+    const std::string plan = "tune:" + in_.s.name;
+    auto pit = protocols_.find(c.backend->name());
+    if (pit == protocols_.end()) {
+      pit = protocols_.emplace(c.backend->name(), calib::open_protocol(w, *c.backend, o_.measure, o_.no_cupti)).first;
+      // The first configuration a process measures on a backend runs slower (clocks, first
+      // allocations, module loading): once, unrecorded.
+      calib::measure(w, *c.backend, c.config, pit->second, in_.here, c.key, plan);
+    }
+    if (!writer_) writer_ = std::make_unique<calib::StoreWriter>(store_, warnings_);
+    const calib::Sample sm = calib::measure(w, *c.backend, c.config, pit->second, in_.here, c.key, plan);
+    writer_->append(sm);
+    ++measured_now_;
+    const double seconds = sm.find(calib::Component::total)->median / static_cast<double>(sm.steps);
+    stored_[c.key] = seconds;
+    return {seconds, false};
+  }
+  int measured_now() const { return measured_now_; }
+  const std::string& store() const { return store_; }
+  const std::vector<std::string>& warnings() const { return warnings_; }
+
+ private:
+  const Inputs& in_;
+  const TuneOptions& o_;
+  std::string store_;
+  std::map<std::string, double> stored_;  // key -> seconds per step
+  std::map<std::string, calib::Protocol> protocols_;
+  std::unique_ptr<calib::StoreWriter> writer_;
+  std::vector<std::string> warnings_;
+  int measured_now_ = 0;
+};
+
+// ---- The outcome --------------------------------------------------------------------------
+
+struct Outcome {
+  bool by_measure = true;
+  const tune::Space* space = nullptr;
+  tune::Search search;
+  int measured_now = 0;
+  std::string store;
+  std::string strategy;
+  std::vector<tune::ReplayRow> replayed;
+  std::optional<std::size_t> chosen;
+  std::vector<std::size_t> ranked;        // fastest first (measured ones, or every one by prediction)
+  std::vector<std::size_t> front;         // Pareto front, fastest first
+  std::optional<std::size_t> most_accurate;  // the front's most accurate within the deadline
+  bool meets = false;
+  double time_of(std::size_t i) const {
+    const auto& x = space->valid[i];
+    return by_measure ? *x.measured : x.predicted.seconds;
+  }
+};
+
+void decide(Outcome& r, const tune::Scenario& s) {
+  const auto& c = r.space->valid;
+  r.chosen = r.by_measure ? tune::fastest_measured(c) : tune::fastest_predicted(c, s.deadline.has_value());
+  for (std::size_t i = 0; i < c.size(); ++i)
+    if (!r.by_measure || c[i].measured) r.ranked.push_back(i);
+  std::sort(r.ranked.begin(), r.ranked.end(), [&](std::size_t a, std::size_t b) { return r.time_of(a) < r.time_of(b); });
+  r.front = tune::pareto_front(c, r.by_measure);
+  r.meets = r.chosen && s.deadline &&
+            (r.by_measure ? *c[*r.chosen].measured <= *s.deadline : c[*r.chosen].predicted.verdict == "met");
+  if (s.deadline)
+    for (std::size_t i : r.front)
+      if (r.time_of(i) <= *s.deadline) r.most_accurate = i;  // the front is fastest first
+}
+
+json candidate_json(const Outcome& r, const tune::Scenario& s, std::size_t i) {
+  const auto& x = r.space->valid[i];
+  json j = {{"backend", x.backend->name()},
+            {"config", x.config},
+            {"key", x.key},
+            {"label", x.label},
+            {"predicted", {{"seconds", x.predicted.seconds},
+                           {"interval90", {x.predicted.lo, x.predicted.hi}},
+                           {"basis", x.predicted.basis}}},
+            {"accuracy", {{"error", x.accuracy.error}, {"figures", x.accuracy.figures}}}};
+  if (x.predicted.p_met) {
+    j["predicted"]["verdict"] = x.predicted.verdict;
+    j["predicted"]["probability_met"] = *x.predicted.p_met;
+  }
+  if (!x.predicted.note.empty()) j["predicted"]["note"] = x.predicted.note;
+  if (x.measured) j["measured_seconds"] = *x.measured;
+  if (s.deadline) j["margin_seconds"] = *s.deadline - r.time_of(i);
+  return j;
+}
+
+json result_json(const Outcome& r, const Inputs& in, const tune::AccuracyModel& accuracy, int replay_seeds) {
+  const tune::Scenario& s = in.s;
+  const tune::Space& space = *r.space;
+  const auto& c = space.valid;
+  json out = {{"schema", kTunedSchema},
+              {"version", 1},
+              {"scenario", s.name},
+              {"workload", std::string(in.w->name())},
+              {"machine", describe(in.machine.identity)},
+              {"strategy", r.strategy},
+              {"verdicts", r.by_measure ? "measured" : "predicted"},
+              {"accuracy_figure", {{"name", accuracy.error_name()}, {"unit", accuracy.error_unit()}}},
+              {"accuracy_needs", accuracy.needs()},
+              {"space", {{"enumerated", space.enumerated}, {"valid", c.size()}, {"removed", space.removed},
+                         {"removed_example", space.example}}},
+              {"measured", r.search.order.size() - static_cast<std::size_t>(r.search.failed)},
+              {"failed", r.search.failed},
+              {"measured_now", r.measured_now},
+              {"stop_reason", r.by_measure ? r.search.stop_reason : "not measured"}};
+  if (s.deadline) out["deadline_seconds"] = *s.deadline;
+  if (!r.store.empty()) out["store"] = r.store;
+  json failures = json::array();
+  for (const auto& x : c)
+    if (!x.failure.empty()) failures.push_back({{"label", x.label}, {"key", x.key}, {"failure", x.failure}});
+  out["failures"] = failures;
+  if (r.chosen) {
+    out["chosen"] = candidate_json(r, s, *r.chosen);
+    // What `dtflop run --tuned` takes: the backend and the configuration.
+    out["backend"] = c[*r.chosen].backend->name();
+    out["config"] = c[*r.chosen].config;
+  }
+  out["meets_deadline"] = s.deadline ? json(r.meets) : json(nullptr);
+  json runners = json::array();
+  for (std::size_t k = 1; k < r.ranked.size() && k <= 5; ++k) runners.push_back(candidate_json(r, s, r.ranked[k]));
+  out["runners_up"] = runners;
+  json pf = json::array();
+  for (std::size_t i : r.front) pf.push_back(candidate_json(r, s, i));
+  out["pareto_front"] = pf;
+  if (r.most_accurate) out["most_accurate_meeting_deadline"] = candidate_json(r, s, *r.most_accurate);
+  if (!r.replayed.empty()) {
+    json rows = json::array();
+    for (const auto& x : r.replayed)
+      rows.push_back({{"strategy", x.strategy}, {"budget", x.budget}, {"median_fraction_of_optimum", x.median},
+                      {"fractions", x.fractions}, {"median_measured", x.measured_median}});
+    out["replay"] = {{"seeds", replay_seeds}, {"rows", rows}};
+  }
+  return out;
+}
+
+// Every valid configuration with its parameters, prediction, accuracy and measured time.
+std::string space_csv(const workload::Workload& w, const tune::Space& space) {
+  std::string csv = "key,backend";
+  for (const auto& p : w.params()) csv += "," + p.name;
+  csv += ",predicted_s,interval_lo_s,interval_hi_s,accuracy_error,measured_s\n";
+  for (const auto& x : space.valid) {
+    csv += fmt::format("\"{}\",{}", x.key, x.backend->name());
+    for (const auto& p : w.params()) csv += "," + (x.config.contains(p.name) ? csv_cell(x.config[p.name]) : std::string());
+    csv += fmt::format(",{:.6e},{:.6e},{:.6e},{:.6g},{}\n", x.predicted.seconds, x.predicted.lo, x.predicted.hi,
+                       x.accuracy.error, x.measured ? fmt::format("{:.6e}", *x.measured) : "");
+  }
+  return csv;
+}
+
+void print_result(const Outcome& r, const Inputs& in, const tune::AccuracyModel& accuracy, const TuneOptions& o) {
+  const tune::Scenario& s = in.s;
+  const tune::Space& space = *r.space;
+  const auto& c = space.valid;
+  auto acc = [&](std::size_t i) {
+    return accuracy.error_name() == "none" ? std::string("-")
+                                           : fmt::format("{:.3g} {}", c[i].accuracy.error, accuracy.error_unit());
+  };
+  fmt::print("scenario {}: {} on {}\n", s.name, in.w->name(), describe(in.machine.identity));
+  fmt::print("space: {} enumerated, {} valid", space.enumerated, c.size());
+  for (const auto& [k, n] : space.removed) fmt::print("; {} removed by {}", n, k);
+  fmt::print("\n");
+  for (const auto& [k, e] : space.example) fmt::print("  {}: e.g. {}\n", k, e);
+  if (r.by_measure) {
+    const std::size_t ok = r.search.order.size() - static_cast<std::size_t>(r.search.failed);
+    fmt::print("measured {} of {} valid ({} now, {} from the store '{}'), strategy {}: {}\n", ok, c.size(),
+               r.measured_now, ok - static_cast<std::size_t>(r.measured_now), r.store, r.strategy, r.search.stop_reason);
+    for (const auto& x : c)
+      if (!x.failure.empty()) fmt::print("  failed: {}: {}\n", x.label, x.failure);
+  } else {
+    fmt::print("not measured: every verdict below is a prediction ({} basis){}\n",
+               r.chosen ? c[*r.chosen].predicted.basis : "-",
+               in.calibrations.empty() ? "" : fmt::format(", with {} calibration(s)", in.calibrations.size()));
+  }
+  if (r.chosen) {
+    const auto& x = c[*r.chosen];
+    fmt::print("\nchosen: {}\n  {}\n", x.label, in.w->describe(*x.backend, x.config));
+    fmt::print("  predicted {} (90% interval {} .. {}, {})\n", format_duration(x.predicted.seconds),
+               format_duration(x.predicted.lo), format_duration(x.predicted.hi), x.predicted.basis);
+    if (x.measured) fmt::print("  measured  {}\n", format_duration(*x.measured));
+    if (s.deadline)
+      fmt::print("  deadline  {}: {} (margin {}{})\n", format_duration(*s.deadline), r.meets ? "met" : "NOT met",
+                 format_duration(std::abs(*s.deadline - r.time_of(*r.chosen))),
+                 *s.deadline >= r.time_of(*r.chosen) ? "" : " over");
+    fmt::print("  accuracy  {} = {}; {}\n", accuracy.error_name(), acc(*r.chosen), x.accuracy.figures.dump());
+    if (s.deadline && !r.meets)
+      fmt::print("nothing {} meets the deadline of {}: the configuration above comes closest\n",
+                 r.by_measure ? "measured" : "predicted with confidence", format_duration(*s.deadline));
+  }
+  Table t({"runner-up", r.by_measure ? "measured" : "predicted", "90% interval", accuracy.error_name()});
+  for (std::size_t k = 1; k < r.ranked.size() && k <= 5; ++k) {
+    const auto& x = c[r.ranked[k]];
+    t.row({x.label, format_duration(r.time_of(r.ranked[k])),
+           fmt::format("{} .. {}", format_duration(x.predicted.lo), format_duration(x.predicted.hi)), acc(r.ranked[k])});
+  }
+  if (r.ranked.size() > 1) fmt::print("\n{}", t.str());
+  Table p({"Pareto front: configuration", r.by_measure ? "measured" : "predicted", accuracy.error_name(),
+           s.deadline ? "deadline" : ""});
+  for (std::size_t i : r.front)
+    p.row({c[i].label, format_duration(r.time_of(i)), acc(i),
+           s.deadline ? (r.time_of(i) <= *s.deadline ? "met" : "missed") : ""});
+  fmt::print("\n{}", p.str());
+  if (r.most_accurate && accuracy.error_name() != "none")
+    fmt::print("most accurate within the deadline: {} ({}, {} {})\n", c[*r.most_accurate].label,
+               format_duration(r.time_of(*r.most_accurate)), accuracy.error_name(), acc(*r.most_accurate));
+  if (!r.replayed.empty()) {
+    Table x({"strategy", "budget", "median fraction of optimum", "min", "median measured"});
+    for (const auto& row : r.replayed)
+      x.row({row.strategy, fmt::format("{}", row.budget), fmt::format("{:.3f}", row.median),
+             fmt::format("{:.3f}", *std::min_element(row.fractions.begin(), row.fractions.end())),
+             fmt::format("{:.0f}", row.measured_median)});
+    fmt::print("\nreplayed on the {} measured configurations, {} seeds each:\n{}", c.size(), o.replay_seeds, x.str());
+  }
+  if (!o.output.empty())
+    fmt::print("\nwritten: {} (`dtflop run {} --tuned {}` runs the choice)\n", o.output, in.w->name(), o.output);
+}
+
 void run(const TuneOptions& o) {
   if (o.budget == 0)
     throw InputError("--budget 0 measures nothing: give a budget of at least 1, or --no-measure to rank by "
@@ -91,55 +419,14 @@ void run(const TuneOptions& o) {
     throw InputError("--replay replays measurements; it cannot go with --no-measure");
   const tune::StrategyInfo& strategy_info = tune::find_strategy(o.strategy);
   const std::vector<std::size_t> replay_budgets = o.replay.empty() ? std::vector<std::size_t>{} : parse_budgets(o.replay);
-  const tune::Scenario s = tune::load_scenario(o.scenario);
-  const workload::Workload& w = workload::find(s.workload);
-  const std::string machine_file = o.machine.empty() ? s.machine : o.machine;
-  if (machine_file.empty())
-    throw InputError(fmt::format("scenario '{}' names no machine: give --machine profile.json (`dtflop probe` or "
-                                 "`dtflop calibrate` writes one)",
-                                 o.scenario));
-  std::vector<std::string> inputs = {o.scenario, machine_file};
-  const MachineProfile machine = load_profile(machine_file);
-  const MachineIdentity here = calib::this_machine();
-  std::string why_other;
-  const bool machine_is_here = same_machine(machine.identity, here, &why_other);
-  if (!o.no_measure && !machine_is_here)
-    throw InputError(fmt::format("--machine '{}' describes {}, not this machine ({}): measuring here needs this "
-                                 "machine's profile; add --no-measure to rank for that machine by prediction alone",
-                                 machine_file, describe(machine.identity), why_other));
-  if (!o.output.empty()) check_output(o.output, inputs);
-  if (!o.space_csv.empty()) check_output(o.space_csv, inputs);
-
-  // Calibrations: each applied once to the profile.
-  std::vector<LoadedCalibration> calibrations;
-  std::vector<std::string> calibration_files = s.calibrations;
-  calibration_files.insert(calibration_files.end(), o.calibrations.begin(), o.calibrations.end());
-  for (const auto& f : calibration_files) {
-    LoadedCalibration lc;
-    lc.file = f;
-    lc.calibration = load_calibration(f);
-    if (lc.calibration.workload != w.name())
-      throw InputError(fmt::format("calibration '{}' is of {}, and the scenario tunes {}: use a calibration of {}", f,
-                                   lc.calibration.workload, w.name(), w.name()));
-    lc.applied = apply_calibration(lc.calibration, machine);
-    lc.basis = basis_of(lc.calibration, lc.applied.basis);
-    calibrations.push_back(std::move(lc));
-    inputs.push_back(f);
-  }
-  const bool progress_on = !o.quiet;
-  std::FILE* progress = progress_on ? stderr : nullptr;
-
+  const Inputs in = load_inputs(o);
+  const tune::Scenario& s = in.s;
+  const workload::Workload& w = *in.w;
+  if (!o.output.empty()) check_output(o.output, in.files);
+  if (!o.space_csv.empty()) check_output(o.space_csv, in.files);
   // Backends the scenario names must be able to run where the tuning happens.
-  auto unavailable = [&](const workload::Backend& b) -> std::string {
-    if (o.no_measure) {
-      if (b.needs_gpu() && machine.identity.gpu_name.empty())
-        return fmt::format("backend {} needs a GPU and the machine profile '{}' has none", b.name(), machine_file);
-      return {};
-    }
-    return b.unavailable();
-  };
   for (const auto& name : s.backends) {
-    const std::string why = unavailable(w.backend(name));
+    const std::string why = why_unavailable(in, o.no_measure, w.backend(name));
     if (!why.empty())
       throw InputError(fmt::format("scenario '{}' names backend {}, which cannot run {}: {}; remove it from "
                                    "space.backend, or {}",
@@ -147,271 +434,56 @@ void run(const TuneOptions& o) {
                                    o.no_measure ? "give the profile of a machine that runs it (--machine)"
                                                 : "tune where it runs, or rank for such a machine with --no-measure"));
   }
+  std::optional<StoreMeasurer> measurer;
+  if (!o.no_measure) measurer.emplace(in, o, o.store.empty() ? s.name + ".samples.jsonl" : o.store);
+  std::FILE* progress = o.quiet ? nullptr : stderr;
 
-  auto predict = [&](const workload::Backend& b, const workload::Config& c) {
-    const std::string key = w.key(b, c);
-    const LoadedCalibration* cal = nullptr;
-    for (const auto& lc : calibrations) {
-      if (lc.calibration.backend != b.name()) continue;
-      bool match = true;
-      for (const auto& m : lc.calibration.match) match = match && key.find(m) != std::string::npos;
-      if (match) cal = &lc;
-    }
-    const MachineProfile& profile = cal ? cal->applied.profile : machine;
-    const CostCounts counts = b.counts(c, &machine.identity);
-    const Variant wanted = cal ? cal->calibration.variant : chosen_variant(profile).value_or(Variant::extended);
-    const Predicted p = predict_with_fallback(profile, counts, wanted);
-    const BasisError basis = cal ? cal->basis : basis_of(profile, counts, p.variant);
-    const Interval iv = interval_of(p.prediction, profile, counts, basis);
-    tune::Predicted out;
-    out.seconds = p.prediction.total;
-    out.lo = iv.lo;
-    out.hi = iv.hi;
-    out.sigma = iv.sigma;
-    out.basis = std::string(to_string(basis.basis));
-    out.note = p.fallback;
-    if (s.deadline) {
-      const DeadlineVerdict v = judge_deadline(p.prediction.total, iv, *s.deadline, s.confidence);
-      out.p_met = v.probability_met;
-      out.verdict = std::string(to_string(v.verdict));
-    }
-    return out;
-  };
-
-  // ---- Measuring through the store -----------------------------------------------------------
-  std::string store = o.store;
-  if (!o.no_measure && store.empty()) store = s.name + ".samples.jsonl";
-  std::map<std::string, double> stored;  // key -> seconds per step
-  if (!o.no_measure) {
-    const calib::StoreContents contents = calib::read_store(store);
-    for (const auto& warning : contents.warnings) fmt::print(stderr, "dtflop: warning: {}\n", warning);
-    for (const auto& sm : contents.samples) {
-      std::string why;
-      if (!same_machine(sm.machine, here, &why))
-        throw InputError(fmt::format("store '{}' holds samples of {} ({}); a tuning measures this machine: use "
-                                     "another --store",
-                                     store, describe(sm.machine), why));
-      const Stats* total = sm.find(calib::Component::total);
-      if (sm.round == 1 && total && sm.steps > 0) stored[sm.key] = total->median / static_cast<double>(sm.steps);
-    }
-  }
-  std::unique_ptr<tune::AccuracyModel> accuracy = tune::make_accuracy_model(w.name(), s.accuracy);
-  tune::Space space = tune::constrain(s, w, *accuracy, unavailable, predict, progress);
+  const std::unique_ptr<tune::AccuracyModel> accuracy = tune::make_accuracy_model(w.name(), s.accuracy);
+  tune::Space space = tune::constrain(
+      s, w, *accuracy, [&](const workload::Backend& b) { return why_unavailable(in, o.no_measure, b); },
+      [&](const workload::Backend& b, const workload::Config& c) { return predict_one(in, b, c); }, progress);
   if (progress) {
-    fmt::print(stderr, "tune: scenario {} ({}), {} on {}{}\n", s.name, o.scenario, w.name(), describe(machine.identity),
-               o.no_measure ? " (not measured: ranked by prediction alone)" : "");
+    fmt::print(stderr, "tune: scenario {} ({}), {} on {}{}\n", s.name, o.scenario, w.name(),
+               describe(in.machine.identity), o.no_measure ? " (not measured: ranked by prediction alone)" : "");
     fmt::print(stderr, "tune: {} valid configurations of {} enumerated", space.valid.size(), space.enumerated);
     for (const auto& [c, n] : space.removed) fmt::print(stderr, "; {} removed by {}", n, c);
     fmt::print(stderr, "\n");
   }
 
-  std::map<std::string, calib::Protocol> protocols;
-  std::unique_ptr<calib::StoreWriter> writer;
-  std::vector<std::string> store_warnings;
-  int measured_now = 0;
-  tune::MeasureFn measure = [&](const tune::Candidate& c) -> tune::Measurement {
-    if (auto it = stored.find(c.key); it != stored.end()) return {it->second, true};
-    auto pit = protocols.find(c.backend->name());
-    if (pit == protocols.end()) {
-      pit = protocols.emplace(c.backend->name(), calib::open_protocol(w, *c.backend, o.measure, o.no_cupti)).first;
-      // The first configuration a process measures on a backend runs slower (clocks, first
-      // allocations, module loading): once, unrecorded.
-      calib::measure(w, *c.backend, c.config, pit->second, here, c.key, "tune:" + s.name);
-    }
-    if (!writer) writer = std::make_unique<calib::StoreWriter>(store, store_warnings);
-    const calib::Sample sm = calib::measure(w, *c.backend, c.config, pit->second, here, c.key, "tune:" + s.name);
-    writer->append(sm);
-    ++measured_now;
-    const double seconds = sm.find(calib::Component::total)->median / static_cast<double>(sm.steps);
-    stored[c.key] = seconds;
-    return {seconds, false};
-  };
-
-  tune::Search result;
-  std::vector<tune::ReplayRow> replayed;
-  if (!o.no_measure) {
+  Outcome r;
+  r.space = &space;
+  r.by_measure = !o.no_measure;
+  r.strategy = o.no_measure ? "none (--no-measure)" : replay_budgets.empty() ? o.strategy : "exhaustive";
+  if (measurer) {
     tune::StrategyOptions so;
     so.seed = o.seed;
     so.patience = o.patience;
+    const tune::MeasureFn measure = [&](const tune::Candidate& c) { return (*measurer)(c); };
     if (!replay_budgets.empty()) {
       // Everything measured (exhaustive), then every strategy replayed on the stored times.
       auto all = tune::make_exhaustive_strategy(so);
-      result = tune::search(space, *all, 0, measure, progress);
-      result.stop_reason = "every valid configuration measured, for the replay";
-      replayed = tune::replay(space, {"model", "random"}, replay_budgets, o.replay_seeds);
+      r.search = tune::search(space, *all, 0, measure, progress);
+      r.search.stop_reason = "every valid configuration measured, for the replay";
+      r.replayed = tune::replay(space, {"model", "random"}, replay_budgets, o.replay_seeds);
     } else {
       auto strategy = strategy_info.make(so);
-      const std::size_t budget = o.budget > 0 ? static_cast<std::size_t>(o.budget)
-                                 : o.strategy == "exhaustive" ? 0
-                                                              : 20;
-      result = tune::search(space, *strategy, budget, measure, progress);
+      const std::size_t budget = o.budget > 0 ? static_cast<std::size_t>(o.budget) : o.strategy == "exhaustive" ? 0 : 20;
+      r.search = tune::search(space, *strategy, budget, measure, progress);
     }
+    for (const auto& warning : measurer->warnings()) fmt::print(stderr, "dtflop: warning: {}\n", warning);
+    r.measured_now = measurer->measured_now();
+    r.store = measurer->store();
   }
-  for (const auto& warning : store_warnings) fmt::print(stderr, "dtflop: warning: {}\n", warning);
+  decide(r, s);
 
-  // ---- The choice ---------------------------------------------------------------------------
-  const auto& c = space.valid;
-  const bool by_measure = !o.no_measure;
-  const std::optional<std::size_t> chosen = by_measure ? tune::fastest_measured(c) : tune::fastest_predicted(c, s.deadline.has_value());
-  const auto time_of = [&](std::size_t i) { return by_measure ? *c[i].measured : c[i].predicted.seconds; };
-  std::vector<std::size_t> ranked;
-  for (std::size_t i = 0; i < c.size(); ++i)
-    if (!by_measure || c[i].measured) ranked.push_back(i);
-  std::sort(ranked.begin(), ranked.end(), [&](std::size_t a, std::size_t b) { return time_of(a) < time_of(b); });
-  const std::vector<std::size_t> front = tune::pareto_front(c, by_measure);
-  const bool meets = chosen && s.deadline &&
-                     (by_measure ? *c[*chosen].measured <= *s.deadline : c[*chosen].predicted.verdict == "met");
-
-  auto candidate_json = [&](std::size_t i) {
-    const auto& x = c[i];
-    json j = {{"backend", x.backend->name()},
-              {"config", x.config},
-              {"key", x.key},
-              {"label", x.label},
-              {"predicted", {{"seconds", x.predicted.seconds},
-                             {"interval90", {x.predicted.lo, x.predicted.hi}},
-                             {"basis", x.predicted.basis}}},
-              {"accuracy", {{"error", x.accuracy.error}, {"figures", x.accuracy.figures}}}};
-    if (x.predicted.p_met) {
-      j["predicted"]["verdict"] = x.predicted.verdict;
-      j["predicted"]["probability_met"] = *x.predicted.p_met;
-    }
-    if (!x.predicted.note.empty()) j["predicted"]["note"] = x.predicted.note;
-    if (x.measured) j["measured_seconds"] = *x.measured;
-    if (s.deadline) j["margin_seconds"] = *s.deadline - time_of(i);
-    return j;
-  };
-
-  json out = {{"schema", kTunedSchema},
-              {"version", 1},
-              {"scenario", s.name},
-              {"workload", std::string(w.name())},
-              {"machine", describe(machine.identity)},
-              {"strategy", by_measure ? (replay_budgets.empty() ? o.strategy : "exhaustive") : "none (--no-measure)"},
-              {"verdicts", by_measure ? "measured" : "predicted"},
-              {"accuracy_figure", {{"name", accuracy->error_name()}, {"unit", accuracy->error_unit()}}},
-              {"accuracy_needs", accuracy->needs()},
-              {"space", {{"enumerated", space.enumerated}, {"valid", c.size()}, {"removed", space.removed},
-                         {"removed_example", space.example}}},
-              {"measured", result.order.size() - static_cast<std::size_t>(result.failed)},
-              {"failed", result.failed},
-              {"measured_now", measured_now},
-              {"stop_reason", by_measure ? result.stop_reason : "not measured"}};
-  if (s.deadline) out["deadline_seconds"] = *s.deadline;
-  if (!store.empty()) out["store"] = store;
-  json failures = json::array();
-  for (const auto& x : c)
-    if (!x.failure.empty()) failures.push_back({{"label", x.label}, {"key", x.key}, {"failure", x.failure}});
-  out["failures"] = failures;
-  if (chosen) {
-    out["chosen"] = candidate_json(*chosen);
-    // What `dtflop run` takes: the backend and the configuration.
-    out["backend"] = c[*chosen].backend->name();
-    out["config"] = c[*chosen].config;
-  }
-  out["meets_deadline"] = s.deadline ? json(meets) : json(nullptr);
-  json runners = json::array();
-  for (std::size_t k = 1; k < ranked.size() && k <= 5; ++k) runners.push_back(candidate_json(ranked[k]));
-  out["runners_up"] = runners;
-  json pf = json::array();
-  for (std::size_t i : front) pf.push_back(candidate_json(i));
-  out["pareto_front"] = pf;
-  // What accuracy the deadline affords: the most accurate configuration of the front that meets it.
-  std::optional<std::size_t> most_accurate;
-  if (s.deadline)
-    for (std::size_t i : front)
-      if (time_of(i) <= *s.deadline) most_accurate = i;  // the front is fastest first
-  if (most_accurate) out["most_accurate_meeting_deadline"] = candidate_json(*most_accurate);
-  if (!replayed.empty()) {
-    json rows = json::array();
-    for (const auto& r : replayed)
-      rows.push_back({{"strategy", r.strategy}, {"budget", r.budget}, {"median_fraction_of_optimum", r.median},
-                      {"fractions", r.fractions}, {"median_measured", r.measured_median}});
-    out["replay"] = {{"seeds", o.replay_seeds}, {"rows", rows}};
-  }
-
-  if (!o.space_csv.empty()) {
-    std::string csv = "key,backend";
-    std::vector<std::string> params;
-    for (const auto& p : w.params()) params.push_back(p.name);
-    for (const auto& p : params) csv += "," + p;
-    csv += ",predicted_s,interval_lo_s,interval_hi_s,accuracy_error,measured_s\n";
-    for (const auto& x : c) {
-      csv += fmt::format("\"{}\",{}", x.key, x.backend->name());
-      for (const auto& p : params) csv += "," + (x.config.contains(p) ? csv_cell(x.config[p]) : std::string());
-      csv += fmt::format(",{:.6e},{:.6e},{:.6e},{:.6g},{}\n", x.predicted.seconds, x.predicted.lo, x.predicted.hi,
-                         x.accuracy.error, x.measured ? fmt::format("{:.6e}", *x.measured) : "");
-    }
-    write_file_atomically(o.space_csv, csv);
-  }
+  const json out = result_json(r, in, *accuracy, o.replay_seeds);
+  if (!o.space_csv.empty()) write_file_atomically(o.space_csv, space_csv(w, space));
   if (!o.output.empty()) write_file_atomically(o.output, out.dump(2) + "\n");
-
-  if (o.json) {
+  if (o.json)
     fmt::print("{}\n", out.dump(2));
-  } else {
-    const std::string unit = accuracy->error_unit();
-    auto acc = [&](std::size_t i) {
-      return accuracy->error_name() == "none" ? std::string("-") : fmt::format("{:.3g} {}", c[i].accuracy.error, unit);
-    };
-    fmt::print("scenario {}: {} on {}\n", s.name, w.name(), describe(machine.identity));
-    fmt::print("space: {} enumerated, {} valid", space.enumerated, c.size());
-    for (const auto& [k, n] : space.removed) fmt::print("; {} removed by {}", n, k);
-    fmt::print("\n");
-    for (const auto& [k, e] : space.example) fmt::print("  {}: e.g. {}\n", k, e);
-    if (by_measure) {
-      const std::size_t ok = result.order.size() - static_cast<std::size_t>(result.failed);
-      fmt::print("measured {} of {} valid ({} now, {} from the store '{}'), strategy {}: {}\n", ok, c.size(),
-                 measured_now, ok - static_cast<std::size_t>(measured_now), store, out["strategy"].get<std::string>(),
-                 result.stop_reason);
-      for (const auto& x : c)
-        if (!x.failure.empty()) fmt::print("  failed: {}: {}\n", x.label, x.failure);
-    }
-    else
-      fmt::print("not measured: every verdict below is a prediction ({} basis){}\n",
-                 chosen ? c[*chosen].predicted.basis : "-",
-                 calibrations.empty() ? "" : fmt::format(", with {} calibration(s)", calibrations.size()));
-    if (chosen) {
-      const auto& x = c[*chosen];
-      fmt::print("\nchosen: {}\n  {}\n", x.label, w.describe(*x.backend, x.config));
-      fmt::print("  predicted {} (90% interval {} .. {}, {})\n", format_duration(x.predicted.seconds),
-                 format_duration(x.predicted.lo), format_duration(x.predicted.hi), x.predicted.basis);
-      if (x.measured) fmt::print("  measured  {}\n", format_duration(*x.measured));
-      if (s.deadline)
-        fmt::print("  deadline  {}: {} (margin {}{})\n", format_duration(*s.deadline),
-                   meets ? "met" : "NOT met", format_duration(std::abs(*s.deadline - time_of(*chosen))),
-                   *s.deadline >= time_of(*chosen) ? "" : " over");
-      fmt::print("  accuracy  {} = {}; {}\n", accuracy->error_name(), acc(*chosen), x.accuracy.figures.dump());
-      if (s.deadline && !meets)
-        fmt::print("nothing {} meets the deadline of {}: the configuration above comes closest\n",
-                   by_measure ? "measured" : "predicted with confidence", format_duration(*s.deadline));
-    }
-    Table t({"runner-up", by_measure ? "measured" : "predicted", "90% interval", accuracy->error_name()});
-    for (std::size_t k = 1; k < ranked.size() && k <= 5; ++k) {
-      const auto& x = c[ranked[k]];
-      t.row({x.label, format_duration(time_of(ranked[k])),
-             fmt::format("{} .. {}", format_duration(x.predicted.lo), format_duration(x.predicted.hi)), acc(ranked[k])});
-    }
-    if (ranked.size() > 1) fmt::print("\n{}", t.str());
-    Table p({"Pareto front: configuration", by_measure ? "measured" : "predicted", accuracy->error_name(),
-             s.deadline ? "deadline" : ""});
-    for (std::size_t i : front)
-      p.row({c[i].label, format_duration(time_of(i)), acc(i),
-             s.deadline ? (time_of(i) <= *s.deadline ? "met" : "missed") : ""});
-    fmt::print("\n{}", p.str());
-    if (most_accurate && accuracy->error_name() != "none")
-      fmt::print("most accurate within the deadline: {} ({}, {} {})\n", c[*most_accurate].label,
-                 format_duration(time_of(*most_accurate)), accuracy->error_name(), acc(*most_accurate));
-    if (!replayed.empty()) {
-      Table r({"strategy", "budget", "median fraction of optimum", "min", "median measured"});
-      for (const auto& row : replayed)
-        r.row({row.strategy, fmt::format("{}", row.budget), fmt::format("{:.3f}", row.median),
-               fmt::format("{:.3f}", *std::min_element(row.fractions.begin(), row.fractions.end())),
-               fmt::format("{:.0f}", row.measured_median)});
-      fmt::print("\nreplayed on the {} measured configurations, {} seeds each:\n{}", c.size(), o.replay_seeds, r.str());
-    }
-    if (!o.output.empty()) fmt::print("\nwritten: {} (`dtflop run {} --tuned {}` runs the choice)\n", o.output, w.name(), o.output);
-  }
-  if (s.deadline && !meets) set_exit_status(kExitMissed);
+  else
+    print_result(r, in, *accuracy, o);
+  if (s.deadline && !r.meets) set_exit_status(kExitMissed);
 }
 
 }  // namespace
