@@ -29,7 +29,7 @@ struct FrameShape {
                                        // were read (the CPU's classification; 0 on cuda)
   int margin = 2;                      // centroid margin: a scan reads (2 margin + 1)^2 labels
   std::int64_t points = 0;             // interpolation points n_m
-  std::int64_t support_entries = 0;    // MLS: sum over points of their support dots
+  std::int64_t support_entries = 0;    // sum over points of their support dots (MLS) or recovery triangles (FE)
   std::int64_t tree_steps = 0;         // the matching's k-d tree work (tracking.hpp, match_tree_steps)
   Interp interp = Interp::mls;
   bool otsu = true;                    // the threshold is computed from the frame

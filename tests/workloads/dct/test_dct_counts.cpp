@@ -72,11 +72,13 @@ TEST(DctCounts, CudaMatchesFormulas) {
   EXPECT_EQ(c.host_memory, HostMemory::pinned);
   s.otsu = false;
   s.interp = Interp::fe;
-  s.support_entries = 0;
+  s.support_entries = 2048 * 90;  // FE: recovery triangles
   const CostCounts f = cuda_counts(s, HostMemory::pageable);
   EXPECT_EQ(f.launches, 9);
   EXPECT_EQ(f.transfers_GC, 9);  // no threshold to read back
-  EXPECT_EQ(f.N_G, 14LL * 2'000'000 + 11LL * 4'500'000 + 50LL * 1600 + 40LL * 2048);
+  // Per recovery triangle 20 + 8 + 1 FLOPs; per point its own triangle (10), 1 / s and the
+  // scaling (5), the strain (2).
+  EXPECT_EQ(f.N_G, 14LL * 2'000'000 + 11LL * 4'500'000 + 50LL * 1600 + 29LL * 2048 * 90 + 17LL * 2048);
   EXPECT_EQ(f.host_memory, HostMemory::pageable);
   // 16-bit frames: twice the bytes uploaded.
   s.bytes_per_pixel = 2;

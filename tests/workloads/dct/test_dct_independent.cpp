@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "render.hpp"
 #include "tests/support/gpu.hpp"
@@ -108,6 +109,56 @@ TEST(DctIndependent, DefaultsMeetTheTargetsInTensionBendingAndRotation) {
     EXPECT_LE(emax, 60e-6) << d;
     EXPECT_LE(beyond, 3 * n / 100) << d;
   }
+}
+
+// FE: valid wherever the triangulation covers the point (inside the dots' convex hull, from
+// the renderer's own dots), and its recovered strain close to MLS's on the points at least
+// 200 px inside the hull: measured 1.3-2.2x MLS's at the default 200-dot support over seeds
+// (the target is 2x; near the hull, where the recovery's linear fit extrapolates, up
+// to ~4x; docs/dct.md), asserted at 2.5x.
+TEST(DctIndependent, FeCoversTheHullAndTracksMls) {
+  dct_indep::Params p;
+  p.deformation = "bending";
+  p.seed = 22;
+  const dct_indep::Scene s = dct_indep::make_scene(p);
+  const cv::Mat ref = dct_indep::finish(dct_indep::render_clean(s, false), p.noise, 9);
+  const cv::Mat def = dct_indep::finish(dct_indep::render_clean(s, true), p.noise, 10);
+  std::vector<cv::Point2f> dots, hull;
+  for (const auto& d : s.dots) dots.emplace_back(static_cast<float>(d.x), static_cast<float>(d.y));
+  cv::convexHull(dots, hull);
+  double sse[2] = {0, 0};
+  int inner = 0, covered = 0, covered_valid = 0;
+  std::vector<FieldValue<double>> mls;
+  for (const Interp interp : {Interp::mls, Interp::fe}) {
+    PipelineOptions o;
+    o.interp = interp;
+    auto b = make_backend("cpu-par", o);
+    b->set_reference(ref);
+    const FrameOutput out = b->process(def);
+    if (interp == Interp::mls) mls = out.fields;
+    for (std::size_t m = 0; m < out.fields.size(); ++m) {
+      const auto& f = out.fields[m];
+      const dct_indep::P2 P{b->points()[m].x, b->points()[m].y};
+      const double dist = cv::pointPolygonTest(hull, cv::Point2f(static_cast<float>(P.x), static_cast<float>(P.y)), true);
+      if (interp == Interp::fe && dist > 0.5) {
+        ++covered;
+        covered_valid += f.status == PointStatus::ok;
+      }
+      if (dist < 200 || f.status != PointStatus::ok || mls[m].status != PointStatus::ok) continue;
+      const dct_indep::Grad g = s.field->grad(P);
+      const double e[3] = {f.exx - dct_indep::exx(g), f.eyy - dct_indep::eyy(g), f.exy - dct_indep::exy(g)};
+      for (double v : e) sse[interp == Interp::fe] += v * v;
+      inner += interp == Interp::fe;
+    }
+  }
+  ASSERT_GT(covered, 800);
+  EXPECT_GE(covered_valid, covered * 99 / 100) << covered_valid << " of " << covered;
+  ASSERT_GT(inner, 300);
+  const double rms_mls = std::sqrt(sse[0] / (3 * inner)), rms_fe = std::sqrt(sse[1] / (3 * inner));
+  std::printf("FE: %d of %d covered points valid; inner strain RMS FE %.1f, MLS %.1f microstrain\n", covered_valid,
+              covered, 1e6 * rms_fe, 1e6 * rms_mls);
+  EXPECT_LE(rms_fe, 2.5 * rms_mls);
+  EXPECT_GT(rms_fe, 0);
 }
 
 // Centroids (eq. 7.1 over the dot and a 2 px margin, background plane removed) against the
