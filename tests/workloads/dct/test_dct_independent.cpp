@@ -161,6 +161,63 @@ TEST(DctIndependent, FeCoversTheHullAndTracksMls) {
   EXPECT_GT(rms_fe, 0);
 }
 
+// Kirsch's plate on independent renders (load y, far-field strain 2e-3, hole radius 300 px,
+// 2400 dots of radius 5 px): e_yy at both ends of the hole's horizontal diameter (closed form
+// 3 x 2e-3) over 3 noise draws of one pattern, bias (mean - closed form) and noise (scatter
+// over the draws) apart. With 60 dots per support both are small (within 5% together); the
+// default 200 dots smooths the concentration (a bias well beyond its noise) and 20 dots is
+// noisier than 60: the trade-off `dct_quality kirsch` tabulates.
+TEST(DctIndependent, KirschHoleEdgeBiasAndNoise) {
+  dct_indep::Params p;
+  p.deformation = "kirsch";
+  p.seed = 5;
+  p.hole = 300;
+  p.strain = 2e-3;
+  p.radius = 5;
+  p.min_gap = 5;
+  p.dots = 2400;
+  p.leaf = 1.0 / 8;  // coverage within 1.1e-3 per pixel (coverage_error_bound): 4x faster to render
+  const dct_indep::Scene s = dct_indep::make_scene(p);
+  const cv::Mat cref = dct_indep::render_clean(s, false), cdef = dct_indep::render_clean(s, true);
+  const std::vector<Vec2> edges = {{s.centre.x + p.hole, s.centre.y}, {s.centre.x - p.hole, s.centre.y}};
+  const double truth = dct_indep::eyy(s.field->grad({edges[0].x, edges[0].y}));
+  ASSERT_NEAR(truth, 3 * p.strain, 1e-9);
+  const char* supports[3] = {"20dots", "60dots", "200dots"};
+  std::vector<double> values[3];
+  for (int r = 0; r < 3; ++r) {
+    const cv::Mat ref = dct_indep::finish(cref, p.noise, 700 + 2 * r), def = dct_indep::finish(cdef, p.noise, 701 + 2 * r);
+    for (int k = 0; k < 3; ++k) {
+      PipelineOptions o;
+      o.mls.support = parse_support(supports[k]);
+      o.analysis.max_area = 2000;  // the hole is one huge dark blob
+      o.points = edges;
+      auto b = make_backend("cpu-par", o);
+      b->set_reference(ref);
+      const FrameOutput out = b->process(def);
+      for (const auto& f : out.fields) {
+        ASSERT_EQ(f.status, PointStatus::ok) << supports[k];
+        values[k].push_back(f.eyy);
+      }
+    }
+  }
+  double bias[3], noise[3];
+  for (int k = 0; k < 3; ++k) {
+    double mean = 0, var = 0;
+    const auto n = static_cast<double>(values[k].size());
+    for (double v : values[k]) mean += v / n;
+    for (double v : values[k]) var += (v - mean) * (v - mean) / (n - 1);
+    bias[k] = mean - truth;
+    noise[k] = std::sqrt(var);
+    std::printf("Kirsch e_yy at the hole edge, %s: bias %+.2f%%, noise %.2f%% of %.0f microstrain\n", supports[k],
+                100 * bias[k] / truth, 100 * noise[k] / truth, 1e6 * truth);
+  }
+  EXPECT_LE(std::abs(bias[1]) + noise[1], 0.05 * truth);
+  for (double v : values[1]) EXPECT_NEAR(v, truth, 0.05 * truth);
+  EXPECT_GT(std::abs(bias[2]), 3 * noise[2]);   // the large support: smoothing bias
+  EXPECT_GT(std::abs(bias[2]), 0.05 * truth);
+  EXPECT_GT(noise[0], 1.5 * noise[1]);          // the small support: noise
+}
+
 // Centroids (eq. 7.1 over the dot and a 2 px margin, background plane removed) against the
 // true centres: noiseless, the pixels' partial coverage leaves ~0.001 px; with 1 grey level
 // of noise ~0.0035 px (the thresholded region alone: ~0.03 px).
