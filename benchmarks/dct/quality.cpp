@@ -71,7 +71,7 @@ Errors measure(const dct_indep::Scene& s, const std::string& backend, const Pipe
     const dct_indep::P2 u = s.field->u(P);
     const dct_indep::Grad g = s.field->grad(P);
     su += (f.ux - u.x) * (f.ux - u.x) + (f.uy - u.y) * (f.uy - u.y);
-    const double dxx = f.exx - dct_indep::exx(g), dyy = f.eyy - dct_indep::eyy(g), dxy = f.exy - dct_indep::exy(g);
+    const double dxx = f.exx - dct_indep::gl_xx(g), dyy = f.eyy - dct_indep::gl_yy(g), dxy = f.exy - dct_indep::gl_xy(g);
     sxx += dxx * dxx;
     syy += dyy * dyy;
     sxy += dxy * dxy;
@@ -261,7 +261,7 @@ std::vector<KirschEdge> kirsch_edge(const std::string& backend, const std::vecto
         if (f.fields[m].status == PointStatus::ok) values[k].push_back(f.fields[m].eyy);
     }
   }
-  const double truth = dct_indep::eyy(s.field->grad({edges[0].x, edges[0].y}));
+  const double truth = dct_indep::gl_yy(s.field->grad({edges[0].x, edges[0].y}));  // 3 e0 + (3 e0)^2 / 2 + ...
   for (std::size_t k = 0; k < supports.size(); ++k) {
     KirschEdge& e = out[k];
     e.truth = truth;

@@ -151,15 +151,21 @@ struct FieldValue {
   int support = 0;  // dots that contributed
 };
 
-// Strain from the displacement gradient (du_x/dx, du_x/dy, du_y/dx, du_y/dy): the small-strain
-// tensor. FLOPs: e_xy's add and halving (2).
+// Strain from the displacement gradient (du_x/dx, du_x/dy, du_y/dx, du_y/dy) in the reference
+// configuration: the Green-Lagrange tensor E = (F'F - I) / 2 with F = I + grad u,
+//   E_xx = u_x,x + (u_x,x^2 + u_y,x^2) / 2,   E_yy = u_y,y + (u_x,y^2 + u_y,y^2) / 2,
+//   E_xy = (u_x,y + u_y,x + u_x,x u_x,y + u_y,x u_y,y) / 2,
+// zero for any rigid rotation (the small-strain tensor reads cos t - 1 on the diagonal, -38
+// microstrain at 0.5 deg) and the small-strain tensor to first order (at 1e-3 strain the
+// quadratic terms are 5e-7). FLOPs: E_xx and E_yy 3 multiplies + 2 adds each, E_xy 3
+// multiplies + 3 adds: 16.
 template <class T>
 DTFLOP_HD void strain_from_gradient(T dxx, T dxy, T dyx, T dyy, FieldValue<T>& f) {
-  f.exx = dxx;
-  f.eyy = dyy;
-  f.exy = T(0.5) * (dxy + dyx);
+  f.exx = dxx + T(0.5) * (dxx * dxx + dyx * dyx);
+  f.eyy = dyy + T(0.5) * (dxy * dxy + dyy * dyy);
+  f.exy = T(0.5) * (dxy + dyx + dxx * dxy + dyx * dyy);
 }
-constexpr std::int64_t kFlopsStrain = 2;
+constexpr std::int64_t kFlopsStrain = 16;
 
 // 1 / sqrt(v): the device's reciprocal square root, the host's 1 / sqrt.
 template <class T>
@@ -292,7 +298,8 @@ struct MlsPoint {
 
   // The field at the point from both passes; `u0` is the reference displacement that was
   // subtracted from every dot's (MLS reproduces constants, so it is added back). FLOPs: the
-  // four derivatives (4 x 12), scaling by 1 / rho (4), u0 added back (2), e_xy (2): 56.
+  // four derivatives (4 x 12), scaling by 1 / rho (4), u0 added back (2), the strain
+  // (kFlopsStrain): 54 + kFlopsStrain.
   DTFLOP_HD FieldValue<T> field(T rho, T u0x, T u0y) const {
     T dx[2], dy[2];
     for (int c = 0; c < 2; ++c) {
@@ -308,17 +315,15 @@ struct MlsPoint {
     f.support = n;
     f.ux = a[0][0] + u0x;
     f.uy = a[1][0] + u0y;
-    f.exx = dx[0];
-    f.eyy = dy[1];
-    f.exy = T(0.5) * (dy[0] + dx[1]);
+    strain_from_gradient(dx[0], dy[0], dx[1], dy[1], f);
     return f;
   }
 };
 // Per support dot: pass 1 (229) + pass 2 (100) + the caller's offsets, twice (xi, eta: 2
 // subtracts + 2 multiplies; U - U0: 2 subtracts; 6 each pass).
 constexpr std::int64_t kFlopsPerSupportDot = 229 + 100 + 2 * 6;
-// Per point: solve (151) + field (56).
-constexpr std::int64_t kFlopsPerPoint = 151 + 56;
+// Per point: solve (151) + field (54 + kFlopsStrain).
+constexpr std::int64_t kFlopsPerPoint = 151 + 54 + kFlopsStrain;
 
 // FE (linear triangles, seed 7.2). The displacement is the finite-element interpolant: the
 // point's triangle's shape functions, u = sum N_i U_i. The strain is the recovered gradient,
