@@ -4,6 +4,7 @@
 //   dct_quality centroids [margin]                                   centroid error vs radius, blur, noise
 //   dct_quality sigma [backend] [support] [interp] [runs]            stated vs observed deviation
 //   dct_quality kirsch [backend] [seeds] [interp] [support...]       e_yy at the hole edge: bias and noise
+//   dct_quality support-noise [backend]                              strain noise factor vs dots per support
 // Results and how they were made: results/dct-quality/README.md.
 #include <algorithm>
 #include <array>
@@ -224,7 +225,7 @@ int sigma(int argc, char** argv) {
 // concentration by the support, and the extrapolation to the edge), noise = the standard
 // deviation over the draws.
 struct KirschEdge {
-  double truth = 0, mean = 0, bias = 0, noise = 0, rms = 0;
+  double truth = 0, mean = 0, bias = 0, noise = 0, rms = 0, rho = 0;  // rho: MLS support radius at the edge
   int draws = 0;
 };
 
@@ -259,6 +260,7 @@ std::vector<KirschEdge> kirsch_edge(const std::string& backend, const std::vecto
       const FrameOutput f = b->process(def);
       for (std::size_t m = 0; m < edges.size(); ++m)
         if (f.fields[m].status == PointStatus::ok) values[k].push_back(f.fields[m].eyy);
+      if (interp == Interp::mls && r == 0) out[k].rho = 0.5 * (b->mls_table().rho[0] + b->mls_table().rho[1]);
     }
   }
   const double truth = dct_indep::gl_yy(s.field->grad({edges[0].x, edges[0].y}));  // 3 e0 + (3 e0)^2 / 2 + ...
@@ -285,16 +287,73 @@ int kirsch(int argc, char** argv) {
   const Interp interp = argc > 4 ? interp_from_string(argv[4]) : Interp::mls;
   std::vector<std::string> supports;
   for (int i = 5; i < argc; ++i) supports.push_back(argv[i]);
-  if (supports.empty()) supports = {"12dots", "20dots", "30dots", "45dots", "60dots", "90dots", "200dots"};
+  if (supports.empty())
+    supports = {"12dots", "20dots", "30dots", "45dots", "60dots", "90dots", "120dots", "150dots", "200dots", "300dots"};
   const auto r = kirsch_edge(backend, supports, interp, seeds);
   std::printf("Kirsch e_yy at the hole edge (closed form %.1f microstrain), %s, %s, 2 edge points x %d noise draws\n",
               1e6 * r[0].truth, backend.c_str(), to_string(interp).c_str(), seeds);
-  std::printf("| support | values | mean [microstrain] | bias | noise (sd) | RMS error | bias [%%] | noise [%%] | RMS [%%] |\n"
-              "|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("| support | radius [px] | values | mean [microstrain] | bias | noise (sd) | RMS error | bias [%%] | "
+              "noise [%%] | RMS [%%] |\n|---|---|---|---|---|---|---|---|---|---|\n");
   for (std::size_t k = 0; k < r.size(); ++k)
-    std::printf("| %s | %d | %.1f | %.1f | %.1f | %.1f | %+.2f | %.2f | %.2f |\n", supports[k].c_str(), r[k].draws,
+    std::printf("| %s | %.1f | %d | %.1f | %.1f | %.1f | %.1f | %+.2f | %.2f | %.2f |\n", supports[k].c_str(), r[k].rho, r[k].draws,
                 1e6 * r[k].mean, 1e6 * r[k].bias, 1e6 * r[k].noise, 1e6 * r[k].rms, 100 * r[k].bias / r[k].truth,
                 100 * r[k].noise / r[k].truth, 100 * r[k].rms / r[k].truth);
+  return 0;
+}
+
+// The noise half of the support suggestion (workloads/dct/support.hpp): uniform tension (the
+// quadratic basis reproduces it, so the whole strain error is noise) at supports of n dots, on
+// two dot densities; per n the support radius over the median dot spacing and the noise factor
+// k = strain RMS error (per component) x spacing / displacement sd (per dot and axis, from the
+// stated centroid deviations of both images).
+int support_noise(int argc, char** argv) {
+  const std::string backend = argc > 2 ? argv[2] : "cpu-par";
+  std::printf("| pattern | dots per support | radius / spacing | spacing [px] | displacement sd [px] | strain RMS "
+              "[microstrain] | noise factor |\n|---|---|---|---|---|---|---|\n");
+  struct Pattern { int dots; double radius, gap; std::uint64_t seed; };
+  for (const Pattern pat : {Pattern{500, 7, 7, 1}, Pattern{500, 7, 7, 2}, Pattern{1500, 5, 5, 3}}) {
+    dct_indep::Params p = params("tension", pat.seed);
+    p.dots = pat.dots;
+    p.radius = pat.radius;
+    p.min_gap = pat.gap;
+    const dct_indep::Scene s = dct_indep::make_scene(p);
+    const cv::Mat ref = dct_indep::finish(dct_indep::render_clean(s, false), p.noise, 2 * pat.seed);
+    const cv::Mat def = dct_indep::finish(dct_indep::render_clean(s, true), p.noise, 2 * pat.seed + 1);
+    for (int n : {12, 20, 30, 45, 60, 90, 120, 150, 200, 250, 300, 400}) {
+      PipelineOptions o;
+      o.mls.support = parse_support(std::to_string(n) + "dots");
+      auto b = make_backend(backend, o);
+      b->set_reference(ref);
+      const FrameOutput out = b->process(def);
+      const FrameUncertainty u = frame_uncertainty(ref, def, *b, out);
+      double var = 0;
+      int k = 0;
+      for (std::size_t j = 0; j < out.tracked.size(); ++j) {
+        const int d = out.matches.ref_to_def[j];
+        if (!out.tracked[j] || d < 0) continue;
+        const auto a = u.reference_dots[j], c = u.frame_dots[static_cast<std::size_t>(d)];
+        var += 0.5 * (a.x * a.x + c.x * c.x + a.y * a.y + c.y * c.y);
+        ++k;
+      }
+      const double sd = std::sqrt(var / k), spacing = median_spacing(b->reference_positions());
+      double se = 0, rho = 0;
+      int m = 0;
+      for (std::size_t q = 0; q < out.fields.size(); ++q) {
+        const auto& f = out.fields[q];
+        if (f.status != PointStatus::ok) continue;
+        const dct_indep::Grad g = s.field->grad({b->points()[q].x, b->points()[q].y});
+        se += std::pow(f.exx - dct_indep::gl_xx(g), 2) + std::pow(f.eyy - dct_indep::gl_yy(g), 2) +
+              std::pow(f.exy - dct_indep::gl_xy(g), 2);
+        rho += b->mls_table().rho[q];
+        ++m;
+      }
+      const double rms = std::sqrt(se / (3 * m));
+      std::printf("| %d dots r=%g seed %llu | %d | %.2f | %.1f | %.5f | %.2f | %.3f |\n", pat.dots, pat.radius,
+                  static_cast<unsigned long long>(pat.seed), n, rho / m / spacing, spacing, sd, 1e6 * rms,
+                  rms * spacing / sd);
+      std::fflush(stdout);
+    }
+  }
   return 0;
 }
 
@@ -306,12 +365,14 @@ int main(int argc, char** argv) {
     if (mode == "fields") return fields(argc, argv);
     if (mode == "sigma") return sigma(argc, argv);
     if (mode == "kirsch") return kirsch(argc, argv);
+    if (mode == "support-noise") return support_noise(argc, argv);
     if (mode == "centroids") return centroids(argc > 2 ? std::stoi(argv[2]) : AnalysisOptions{}.margin);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dct_quality: %s\n", e.what());
     return 2;
   }
   std::fprintf(stderr, "usage: dct_quality fields [backend] [support] [mls|fe] [seeds] [weight] | centroids [margin] | "
-                       "sigma [backend] [support] [mls|fe] [runs] | kirsch [backend] [seeds] [mls|fe] [support...]\n");
+                       "sigma [backend] [support] [mls|fe] [runs] | kirsch [backend] [seeds] [mls|fe] [support...] | "
+                       "support-noise [backend]\n");
   return 2;
 }
