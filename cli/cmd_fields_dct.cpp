@@ -344,11 +344,12 @@ void add_fields_command(CLI::App& root) {
   app->add_option("--frames", o->frames, "Deformed frames: a file or a printf pattern, e.g. 'def_%04d.png'");
   app->add_option("--specimen", o->specimen, "Render a specimen instead (see `dtflop specimen --help`) and compare with its truth");
   app->add_option("--support", o->support,
-                  "MLS support domain: dots per support (200dots; the default takes every dot where fewer were "
-                  "found) or radius (12.5px)")
+                  "MLS support domain (and FE's gradient recovery): dots per support (200dots; the default takes "
+                  "every dot where fewer were found) or radius (12.5px). After the first frame a line suggests the "
+                  "support of least strain error for the measured noise, dot density and strain feature")
       ->capture_default_str()
       ->each([o](const std::string&) { o->support_given = true; });
-  app->add_option("--interp", o->interp, "mls or fe")->capture_default_str();
+  app->add_option("--interp", o->interp, "mls (moving least squares) or fe (linear triangles; strain recovered over the --support)")->capture_default_str();
   app->add_option("--weight", o->weight, "MLS weight: cubic, quartic or gaussian")->capture_default_str();
   app->add_option("--points", o->points, "Interpolation grid over the reference dots, e.g. 64x32")->capture_default_str();
   app->add_option("--threshold", o->threshold, "otsu, adaptive or fixed:128 (8-bit scale)")->capture_default_str();
