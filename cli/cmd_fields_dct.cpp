@@ -349,7 +349,9 @@ void add_fields_command(CLI::App& root) {
                   "support of least strain error for the measured noise, dot density and strain feature")
       ->capture_default_str()
       ->each([o](const std::string&) { o->support_given = true; });
-  app->add_option("--interp", o->interp, "mls (moving least squares) or fe (linear triangles; strain recovered over the --support)")->capture_default_str();
+  app->add_option("--interp", o->interp,
+                  "mls (moving least squares) or fe (linear triangles; strain recovered over the --support)")
+      ->capture_default_str();
   app->add_option("--weight", o->weight, "MLS weight: cubic, quartic or gaussian")->capture_default_str();
   app->add_option("--points", o->points, "Interpolation grid over the reference dots, e.g. 64x32")->capture_default_str();
   app->add_option("--threshold", o->threshold, "otsu, adaptive or fixed:128 (8-bit scale)")->capture_default_str();
