@@ -26,6 +26,8 @@
 #include "workloads/dct/backend.hpp"
 #include "workloads/dct/io.hpp"
 #include "workloads/dct/specimen.hpp"
+#include "workloads/dct/support.hpp"
+#include "workloads/dct/tracking.hpp"
 #include "workloads/dct/uncertainty.hpp"
 
 namespace dtflop::cli {
@@ -132,6 +134,31 @@ cv::Rect parse_roi(const std::string& s) {
   return {static_cast<int>(v[0]), static_cast<int>(v[1]), static_cast<int>(v[2]), static_cast<int>(v[3])};
 }
 
+// The support that minimizes the total strain error (support.hpp): the measured noise and dot
+// density, and the strain feature this frame shows. One line, after the first frame.
+void print_support_suggestion(const dct::Backend& b, const dct::FrameOutput& out, const dct::FrameUncertainty& unc,
+                              const dct::PipelineOptions& p, const Size2& grid) {
+  const double sd = dct::displacement_sd(out, unc);
+  const double spacing = dct::median_spacing(b.reference_positions());
+  const int dots = static_cast<int>(b.reference_positions().size());
+  if (!std::isfinite(sd) || !(sd > 0) || !(spacing > 0) || dots < 6) return;
+  const dct::StrainFeature f = p.points.empty()
+                                   ? dct::estimate_feature(b.points(), out.fields, unc.points, static_cast<int>(grid.x), static_cast<int>(grid.y))
+                                   : dct::StrainFeature{};
+  const dct::SupportSuggestion s = dct::suggest_support(sd, spacing, dots, f);
+  const std::string feature =
+      f.length_px > 0 ? fmt::format("a strain feature of {:.0f} microstrain over {:.0f} px", 1e6 * f.amplitude, f.length_px)
+                      : "no strain feature above the noise";
+  std::string now;
+  if (p.mls.support.kind == dct::Support::Kind::dots) {
+    const dct::SupportSuggestion c = dct::support_error(std::min(p.mls.support.dots, dots), sd, spacing, f);
+    now = fmt::format("; {} predicts {:.1f} + {:.1f}", p.mls.support.str(), 1e6 * c.noise, 1e6 * c.bias);
+  }
+  fmt::print("support: suggest --support {}dots (radius ~{:.0f} px): strain noise ~{:.1f} + smoothing ~{:.1f} "
+             "microstrain for displacement sd {:.4f} px, dot spacing {:.1f} px, {}{}\n",
+             s.dots, s.radius_px, 1e6 * s.noise, 1e6 * s.bias, sd, spacing, feature, now);
+}
+
 void run(const RunDctOptions& o) {
   using namespace dtflop::dct;
   if (o.specimen.empty() == o.reference.empty())
@@ -232,6 +259,7 @@ void run(const RunDctOptions& o) {
     else
       fmt::print("frame {}: noise {:.2f} grey levels (reference {:.2f}; from {} dots' background rings)\n", label,
                  unc.frame_noise.sigma, unc.reference_noise.sigma, unc.frame_noise.dots_used);
+    if (k == 0 && unc.reference_noise.ok() && unc.frame_noise.ok()) print_support_suggestion(*backend, out, unc, p, grid);
     if (valid < static_cast<int>(out.fields.size())) {
       std::map<std::string, int> why;
       for (const auto& f : out.fields)
@@ -316,11 +344,14 @@ void add_fields_command(CLI::App& root) {
   app->add_option("--frames", o->frames, "Deformed frames: a file or a printf pattern, e.g. 'def_%04d.png'");
   app->add_option("--specimen", o->specimen, "Render a specimen instead (see `dtflop specimen --help`) and compare with its truth");
   app->add_option("--support", o->support,
-                  "MLS support domain: dots per support (200dots; the default takes every dot where fewer were "
-                  "found) or radius (12.5px)")
+                  "MLS support domain (and FE's gradient recovery): dots per support (200dots; the default takes "
+                  "every dot where fewer were found) or radius (12.5px). After the first frame a line suggests the "
+                  "support of least strain error for the measured noise, dot density and strain feature")
       ->capture_default_str()
       ->each([o](const std::string&) { o->support_given = true; });
-  app->add_option("--interp", o->interp, "mls or fe")->capture_default_str();
+  app->add_option("--interp", o->interp,
+                  "mls (moving least squares) or fe (linear triangles; strain recovered over the --support)")
+      ->capture_default_str();
   app->add_option("--weight", o->weight, "MLS weight: cubic, quartic or gaussian")->capture_default_str();
   app->add_option("--points", o->points, "Interpolation grid over the reference dots, e.g. 64x32")->capture_default_str();
   app->add_option("--threshold", o->threshold, "otsu, adaptive or fixed:128 (8-bit scale)")->capture_default_str();

@@ -2,13 +2,20 @@
 // (tests/workloads/dct/independent_renderer), which shares no code with workloads/dct.
 //   dct_quality fields  [backend] [support] [interp] [seeds]  displacement / strain errors per deformation
 //   dct_quality centroids [margin]                                   centroid error vs radius, blur, noise
+//   dct_quality sigma [backend] [support] [interp] [runs]            stated vs observed deviation
+//   dct_quality kirsch [backend] [seeds] [interp] [support...]       e_yy at the hole edge: bias and noise
+//   dct_quality support-noise [backend]                              strain noise factor vs dots per support
 // Results and how they were made: results/dct-quality/README.md.
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <map>
 #include <string>
 #include <vector>
+
+#include <opencv2/imgproc.hpp>
 
 #include "render.hpp"
 #include "workloads/dct/backend.hpp"
@@ -22,6 +29,9 @@ namespace {
 struct Errors {
   double u_rms = 0, exx = 0, eyy = 0, exy = 0, e_max = 0;
   int valid = 0, points = 0, interior = 0, interior_valid = 0;
+  int covered = 0, covered_valid = 0;
+  double inner = 0, inner_sse = 0;  // points over 200 px inside the hull: their strain error  // interior points inside the reference dots' convex hull
+  std::map<std::string, int> invalid;  // interior points by reason
 };
 
 dct_indep::Params params(const std::string& deformation, std::uint64_t seed) {
@@ -40,23 +50,37 @@ Errors measure(const dct_indep::Scene& s, const std::string& backend, const Pipe
   Errors e;
   double su = 0, sxx = 0, syy = 0, sxy = 0;
   const auto& pts = b->points();
+  std::vector<cv::Point2f> refs, hull;
+  for (const auto& d : s.dots) refs.emplace_back(static_cast<float>(d.x), static_cast<float>(d.y));
+  cv::convexHull(refs, hull);
   for (std::size_t m = 0; m < pts.size(); ++m) {
     ++e.points;
     const dct_indep::P2 P{pts[m].x, pts[m].y};
     if (!s.field->material(P)) continue;
     ++e.interior;
     const auto& f = out.fields[m];
-    if (f.status != PointStatus::ok) continue;
+    const double hull_dist = cv::pointPolygonTest(hull, cv::Point2f(static_cast<float>(P.x), static_cast<float>(P.y)), true);
+    const bool in_hull = hull_dist > 0.5;
+    e.covered += in_hull;
+    e.covered_valid += in_hull && f.status == PointStatus::ok;
+    if (f.status != PointStatus::ok) {
+      ++e.invalid[to_string(f.status)];
+      continue;
+    }
     ++e.interior_valid;
     ++e.valid;
     const dct_indep::P2 u = s.field->u(P);
     const dct_indep::Grad g = s.field->grad(P);
     su += (f.ux - u.x) * (f.ux - u.x) + (f.uy - u.y) * (f.uy - u.y);
-    const double dxx = f.exx - dct_indep::exx(g), dyy = f.eyy - dct_indep::eyy(g), dxy = f.exy - dct_indep::exy(g);
+    const double dxx = f.exx - dct_indep::gl_xx(g), dyy = f.eyy - dct_indep::gl_yy(g), dxy = f.exy - dct_indep::gl_xy(g);
     sxx += dxx * dxx;
     syy += dyy * dyy;
     sxy += dxy * dxy;
     e.e_max = std::max({e.e_max, std::abs(dxx), std::abs(dyy), std::abs(dxy)});
+    if (hull_dist > 200) {
+      e.inner += 1;
+      e.inner_sse += dxx * dxx + dyy * dyy + dxy * dxy;
+    }
   }
   if (e.valid) {
     e.u_rms = std::sqrt(su / (2 * e.valid));
@@ -74,14 +98,18 @@ int fields(int argc, char** argv) {
   if (argc > 4) o.interp = interp_from_string(argv[4]);
   const int seeds = argc > 5 ? std::stoi(argv[5]) : 1;
   if (argc > 6) o.mls.weight = weight_from_string(argv[6]);
-  std::printf("| deformation | seed | valid / interior points | u RMS [px] | e_xx RMS | e_yy RMS | e_xy RMS | max |e| "
-              "[microstrain] |\n|---|---|---|---|---|---|---|---|\n");
+  std::printf("| deformation | seed | valid / interior points | valid / covered | u RMS [px] | e_xx RMS | e_yy RMS | "
+              "e_xy RMS | max |e| [microstrain] |\n|---|---|---|---|---|---|---|---|---|\n");
   for (const char* d : {"tension", "bending", "rotation"})
     for (int seed = 1; seed <= seeds; ++seed) {
       const dct_indep::Scene s = dct_indep::make_scene(params(d, seed));
       const Errors e = measure(s, backend, o, seed);
-      std::printf("| %s | %d | %d / %d | %.4f | %.1f | %.1f | %.1f | %.1f |\n", d, seed, e.interior_valid, e.interior,
-                  e.u_rms, 1e6 * e.exx, 1e6 * e.eyy, 1e6 * e.exy, 1e6 * e.e_max);
+      std::printf("| %s | %d | %d / %d | %d / %d | %.4f | %.1f | %.1f | %.1f | %.1f |\n", d, seed, e.interior_valid,
+                  e.interior, e.covered_valid, e.covered, e.u_rms, 1e6 * e.exx, 1e6 * e.eyy, 1e6 * e.exy, 1e6 * e.e_max);
+      if (std::getenv("DCT_QUALITY_INNER"))
+        std::fprintf(stderr, "  inner (>200 px inside the hull) strain RMS %.1f over %g points\n",
+                     1e6 * std::sqrt(e.inner_sse / (3 * e.inner)), e.inner);
+      for (const auto& [why, k] : e.invalid) std::fprintf(stderr, "  invalid: %d %s\n", k, why.c_str());
       std::fflush(stdout);
     }
   return 0;
@@ -190,6 +218,145 @@ int sigma(int argc, char** argv) {
   return 0;
 }
 
+// Kirsch's plate (load along y, far-field strain 2e-3, hole radius 300 px, 2400 dots of
+// radius 5 px): e_yy at the two ends of the hole's horizontal diameter, where the closed form
+// gives 3 x 2e-3, over `seeds` noise draws of one pattern. Bias and noise apart, as the DIC
+// Challenge 2.0 reports them: bias = mean over the draws - closed form (the smoothing of the
+// concentration by the support, and the extrapolation to the edge), noise = the standard
+// deviation over the draws.
+struct KirschEdge {
+  double truth = 0, mean = 0, bias = 0, noise = 0, rms = 0, rho = 0;  // rho: MLS support radius at the edge
+  int draws = 0;
+};
+
+dct_indep::Params kirsch_params() {
+  dct_indep::Params p = params("kirsch", 5);
+  p.hole = 300;
+  p.strain = 2e-3;
+  p.radius = 5;
+  p.min_gap = 5;
+  p.dots = 2400;
+  return p;
+}
+
+std::vector<KirschEdge> kirsch_edge(const std::string& backend, const std::vector<std::string>& supports, Interp interp,
+                                    int seeds) {
+  const dct_indep::Scene s = dct_indep::make_scene(kirsch_params());
+  const cv::Mat cref = dct_indep::render_clean(s, false), cdef = dct_indep::render_clean(s, true);
+  const double a = s.p.hole;
+  const std::vector<Vec2> edges = {{s.centre.x + a, s.centre.y}, {s.centre.x - a, s.centre.y}};
+  std::vector<KirschEdge> out(supports.size());
+  std::vector<std::vector<double>> values(supports.size());
+  for (int r = 0; r < seeds; ++r) {
+    const cv::Mat ref = dct_indep::finish(cref, s.p.noise, 500 + 2 * r), def = dct_indep::finish(cdef, s.p.noise, 501 + 2 * r);
+    for (std::size_t k = 0; k < supports.size(); ++k) {
+      PipelineOptions o;
+      o.interp = interp;
+      o.mls.support = parse_support(supports[k]);
+      o.analysis.max_area = 2000;  // the hole is one huge dark blob
+      o.points = edges;
+      auto b = make_backend(backend, o);
+      b->set_reference(ref);
+      const FrameOutput f = b->process(def);
+      for (std::size_t m = 0; m < edges.size(); ++m)
+        if (f.fields[m].status == PointStatus::ok) values[k].push_back(f.fields[m].eyy);
+      if (interp == Interp::mls && r == 0) out[k].rho = 0.5 * (b->mls_table().rho[0] + b->mls_table().rho[1]);
+    }
+  }
+  const double truth = dct_indep::gl_yy(s.field->grad({edges[0].x, edges[0].y}));  // 3 e0 + (3 e0)^2 / 2 + ...
+  for (std::size_t k = 0; k < supports.size(); ++k) {
+    KirschEdge& e = out[k];
+    e.truth = truth;
+    e.draws = static_cast<int>(values[k].size());
+    if (e.draws < 2) continue;
+    double sum = 0, sse = 0;
+    for (double v : values[k]) sum += v, sse += (v - truth) * (v - truth);
+    e.mean = sum / e.draws;
+    e.bias = e.mean - truth;
+    double var = 0;
+    for (double v : values[k]) var += (v - e.mean) * (v - e.mean);
+    e.noise = std::sqrt(var / (e.draws - 1));
+    e.rms = std::sqrt(sse / e.draws);
+  }
+  return out;
+}
+
+int kirsch(int argc, char** argv) {
+  const std::string backend = argc > 2 ? argv[2] : "cpu-par";
+  const int seeds = argc > 3 ? std::stoi(argv[3]) : 10;
+  const Interp interp = argc > 4 ? interp_from_string(argv[4]) : Interp::mls;
+  std::vector<std::string> supports;
+  for (int i = 5; i < argc; ++i) supports.push_back(argv[i]);
+  if (supports.empty())
+    supports = {"12dots", "20dots", "30dots", "45dots", "60dots", "90dots", "120dots", "150dots", "200dots", "300dots"};
+  const auto r = kirsch_edge(backend, supports, interp, seeds);
+  std::printf("Kirsch e_yy at the hole edge (closed form %.1f microstrain), %s, %s, 2 edge points x %d noise draws\n",
+              1e6 * r[0].truth, backend.c_str(), to_string(interp).c_str(), seeds);
+  std::printf("| support | radius [px] | values | mean [microstrain] | bias | noise (sd) | RMS error | bias [%%] | "
+              "noise [%%] | RMS [%%] |\n|---|---|---|---|---|---|---|---|---|---|\n");
+  for (std::size_t k = 0; k < r.size(); ++k)
+    std::printf("| %s | %.1f | %d | %.1f | %.1f | %.1f | %.1f | %+.2f | %.2f | %.2f |\n", supports[k].c_str(), r[k].rho, r[k].draws,
+                1e6 * r[k].mean, 1e6 * r[k].bias, 1e6 * r[k].noise, 1e6 * r[k].rms, 100 * r[k].bias / r[k].truth,
+                100 * r[k].noise / r[k].truth, 100 * r[k].rms / r[k].truth);
+  return 0;
+}
+
+// The noise half of the support suggestion (workloads/dct/support.hpp): uniform tension (the
+// quadratic basis reproduces it, so the whole strain error is noise) at supports of n dots, on
+// two dot densities; per n the support radius over the median dot spacing and the noise factor
+// k = strain RMS error (per component) x spacing / displacement sd (per dot and axis, from the
+// stated centroid deviations of both images).
+int support_noise(int argc, char** argv) {
+  const std::string backend = argc > 2 ? argv[2] : "cpu-par";
+  std::printf("| pattern | dots per support | radius / spacing | spacing [px] | displacement sd [px] | strain RMS "
+              "[microstrain] | noise factor |\n|---|---|---|---|---|---|---|\n");
+  struct Pattern { int dots; double radius, gap; std::uint64_t seed; };
+  for (const Pattern pat : {Pattern{500, 7, 7, 1}, Pattern{500, 7, 7, 2}, Pattern{1500, 5, 5, 3}}) {
+    dct_indep::Params p = params("tension", pat.seed);
+    p.dots = pat.dots;
+    p.radius = pat.radius;
+    p.min_gap = pat.gap;
+    const dct_indep::Scene s = dct_indep::make_scene(p);
+    const cv::Mat ref = dct_indep::finish(dct_indep::render_clean(s, false), p.noise, 2 * pat.seed);
+    const cv::Mat def = dct_indep::finish(dct_indep::render_clean(s, true), p.noise, 2 * pat.seed + 1);
+    for (int n : {12, 20, 30, 45, 60, 90, 120, 150, 200, 250, 300, 400}) {
+      PipelineOptions o;
+      o.mls.support = parse_support(std::to_string(n) + "dots");
+      auto b = make_backend(backend, o);
+      b->set_reference(ref);
+      const FrameOutput out = b->process(def);
+      const FrameUncertainty u = frame_uncertainty(ref, def, *b, out);
+      double var = 0;
+      int k = 0;
+      for (std::size_t j = 0; j < out.tracked.size(); ++j) {
+        const int d = out.matches.ref_to_def[j];
+        if (!out.tracked[j] || d < 0) continue;
+        const auto a = u.reference_dots[j], c = u.frame_dots[static_cast<std::size_t>(d)];
+        var += 0.5 * (a.x * a.x + c.x * c.x + a.y * a.y + c.y * c.y);
+        ++k;
+      }
+      const double sd = std::sqrt(var / k), spacing = median_spacing(b->reference_positions());
+      double se = 0, rho = 0;
+      int m = 0;
+      for (std::size_t q = 0; q < out.fields.size(); ++q) {
+        const auto& f = out.fields[q];
+        if (f.status != PointStatus::ok) continue;
+        const dct_indep::Grad g = s.field->grad({b->points()[q].x, b->points()[q].y});
+        se += std::pow(f.exx - dct_indep::gl_xx(g), 2) + std::pow(f.eyy - dct_indep::gl_yy(g), 2) +
+              std::pow(f.exy - dct_indep::gl_xy(g), 2);
+        rho += b->mls_table().rho[q];
+        ++m;
+      }
+      const double rms = std::sqrt(se / (3 * m));
+      std::printf("| %d dots r=%g seed %llu | %d | %.2f | %.1f | %.5f | %.2f | %.3f |\n", pat.dots, pat.radius,
+                  static_cast<unsigned long long>(pat.seed), n, rho / m / spacing, spacing, sd, 1e6 * rms,
+                  rms * spacing / sd);
+      std::fflush(stdout);
+    }
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -197,11 +364,15 @@ int main(int argc, char** argv) {
   try {
     if (mode == "fields") return fields(argc, argv);
     if (mode == "sigma") return sigma(argc, argv);
+    if (mode == "kirsch") return kirsch(argc, argv);
+    if (mode == "support-noise") return support_noise(argc, argv);
     if (mode == "centroids") return centroids(argc > 2 ? std::stoi(argv[2]) : AnalysisOptions{}.margin);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dct_quality: %s\n", e.what());
     return 2;
   }
-  std::fprintf(stderr, "usage: dct_quality fields [backend] [support] [mls|fe] [seeds] [weight] | centroids [margin]\n");
+  std::fprintf(stderr, "usage: dct_quality fields [backend] [support] [mls|fe] [seeds] [weight] | centroids [margin] | "
+                       "sigma [backend] [support] [mls|fe] [runs] | kirsch [backend] [seeds] [mls|fe] [support...] | "
+                       "support-noise [backend]\n");
   return 2;
 }

@@ -75,7 +75,7 @@ void PipelineState::accept_reference(const cv::Mat& image, std::vector<DotObserv
   points_ = opt_.points.empty() ? grid_points_over(ref_pos_, opt_.points_x, opt_.points_y, opt_.points_inset)
                                 : opt_.points;
   if (opt_.interp == Interp::mls) mls_ = build_mls_table(ref_pos_, points_, opt_.mls);
-  else fe_ = build_fe_table(ref_pos_, points_, opt_.fe_max_gap);
+  else fe_ = build_fe_table(ref_pos_, points_, opt_.fe_max_gap, opt_.mls);
   // The matching radius depends on the reference alone: fix it once, not per frame.
   match_radius_ = opt_.match.search_radius > 0 ? opt_.match.search_radius : 0.4 * median_spacing(ref_pos_);
   last_disp_.assign(ref_pos_.size(), {});

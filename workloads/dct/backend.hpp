@@ -75,8 +75,9 @@ class PipelineState {
   const MlsTable& mls_table() const { return mls_; }
   const FeTable& fe_table() const { return fe_; }
   double match_radius() const { return match_radius_; }
-  // MLS support entries of the table (0 for FE): what the field stage reads per frame.
-  std::int64_t support_entries() const { return opt_.interp == Interp::mls ? mls_.entries() : 0; }
+  // Support entries of the table (MLS: support dots; FE: recovery triangles), summed over the
+  // points: what the field stage reads per frame.
+  std::int64_t support_entries() const { return opt_.interp == Interp::mls ? mls_.entries() : fe_.entries(); }
   // The shape of a frame analysed into `stats` and matched with `tree_steps` of k-d tree work,
   // against this reference: what the frame's counts are computed from (counts.hpp).
   FrameShape frame_shape(const cv::Mat& frame, const AnalysisStats& stats, std::int64_t tree_steps) const;

@@ -32,7 +32,11 @@ FrameShape estimate_shape(std::int64_t width, std::int64_t height, int bytes_per
   s.scanned_pixels = s.window_pixels - static_cast<std::int64_t>(std::llround(static_cast<double>(n_dots) * area));
   s.margin = margin;
   s.points = n_points;
-  s.support_entries = interp == Interp::mls ? n_points * dots_per_support : 0;
+  // FE's recovery reads the triangles whose centroids lie in the support: a Delaunay
+  // triangulation holds about two triangles per dot inside the pattern, fewer along its hull,
+  // and the grid's points outside the hull read none; counted as one per support dot (an
+  // estimate; the reference's table gives the exact count).
+  s.support_entries = n_points * dots_per_support;
   s.interp = interp;
   s.tree_steps = match_tree_steps(n_dots, n_dots);  // every dot found and matched at once
   return s;
@@ -45,13 +49,16 @@ std::int64_t analysis_flops(const FrameShape& s) {
 
 std::int64_t field_flops(const FrameShape& s) {
   const std::int64_t disp = 2 * s.dots;
-  if (s.interp == Interp::fe) return disp + kFlopsPerFePoint * s.points;
+  if (s.interp == Interp::fe) return disp + kFlopsPerFeEntry * s.support_entries + kFlopsPerFePoint * s.points;
   return disp + kFlopsPerSupportDot * s.support_entries + kFlopsPerPoint * s.points;
 }
 
 namespace {
 std::int64_t field_values(const FrameShape& s) {
-  if (s.interp == Interp::fe) return 12 * s.points + 8 * s.points;
+  // FE: per point its triangle, shape functions and vertex displacements (12) and the output
+  // (8); per support entry the triangle's index and coefficient, its three dots, six gradient
+  // coefficients and six displacements (17).
+  if (s.interp == Interp::fe) return 17 * s.support_entries + 12 * s.points + 8 * s.points;
   return 5 * s.support_entries + 8 * s.points;
 }
 }  // namespace

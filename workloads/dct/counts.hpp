@@ -29,7 +29,7 @@ struct FrameShape {
                                        // were read (the CPU's classification; 0 on cuda)
   int margin = 2;                      // centroid margin: a scan reads (2 margin + 1)^2 labels
   std::int64_t points = 0;             // interpolation points n_m
-  std::int64_t support_entries = 0;    // MLS: sum over points of their support dots
+  std::int64_t support_entries = 0;    // sum over points of their support dots (MLS) or recovery triangles (FE)
   std::int64_t tree_steps = 0;         // the matching's k-d tree work (tracking.hpp, match_tree_steps)
   Interp interp = Interp::mls;
   bool otsu = true;                    // the threshold is computed from the frame
@@ -47,7 +47,8 @@ std::int64_t field_flops(const FrameShape& s);
 
 // cpu-seq (threads = 1) and cpu-par: float64 (P = 8), nothing on a device.
 //   N_C  = 14 ring + 11 weighted + 48 n_f (plane + centroid) + 2 n_f (displacements)
-//          + MLS: 341 sum(l_m) + 207 n_m (two passes over the support: kernels.hpp)   |   FE: 40 n_m
+//          + MLS: 341 sum(l_m) + 221 n_m (two passes over the support: kernels.hpp)
+//          | FE: 29 sum(l_m) + 31 n_m (l_m: the recovery's triangles; kernels.hpp, FePoint)
 //   N_CC = the bytes the stages read and write, / 8 (rounded up), b bytes per pixel:
 //          Otsu histogram b roi; threshold (b + 1) roi (16-bit: a 16-bit mask converted to
 //          8 bits, 2b + 3); labelling with statistics 13 roi (mask read, labels written,

@@ -186,8 +186,12 @@ class CudaBackend final : public Backend {
       for (std::size_t m = 0; m < geom.size(); ++m) geom[m] = static_cast<unsigned char>(fe.geometry[m]);
       upload(d_tri_, fe.tri);
       upload(d_N_, std::vector<float>(fe.N.begin(), fe.N.end()));
-      upload(d_Nx_, std::vector<float>(fe.Nx.begin(), fe.Nx.end()));
-      upload(d_Ny_, std::vector<float>(fe.Ny.begin(), fe.Ny.end()));
+      upload(d_offsets_, fe.offsets);
+      upload(d_lut_, fe.support);
+      upload(d_coef_, std::vector<float>(fe.coef.begin(), fe.coef.end()));
+      upload(d_tri_dots_, fe.tri_dots);
+      upload(d_tri_gx_, std::vector<float>(fe.tri_gx.begin(), fe.tri_gx.end()));
+      upload(d_tri_gy_, std::vector<float>(fe.tri_gy.begin(), fe.tri_gy.end()));
     }
     upload(d_geom_, geom);
     DTFLOP_CUDA(cudaStreamSynchronize(stream_));
@@ -226,8 +230,9 @@ class CudaBackend final : public Backend {
                  d_ref_.get(), d_U_.get(), d_valid_.get(), static_cast<int>(options().mls.weight), options().mls.min_dots,
                  static_cast<float>(options().mls.min_pivot_ratio), d_out, bp, stream_);
     } else {
-      launch_fe(static_cast<int>(nm), d_tri_.get(), d_N_.get(), d_Nx_.get(), d_Ny_.get(), d_geom_.get(), d_U_.get(),
-                d_valid_.get(), d_out, bp, stream_);
+      launch_fe(static_cast<int>(nm), d_tri_.get(), d_N_.get(), d_offsets_.get(), d_lut_.get(), d_coef_.get(),
+                d_tri_dots_.get(), d_tri_gx_.get(), d_tri_gy_.get(), d_geom_.get(), d_U_.get(), d_valid_.get(), d_out, bp,
+                stream_);
     }
     host_fields_.resize(nm);
     ev_.record(8, stream_);
@@ -382,10 +387,10 @@ class CudaBackend final : public Backend {
   Events ev_;
   PinnedBuffer pinned_;
   DeviceBuffer<int> d_labels_, d_count_, d_T_, d_area_, d_minx_, d_miny_, d_maxx_, d_maxy_, d_root_, d_status_,
-      d_pixels_, d_match_, d_offsets_, d_lut_, d_tri_;
+      d_pixels_, d_match_, d_offsets_, d_lut_, d_tri_, d_tri_dots_;
   DeviceBuffer<unsigned int> d_hist_;
   DeviceBuffer<double> d_cx_, d_cy_;
-  DeviceBuffer<float> d_weight_, d_rho_, d_N_, d_Nx_, d_Ny_;
+  DeviceBuffer<float> d_weight_, d_rho_, d_N_, d_coef_, d_tri_gx_, d_tri_gy_;
   DeviceBuffer<double2> d_ref_, d_pts_;
   DeviceBuffer<float2> d_U_;
   DeviceBuffer<unsigned char> d_valid_, d_geom_;

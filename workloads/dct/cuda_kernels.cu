@@ -331,8 +331,9 @@ __global__ void k_mls(int n, const double2* pts, const float* rho, const unsigne
   out[m] = mp.field(r, u0.x, u0.y);
 }
 
-__global__ void k_fe(int n, const int* tri, const float* N, const float* Nx, const float* Ny,
-                     const unsigned char* geometry, const float2* U, const unsigned char* valid, FieldValue<float>* out) {
+__global__ void k_fe(int n, const int* tri, const float* N, const int* offsets, const int* support, const float* coef,
+                     const int* tri_dots, const float* tri_gx, const float* tri_gy, const unsigned char* geometry,
+                     const float2* U, const unsigned char* valid, FieldValue<float>* out) {
   const int m = blockIdx.x * blockDim.x + threadIdx.x;
   if (m >= n) return;
   FieldValue<float> f;
@@ -342,16 +343,20 @@ __global__ void k_fe(int n, const int* tri, const float* N, const float* Nx, con
     if (!valid[a] || !valid[b] || !valid[c]) {
       f.status = PointStatus::lost_vertex;
     } else {
+      FePoint<float> fp;
+      float Ux[3], Uy[3];
       const int v[3] = {a, b, c};
-      float dxx = 0, dxy = 0, dyx = 0, dyy = 0;
-      for (int k = 0; k < 3; ++k) {
-        const float2 u = U[v[k]];
-        const int q = 3 * m + k;
-        f.ux += N[q] * u.x; f.uy += N[q] * u.y;
-        dxx += Nx[q] * u.x; dxy += Ny[q] * u.x; dyx += Nx[q] * u.y; dyy += Ny[q] * u.y;
+      for (int k = 0; k < 3; ++k) { const float2 u = U[v[k]]; Ux[k] = u.x; Uy[k] = u.y; }
+      fp.own(&N[3 * m], Ux, Uy);
+      for (int e = offsets[m]; e < offsets[m + 1]; ++e) {
+        const int q = 3 * support[e];
+        const int d0 = tri_dots[q], d1 = tri_dots[q + 1], d2 = tri_dots[q + 2];
+        if (!valid[d0] || !valid[d1] || !valid[d2]) continue;
+        const float2 u0 = U[d0], u1 = U[d1], u2 = U[d2];
+        const float tx[3] = {u0.x, u1.x, u2.x}, ty[3] = {u0.y, u1.y, u2.y};
+        fp.add(coef[e], &tri_gx[q], &tri_gy[q], tx, ty);
       }
-      f.exx = dxx; f.eyy = dyy; f.exy = 0.5f * (dxy + dyx);
-      f.support = 3;
+      f = fp.field();
     }
   }
   out[m] = f;
@@ -424,10 +429,12 @@ void launch_mls(int n, const double2* pts, const float* rho, const unsigned char
   DTFLOP_CUDA_LAUNCHED();
 }
 
-void launch_fe(int n, const int* tri, const float* N, const float* Nx, const float* Ny, const unsigned char* geometry,
+void launch_fe(int n, const int* tri, const float* N, const int* offsets, const int* support, const float* coef,
+               const int* tri_dots, const float* tri_gx, const float* tri_gy, const unsigned char* geometry,
                const float2* U, const unsigned char* valid, FieldValue<float>* out, int block, cudaStream_t s) {
   if (n <= 0) return;
-  k_fe<<<grid_for(n, block), block, 0, s>>>(n, tri, N, Nx, Ny, geometry, U, valid, out);
+  k_fe<<<grid_for(n, block), block, 0, s>>>(n, tri, N, offsets, support, coef, tri_dots, tri_gx, tri_gy, geometry, U,
+                                            valid, out);
   DTFLOP_CUDA_LAUNCHED();
 }
 

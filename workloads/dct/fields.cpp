@@ -194,7 +194,8 @@ std::vector<FieldValue<double>> evaluate_mls(const MlsTable& t, const std::vecto
   return out;
 }
 
-FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec2>& points, double max_gap) {
+FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec2>& points, double max_gap,
+                       const MlsOptions& recovery) {
   if (reference.size() < 3)
     throw InputError(fmt::format("the reference frame holds {} dot(s); FE needs at least 3", reference.size()));
   double x0 = reference[0].x, x1 = x0, y0 = reference[0].y, y1 = y0;
@@ -216,19 +217,8 @@ FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec
   }
   const double spacing = median_spacing(reference);
   const double gap = max_gap * spacing;
-  FeTable t;
-  t.points = points;
-  {
-    std::vector<cv::Vec6f> tris;
-    sub.getTriangleList(tris);
-    for (const auto& tr : tris) {
-      bool real = true;
-      for (int k = 0; k < 3; ++k)
-        real &= tr[2 * k] >= x0 - 1 && tr[2 * k] <= x1 + 1 && tr[2 * k + 1] >= y0 - 1 && tr[2 * k + 1] <= y1 + 1;
-      t.triangles += real;
-    }
-  }
   auto vdot = [&](int v) { return v >= 0 && v < static_cast<int>(vertex_dot.size()) ? vertex_dot[v] : -1; };
+  auto len = [&](int i, int j) { return std::hypot(reference[i].x - reference[j].x, reference[i].y - reference[j].y); };
   // Barycentric coordinates of p in triangle (a, b, c) of dots; false if degenerate.
   auto bary = [&](int a, int b, int c, Vec2 p, double* N, double* Nx, double* Ny) {
     const Vec2 A = reference[a], B = reference[b], C = reference[c];
@@ -242,11 +232,56 @@ FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec
     N[2] = 1 - N[0] - N[1];
     return true;
   };
+  FeTable t;
+  t.points = points;
+  // The triangles: every face of the subdivision whose three vertices are dots, once (each
+  // face is found from its three edges; keep it from the edge whose origin is its smallest dot).
+  std::vector<Vec2> centroid;
+  std::vector<double> area;
+  std::vector<std::uint8_t> sound;
+  {
+    std::vector<int> lead;
+    sub.getLeadingEdgeList(lead);
+    for (int e0 : lead)
+      for (int e : {e0, sub.rotateEdge(e0, 2)}) {
+        const int e1 = sub.getEdge(e, cv::Subdiv2D::NEXT_AROUND_LEFT);
+        const int e2 = sub.getEdge(e1, cv::Subdiv2D::NEXT_AROUND_LEFT);
+        if (sub.getEdge(e2, cv::Subdiv2D::NEXT_AROUND_LEFT) != e) continue;
+        const int a = vdot(sub.edgeOrg(e)), b = vdot(sub.edgeOrg(e1)), c = vdot(sub.edgeOrg(e2));
+        if (a < 0 || b < 0 || c < 0 || a > b || a > c) continue;
+        double n[3], gx[3], gy[3];
+        if (!bary(a, b, c, reference[static_cast<std::size_t>(a)], n, gx, gy)) continue;
+        const Vec2 A = reference[a], B = reference[b], C = reference[c];
+        const double det = (B.x - A.x) * (C.y - A.y) - (C.x - A.x) * (B.y - A.y);
+        t.tri_dots.insert(t.tri_dots.end(), {a, b, c});
+        t.tri_gx.insert(t.tri_gx.end(), gx, gx + 3);
+        t.tri_gy.insert(t.tri_gy.end(), gy, gy + 3);
+        centroid.push_back({(A.x + B.x + C.x) / 3, (A.y + B.y + C.y) / 3});
+        area.push_back(0.5 * std::abs(det));
+        const double longest = std::max({len(a, b), len(b, c), len(c, a)});
+        sound.push_back(!(max_gap > 0 && longest > 2 * max_gap * spacing));
+      }
+    t.triangles = static_cast<std::int64_t>(area.size());
+  }
+  // The support radius per point, as MLS would choose it.
+  MlsOptions ro = recovery;
+  ro.max_gap = 0;
+  if (ro.support.kind == Support::Kind::dots)
+    ro.support.dots = std::min<int>(ro.support.dots, static_cast<int>(reference.size()));
+  const MlsTable radii = build_mls_table(reference, points, ro);
   PointIndex index(reference);
+  if (centroid.empty()) {  // no triangle (collinear dots): a far sentinel the index can hold
+    centroid.push_back({x0 - 1e9, y0 - 1e9});
+    sound.push_back(0);
+  }
+  const PointIndex tri_index(centroid);  // keeps a reference to `centroid`
   std::vector<std::uint32_t> idx;
   std::vector<double> d2;
-  for (const auto& p : points) {
-    double N[3] = {}, Nx[3] = {}, Ny[3] = {};
+  std::vector<std::pair<std::uint32_t, double>> hits;
+  t.offsets.assign(1, 0);
+  for (std::size_t m = 0; m < points.size(); ++m) {
+    const Vec2 p = points[m];
+    double N[3] = {};
     int tri[3] = {-1, -1, -1};
     PointStatus st = PointStatus::outside_mesh;
     int edge = 0, vertex = 0;
@@ -271,22 +306,54 @@ FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec
       double n[3], nx[3], ny[3];
       if (!bary(a, b, c, p, n, nx, ny)) continue;
       if (n[0] < -1e-9 || n[1] < -1e-9 || n[2] < -1e-9) continue;
-      std::copy(n, n + 3, N); std::copy(nx, nx + 3, Nx); std::copy(ny, ny + 3, Ny);
+      std::copy(n, n + 3, N);
       tri[0] = a; tri[1] = b; tri[2] = c;
       st = PointStatus::ok;
-      // A triangle spanning a hole or a gap in the pattern interpolates across material
-      // that holds no dots: not a measurement.
-      auto len = [&](int i, int j) { return std::hypot(reference[i].x - reference[j].x, reference[i].y - reference[j].y); };
-      if (max_gap > 0 && std::max({len(a, b), len(b, c), len(c, a)}) > 2 * max_gap * spacing) st = PointStatus::outside_mesh;
       break;
     }
     index.knn(p, 1, idx, d2);
     if (st == PointStatus::ok && gap > 0 && std::sqrt(d2[0]) > gap) st = PointStatus::far_from_dots;
+    // The recovery: fit G0 + G1 (x - p) to the sound triangles' gradients at their centroids,
+    // weights area x W(|c_t - p| / rho); in coordinates scaled by rho, q_t = [1, xi, eta].
+    if (st == PointStatus::ok) {
+      const double rho = radii.rho[m];
+      tri_index.within(p, rho, hits);
+      cv::Matx33d M = cv::Matx33d::zeros();
+      std::vector<std::pair<int, cv::Vec3d>> rows;
+      for (const auto& h : hits) {
+        if (!sound[h.first]) continue;
+        const double xi = (centroid[h.first].x - p.x) / rho, eta = (centroid[h.first].y - p.y) / rho;
+        double w = 0, dws = 0;
+        weight_fn(recovery.weight, std::sqrt(xi * xi + eta * eta), w, dws);
+        if (!(w > 0)) continue;
+        w *= area[h.first];
+        const cv::Vec3d q(1, xi, eta);
+        M += w * (q * q.t());
+        rows.push_back({static_cast<int>(h.first), w * q});
+      }
+      if (rows.size() < 3) {
+        st = PointStatus::too_few_dots;
+      } else {
+        cv::Matx33d Mi;
+        const cv::Vec3d ev = [&] { cv::Vec3d v; cv::eigen(M, v); return v; }();
+        if (!(ev[2] > recovery.min_pivot_ratio * ev[0])) {
+          st = PointStatus::ill_conditioned;
+        } else {
+          Mi = M.inv(cv::DECOMP_CHOLESKY);
+          const cv::Vec3d r0(Mi(0, 0), Mi(0, 1), Mi(0, 2));
+          for (const auto& [k, wq] : rows) {
+            t.support.push_back(k);
+            t.coef.push_back(r0.dot(wq));
+          }
+        }
+      }
+    }
     for (int k = 0; k < 3; ++k) {
       t.tri.push_back(tri[k]);
-      t.N.push_back(N[k]); t.Nx.push_back(Nx[k]); t.Ny.push_back(Ny[k]);
+      t.N.push_back(N[k]);
     }
     t.geometry.push_back(st);
+    t.offsets.push_back(static_cast<std::int32_t>(t.support.size()));
   }
   return t;
 }
@@ -305,19 +372,18 @@ std::vector<FieldValue<double>> evaluate_fe(const FeTable& t, const std::vector<
         f.status = PointStatus::lost_vertex;
         continue;
       }
-      double dxx = 0, dxy = 0, dyx = 0, dyy = 0;
-      for (int k = 0; k < 3; ++k) {
-        const Vec2 U = disp[tri[k]];
-        const std::size_t q = 3 * static_cast<std::size_t>(m) + k;
-        f.ux += t.N[q] * U.x;
-        f.uy += t.N[q] * U.y;
-        dxx += t.Nx[q] * U.x; dxy += t.Ny[q] * U.x;
-        dyx += t.Nx[q] * U.y; dyy += t.Ny[q] * U.y;
+      FePoint<double> fp;
+      double Ux[3], Uy[3];
+      for (int k = 0; k < 3; ++k) { Ux[k] = disp[tri[k]].x; Uy[k] = disp[tri[k]].y; }
+      fp.own(&t.N[3 * static_cast<std::size_t>(m)], Ux, Uy);
+      for (int e = t.offsets[m]; e < t.offsets[m + 1]; ++e) {
+        const std::size_t q = 3 * static_cast<std::size_t>(t.support[e]);
+        const int* v = &t.tri_dots[q];
+        if (!tracked[v[0]] || !tracked[v[1]] || !tracked[v[2]]) continue;
+        for (int k = 0; k < 3; ++k) { Ux[k] = disp[v[k]].x; Uy[k] = disp[v[k]].y; }
+        fp.add(t.coef[e], &t.tri_gx[q], &t.tri_gy[q], Ux, Uy);
       }
-      f.exx = dxx;
-      f.eyy = dyy;
-      f.exy = 0.5 * (dxy + dyx);
-      f.support = 3;
+      f = fp.field();
     }
   };
   if (threads > 1) cv::parallel_for_(cv::Range(0, static_cast<int>(n)), work);

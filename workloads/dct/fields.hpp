@@ -59,16 +59,30 @@ struct MlsTable {
 };
 MlsTable build_mls_table(const std::vector<Vec2>& reference, const std::vector<Vec2>& points, const MlsOptions& o);
 
-// FE look-up table: per point its triangle's three dots and shape functions N_i and the
-// constant gradients dN_i/dx, dN_i/dy.
+// FE look-up table. The triangulation: per triangle its three dots and the constant
+// shape-function gradients dN_i/dx, dN_i/dy. Per point: its triangle (-1 when outside) and
+// shape functions N_i (the displacement), and the support's triangles with their recovery
+// coefficients (CSR; the strain, kernels.hpp FePoint).
 struct FeTable {
   std::vector<Vec2> points;
   std::vector<std::int32_t> tri;       // 3 per point (-1 when outside)
-  std::vector<double> N, Nx, Ny;       // 3 per point
-  std::vector<PointStatus> geometry;   // ok, outside_mesh or far_from_dots
+  std::vector<double> N;               // 3 per point
+  std::vector<std::int32_t> tri_dots;  // 3 per triangle
+  std::vector<double> tri_gx, tri_gy;  // 3 per triangle
+  std::vector<std::int32_t> offsets;   // size points + 1
+  std::vector<std::int32_t> support;   // triangle indices
+  std::vector<double> coef;            // recovery coefficient per entry
+  std::vector<PointStatus> geometry;   // ok, outside_mesh, far_from_dots, too_few_dots or ill_conditioned
   std::int64_t triangles = 0;          // in the triangulation
+  std::int64_t entries() const { return static_cast<std::int64_t>(support.size()); }
 };
-FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec2>& points, double max_gap);
+// `max_gap`: a point whose nearest dot is farther than max_gap x the median spacing is
+// far_from_dots, and a triangle with an edge longer than twice that (one spanning a hole, or
+// a sliver along the pattern's hull) gives no gradient to the recovery (it still interpolates
+// the displacement of a point inside it). `recovery` gives the support and weight of the
+// gradient recovery (the same support as MLS: `200dots` by default).
+FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec2>& points, double max_gap,
+                       const MlsOptions& recovery = {});
 
 // Evaluation in float64 on the CPU. `disp` holds one displacement per reference dot and
 // `tracked` says which are valid. `threads` > 1 spreads points over threads.

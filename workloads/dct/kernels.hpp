@@ -151,6 +151,22 @@ struct FieldValue {
   int support = 0;  // dots that contributed
 };
 
+// Strain from the displacement gradient (du_x/dx, du_x/dy, du_y/dx, du_y/dy) in the reference
+// configuration: the Green-Lagrange tensor E = (F'F - I) / 2 with F = I + grad u,
+//   E_xx = u_x,x + (u_x,x^2 + u_y,x^2) / 2,   E_yy = u_y,y + (u_x,y^2 + u_y,y^2) / 2,
+//   E_xy = (u_x,y + u_y,x + u_x,x u_x,y + u_y,x u_y,y) / 2,
+// zero for any rigid rotation (the small-strain tensor reads cos t - 1 on the diagonal, -38
+// microstrain at 0.5 deg) and the small-strain tensor to first order (at 1e-3 strain the
+// quadratic terms are 5e-7). FLOPs: E_xx and E_yy 3 multiplies + 2 adds each, E_xy 3
+// multiplies + 3 adds: 16.
+template <class T>
+DTFLOP_HD void strain_from_gradient(T dxx, T dxy, T dyx, T dyy, FieldValue<T>& f) {
+  f.exx = dxx + T(0.5) * (dxx * dxx + dyx * dyx);
+  f.eyy = dyy + T(0.5) * (dxy * dxy + dyy * dyy);
+  f.exy = T(0.5) * (dxy + dyx + dxx * dxy + dyx * dyy);
+}
+constexpr std::int64_t kFlopsStrain = 16;
+
 // 1 / sqrt(v): the device's reciprocal square root, the host's 1 / sqrt.
 template <class T>
 DTFLOP_HD T rsqrt_of(T v) {
@@ -282,7 +298,8 @@ struct MlsPoint {
 
   // The field at the point from both passes; `u0` is the reference displacement that was
   // subtracted from every dot's (MLS reproduces constants, so it is added back). FLOPs: the
-  // four derivatives (4 x 12), scaling by 1 / rho (4), u0 added back (2), e_xy (2): 56.
+  // four derivatives (4 x 12), scaling by 1 / rho (4), u0 added back (2), the strain
+  // (kFlopsStrain): 54 + kFlopsStrain.
   DTFLOP_HD FieldValue<T> field(T rho, T u0x, T u0y) const {
     T dx[2], dy[2];
     for (int c = 0; c < 2; ++c) {
@@ -298,21 +315,67 @@ struct MlsPoint {
     f.support = n;
     f.ux = a[0][0] + u0x;
     f.uy = a[1][0] + u0y;
-    f.exx = dx[0];
-    f.eyy = dy[1];
-    f.exy = T(0.5) * (dy[0] + dx[1]);
+    strain_from_gradient(dx[0], dy[0], dx[1], dy[1], f);
     return f;
   }
 };
 // Per support dot: pass 1 (229) + pass 2 (100) + the caller's offsets, twice (xi, eta: 2
 // subtracts + 2 multiplies; U - U0: 2 subtracts; 6 each pass).
 constexpr std::int64_t kFlopsPerSupportDot = 229 + 100 + 2 * 6;
-// Per point: solve (151) + field (56).
-constexpr std::int64_t kFlopsPerPoint = 151 + 56;
+// Per point: solve (151) + field (54 + kFlopsStrain).
+constexpr std::int64_t kFlopsPerPoint = 151 + 54 + kFlopsStrain;
 
-// FE (linear triangles): u = sum N_i U_i (2 components x 3 terms x 2 FLOPs = 12) and the
-// four displacement derivatives from the constant shape-function gradients (4 x 3 x 2 = 24),
-// plus e_xy (2) and the reference displacement added back (2): 40 FLOPs per point.
-constexpr std::int64_t kFlopsPerFePoint = 40;
+// FE (linear triangles, seed 7.2). The displacement is the finite-element interpolant: the
+// point's triangle's shape functions, u = sum N_i U_i. The strain is the recovered gradient,
+// not the point's own triangle's constant one: one triangle's gradient is the difference of
+// three centroids over one dot spacing, so its noise (~0.005 px / 60 px, 85-140 microstrain
+// on the independent renders) is 15-20x MLS's. Instead every triangle t of the point's support
+// contributes its constant gradient G_t = sum_i (dN_i/dx, dN_i/dy) U_i with a coefficient c_t
+// fixed by the reference (fields.cpp, build_fe_table: a weighted least-squares fit of
+// G(x) = G0 + G1 (x - x_m) to the triangles' gradients at their centroids, weights area x the
+// MLS weight of the centroid's distance, c_t = w_t e0' M^-1 q_t, sum c_t = 1), the patch
+// recovery of Zienkiewicz and Zhu with the MLS support as the patch. A triangle with a lost
+// vertex is left out and the others renormalised by the sum of the coefficients kept.
+template <class T>
+struct FePoint {
+  T ux = 0, uy = 0;                   // the interpolant (set by own())
+  T gxx = 0, gxy = 0, gyx = 0, gyy = 0, s = 0;  // sum c_t G_t and sum c_t
+  int n = 0;                          // triangles that contributed
+
+  // The point's own triangle: 2 components x (3 multiplies + 2 adds) = 10 FLOPs.
+  DTFLOP_HD void own(const T N[3], const T Ux[3], const T Uy[3]) {
+    ux = N[0] * Ux[0] + N[1] * Ux[1] + N[2] * Ux[2];
+    uy = N[0] * Uy[0] + N[1] * Uy[1] + N[2] * Uy[2];
+  }
+  // One support triangle with coefficient c, vertex gradients (gx, gy) and vertex
+  // displacements: its four gradient terms (4 x 5 = 20), times c and summed (4 x 2 = 8), the
+  // coefficient sum (1): 29 FLOPs.
+  DTFLOP_HD void add(T c, const T gx[3], const T gy[3], const T Ux[3], const T Uy[3]) {
+    const T txx = gx[0] * Ux[0] + gx[1] * Ux[1] + gx[2] * Ux[2];
+    const T txy = gy[0] * Ux[0] + gy[1] * Ux[1] + gy[2] * Ux[2];
+    const T tyx = gx[0] * Uy[0] + gx[1] * Uy[1] + gx[2] * Uy[2];
+    const T tyy = gy[0] * Uy[0] + gy[1] * Uy[1] + gy[2] * Uy[2];
+    gxx += c * txx; gxy += c * txy; gyx += c * tyx; gyy += c * tyy;
+    s += c;
+    ++n;
+  }
+  // The field: the coefficients kept must carry at least half the fit (else lost_vertex);
+  // 1 / s and 4 multiplies (5), strain from the gradient (strain_from_gradient).
+  DTFLOP_HD FieldValue<T> field() const {
+    FieldValue<T> f;
+    f.ux = ux;
+    f.uy = uy;
+    f.support = n;
+    if (!(s > T(0.5))) {
+      f.status = PointStatus::lost_vertex;
+      return f;
+    }
+    const T k = T(1) / s;
+    strain_from_gradient(gxx * k, gxy * k, gyx * k, gyy * k, f);
+    return f;
+  }
+};
+constexpr std::int64_t kFlopsPerFeEntry = 29;
+constexpr std::int64_t kFlopsPerFePoint = 10 + 5 + kFlopsStrain;
 
 }  // namespace dtflop::dct

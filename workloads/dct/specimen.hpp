@@ -3,9 +3,11 @@
 //
 // Coordinates are image pixels: x along columns, y along rows, the centre of pixel (row i,
 // column j) at (j, i); pixel (i, j) covers [j - 1/2, j + 1/2] x [i - 1/2, i + 1/2]. A
-// deformation maps a reference (undeformed) point X to x = X + u(X). Strain is the small
-// (linear) strain of u: e_xx = du_x/dx, e_yy = du_y/dy, e_xy = (du_x/dy + du_y/dx) / 2
-// (tensor shear, as eq. 6.5 computes it).
+// deformation maps a reference (undeformed) point X to x = X + u(X). Strain is the
+// Green-Lagrange strain of u, E = (F'F - I) / 2 with F = I + grad u (tensor shear), which the
+// fields compute too (kernels.hpp, strain_from_gradient): zero under a rigid rotation, and
+// eq. 6.5's small strain e_xx = du_x/dx, e_yy = du_y/dy, e_xy = (du_x/dy + du_y/dx) / 2 to
+// first order (small_strain_of).
 #pragma once
 
 #include <cstdint>
@@ -36,7 +38,11 @@ struct Strain {
   double xx = 0, yy = 0, xy = 0;
 };
 
-inline Strain strain_of(const Gradient& g) { return {g.ux_x, g.uy_y, 0.5 * (g.ux_y + g.uy_x)}; }
+inline Strain small_strain_of(const Gradient& g) { return {g.ux_x, g.uy_y, 0.5 * (g.ux_y + g.uy_x)}; }
+inline Strain strain_of(const Gradient& g) {
+  return {g.ux_x + 0.5 * (g.ux_x * g.ux_x + g.uy_x * g.uy_x), g.uy_y + 0.5 * (g.ux_y * g.ux_y + g.uy_y * g.uy_y),
+          0.5 * (g.ux_y + g.uy_x + g.ux_x * g.ux_y + g.uy_x * g.uy_y)};
+}
 
 // A deformation with closed-form displacement u(X) and gradient, X in reference pixels.
 class Deformation {

@@ -1,7 +1,9 @@
 #include "workloads/dct/uncertainty.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <unordered_map>
 
 #include <Eigen/Dense>
 #include <fmt/format.h>
@@ -209,20 +211,40 @@ std::vector<FieldSigma> propagate_mls(const MlsTable& t, const std::vector<Vec2>
 std::vector<FieldSigma> propagate_fe(const FeTable& t, const std::vector<std::uint8_t>& tracked,
                                      const std::vector<Vec2>& dot_var, const std::vector<FieldValue<double>>& fields) {
   std::vector<FieldSigma> out(t.points.size());
+  std::unordered_map<int, std::array<double, 2>> phi;  // dot -> (d/dx, d/dy) coefficient of the gradient
   for (std::size_t m = 0; m < t.points.size(); ++m) {
     if (fields[m].status != PointStatus::ok) continue;
     double vux = 0, vuy = 0, vxx = 0, vyy = 0, vxy = 0;
     for (int i = 0; i < 3; ++i) {
       const int j = t.tri[3 * m + i];
       if (j < 0 || !tracked[j]) continue;
-      const Vec2 v = dot_var[j];
-      const double n = t.N[3 * m + i], nx = t.Nx[3 * m + i], ny = t.Ny[3 * m + i];
-      vux += n * n * v.x;
-      vuy += n * n * v.y;
-      vxx += nx * nx * v.x;
-      vyy += ny * ny * v.y;
-      vxy += 0.25 * (ny * ny * v.x + nx * nx * v.y);
+      const double n = t.N[3 * m + i];
+      vux += n * n * dot_var[j].x;
+      vuy += n * n * dot_var[j].y;
     }
+    // The recovered gradient is sum_t c_t G_t / sum_t c_t over the triangles kept: collect
+    // each dot's coefficient.
+    phi.clear();
+    double s = 0;
+    for (int e = t.offsets[m]; e < t.offsets[m + 1]; ++e) {
+      const std::size_t q = 3 * static_cast<std::size_t>(t.support[e]);
+      const int* v = &t.tri_dots[q];
+      if (!tracked[v[0]] || !tracked[v[1]] || !tracked[v[2]]) continue;
+      s += t.coef[e];
+      for (int k = 0; k < 3; ++k) {
+        auto& c = phi[v[k]];
+        c[0] += t.coef[e] * t.tri_gx[q + k];
+        c[1] += t.coef[e] * t.tri_gy[q + k];
+      }
+    }
+    if (s > 0)
+      for (const auto& [j, c] : phi) {
+        const Vec2 v = dot_var[j];
+        const double px = c[0] / s, py = c[1] / s;
+        vxx += px * px * v.x;
+        vyy += py * py * v.y;
+        vxy += 0.25 * (py * py * v.x + px * px * v.y);
+      }
     out[m] = {std::sqrt(vux), std::sqrt(vuy), std::sqrt(vxx), std::sqrt(vyy), std::sqrt(vxy)};
   }
   return out;

@@ -33,7 +33,7 @@ TEST(DctCounts, CpuMatchesFormulas) {
   const FrameShape s = hand_shape();
   const CostCounts c = cpu_counts(s, 16);
   // 14 ring + 11 weighted + (44 + 4) per dot + 2 per dot + 341 per support entry + 207 per point.
-  EXPECT_EQ(c.N_C, 14LL * 2'000'000 + 11LL * 4'500'000 + 48LL * 1600 + 2LL * 1600 + 341LL * 2048 * 60 + 207LL * 2048);
+  EXPECT_EQ(c.N_C, 14LL * 2'000'000 + 11LL * 4'500'000 + 48LL * 1600 + 2LL * 1600 + 341LL * 2048 * 60 + 221LL * 2048);
   // Bytes: Otsu 1 + threshold 2 + labelling 13 per analysed pixel, 10 per window pixel, 25
   // labels of 4 bytes per scanned pixel, a byte per ring or weighted pixel, 8 per field value.
   EXPECT_EQ(c.N_CC, (16LL * 20'000'000 + 10LL * 7'000'000 + 100LL * 2'500'000 + 6'500'000 +
@@ -72,11 +72,13 @@ TEST(DctCounts, CudaMatchesFormulas) {
   EXPECT_EQ(c.host_memory, HostMemory::pinned);
   s.otsu = false;
   s.interp = Interp::fe;
-  s.support_entries = 0;
+  s.support_entries = 2048 * 90;  // FE: recovery triangles
   const CostCounts f = cuda_counts(s, HostMemory::pageable);
   EXPECT_EQ(f.launches, 9);
   EXPECT_EQ(f.transfers_GC, 9);  // no threshold to read back
-  EXPECT_EQ(f.N_G, 14LL * 2'000'000 + 11LL * 4'500'000 + 50LL * 1600 + 40LL * 2048);
+  // Per recovery triangle 20 + 8 + 1 FLOPs; per point its own triangle (10), 1 / s and the
+  // scaling (5), the Green-Lagrange strain (16).
+  EXPECT_EQ(f.N_G, 14LL * 2'000'000 + 11LL * 4'500'000 + 50LL * 1600 + 29LL * 2048 * 90 + 31LL * 2048);
   EXPECT_EQ(f.host_memory, HostMemory::pageable);
   // 16-bit frames: twice the bytes uploaded.
   s.bytes_per_pixel = 2;

@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "render.hpp"
 #include "tests/support/gpu.hpp"
@@ -80,7 +81,7 @@ TEST(DctIndependent, DefaultsMeetTheTargetsInTensionBendingAndRotation) {
     const FrameOutput out = b->process(def);
     const FrameUncertainty u = frame_uncertainty(ref, def, *b, out);
     ASSERT_TRUE(u.frame_noise.ok()) << u.frame_noise.why_not;
-    double su = 0, se[3] = {0, 0, 0}, emax = 0;
+    double su = 0, se[3] = {0, 0, 0}, emax = 0, z2 = 0;
     int n = 0, beyond = 0;
     for (std::size_t m = 0; m < out.fields.size(); ++m) {
       const auto& f = out.fields[m];
@@ -89,25 +90,137 @@ TEST(DctIndependent, DefaultsMeetTheTargetsInTensionBendingAndRotation) {
       const dct_indep::P2 t = s.field->u(P);
       const dct_indep::Grad g = s.field->grad(P);
       su += (f.ux - t.x) * (f.ux - t.x) + (f.uy - t.y) * (f.uy - t.y);
-      const double e[3] = {f.exx - dct_indep::exx(g), f.eyy - dct_indep::eyy(g), f.exy - dct_indep::exy(g)};
+      const double e[3] = {f.exx - dct_indep::gl_xx(g), f.eyy - dct_indep::gl_yy(g), f.exy - dct_indep::gl_xy(g)};
       const double sd[3] = {u.points[m].exx, u.points[m].eyy, u.points[m].exy};
       for (int i = 0; i < 3; ++i) {
         se[i] += e[i] * e[i];
         emax = std::max(emax, std::abs(e[i]));
         beyond += !(std::abs(e[i]) <= 4 * sd[i]);
+        z2 += e[i] * e[i] / (sd[i] * sd[i]);
       }
       ++n;
     }
     ASSERT_GE(n, 1000) << d;  // of 1024; the corners' nearest dots may lie beyond the gap
     const double u_rms = std::sqrt(su / (2 * n));
-    std::printf("%s: u RMS %.4f px, strain RMS %.1f %.1f %.1f, max %.1f microstrain, %d values beyond 4 sd\n", d,
-                u_rms, 1e6 * std::sqrt(se[0] / n), 1e6 * std::sqrt(se[1] / n), 1e6 * std::sqrt(se[2] / n), 1e6 * emax,
-                beyond);
+    const double z = std::sqrt(z2 / (3 * n));  // RMS of error / stated deviation
+    std::printf("%s: u RMS %.4f px, strain RMS %.1f %.1f %.1f, max %.1f microstrain, %d values beyond 4 sd, "
+                "RMS error / sd %.2f\n", d, u_rms, 1e6 * std::sqrt(se[0] / n), 1e6 * std::sqrt(se[1] / n),
+                1e6 * std::sqrt(se[2] / n), 1e6 * emax, beyond, z);
     EXPECT_LE(u_rms, 0.005) << d;
     for (int i = 0; i < 3; ++i) EXPECT_LE(std::sqrt(se[i] / n), 15e-6) << d << " component " << i;
     EXPECT_LE(emax, 60e-6) << d;
     EXPECT_LE(beyond, 3 * n / 100) << d;
+    // Rotation: the strain reads zero (Green-Lagrange) within the stated deviation, as do the
+    // others against their closed forms: the error is the noise the deviation states.
+    EXPECT_LE(z, 1.3) << d;
   }
+}
+
+// FE: valid wherever the triangulation covers the point (inside the dots' convex hull, from
+// the renderer's own dots), and its recovered strain close to MLS's on the points at least
+// 200 px inside the hull: measured 1.3-2.2x MLS's at the default 200-dot support over seeds
+// (the target is 2x; near the hull, where the recovery's linear fit extrapolates, up
+// to ~4x; docs/dct.md), asserted at 2.5x.
+TEST(DctIndependent, FeCoversTheHullAndTracksMls) {
+  dct_indep::Params p;
+  p.deformation = "bending";
+  p.seed = 22;
+  const dct_indep::Scene s = dct_indep::make_scene(p);
+  const cv::Mat ref = dct_indep::finish(dct_indep::render_clean(s, false), p.noise, 9);
+  const cv::Mat def = dct_indep::finish(dct_indep::render_clean(s, true), p.noise, 10);
+  std::vector<cv::Point2f> dots, hull;
+  for (const auto& d : s.dots) dots.emplace_back(static_cast<float>(d.x), static_cast<float>(d.y));
+  cv::convexHull(dots, hull);
+  double sse[2] = {0, 0};
+  int inner = 0, covered = 0, covered_valid = 0;
+  std::vector<FieldValue<double>> mls;
+  for (const Interp interp : {Interp::mls, Interp::fe}) {
+    PipelineOptions o;
+    o.interp = interp;
+    auto b = make_backend("cpu-par", o);
+    b->set_reference(ref);
+    const FrameOutput out = b->process(def);
+    if (interp == Interp::mls) mls = out.fields;
+    for (std::size_t m = 0; m < out.fields.size(); ++m) {
+      const auto& f = out.fields[m];
+      const dct_indep::P2 P{b->points()[m].x, b->points()[m].y};
+      const double dist = cv::pointPolygonTest(hull, cv::Point2f(static_cast<float>(P.x), static_cast<float>(P.y)), true);
+      if (interp == Interp::fe && dist > 0.5) {
+        ++covered;
+        covered_valid += f.status == PointStatus::ok;
+      }
+      if (dist < 200 || f.status != PointStatus::ok || mls[m].status != PointStatus::ok) continue;
+      const dct_indep::Grad g = s.field->grad(P);
+      const double e[3] = {f.exx - dct_indep::gl_xx(g), f.eyy - dct_indep::gl_yy(g), f.exy - dct_indep::gl_xy(g)};
+      for (double v : e) sse[interp == Interp::fe] += v * v;
+      inner += interp == Interp::fe;
+    }
+  }
+  ASSERT_GT(covered, 800);
+  EXPECT_GE(covered_valid, covered * 99 / 100) << covered_valid << " of " << covered;
+  ASSERT_GT(inner, 300);
+  const double rms_mls = std::sqrt(sse[0] / (3 * inner)), rms_fe = std::sqrt(sse[1] / (3 * inner));
+  std::printf("FE: %d of %d covered points valid; inner strain RMS FE %.1f, MLS %.1f microstrain\n", covered_valid,
+              covered, 1e6 * rms_fe, 1e6 * rms_mls);
+  EXPECT_LE(rms_fe, 2.5 * rms_mls);
+  EXPECT_GT(rms_fe, 0);
+}
+
+// Kirsch's plate on independent renders (load y, far-field strain 2e-3, hole radius 300 px,
+// 2400 dots of radius 5 px): e_yy at both ends of the hole's horizontal diameter (closed form
+// 3 x 2e-3) over 3 noise draws of one pattern, bias (mean - closed form) and noise (scatter
+// over the draws) apart. With 60 dots per support both are small (within 5% together); the
+// default 200 dots smooths the concentration (a bias well beyond its noise) and 20 dots is
+// noisier than 60: the trade-off `dct_quality kirsch` tabulates.
+TEST(DctIndependent, KirschHoleEdgeBiasAndNoise) {
+  dct_indep::Params p;
+  p.deformation = "kirsch";
+  p.seed = 5;
+  p.hole = 300;
+  p.strain = 2e-3;
+  p.radius = 5;
+  p.min_gap = 5;
+  p.dots = 2400;
+  p.leaf = 1.0 / 8;  // coverage within 1.1e-3 per pixel (coverage_error_bound): 4x faster to render
+  const dct_indep::Scene s = dct_indep::make_scene(p);
+  const cv::Mat cref = dct_indep::render_clean(s, false), cdef = dct_indep::render_clean(s, true);
+  const std::vector<Vec2> edges = {{s.centre.x + p.hole, s.centre.y}, {s.centre.x - p.hole, s.centre.y}};
+  const double truth = dct_indep::gl_yy(s.field->grad({edges[0].x, edges[0].y}));  // 3 e0 + (3 e0)^2 / 2 + ...
+  ASSERT_NEAR(dct_indep::eyy(s.field->grad({edges[0].x, edges[0].y})), 3 * p.strain, 1e-9);
+  const char* supports[3] = {"20dots", "60dots", "200dots"};
+  std::vector<double> values[3];
+  for (int r = 0; r < 3; ++r) {
+    const cv::Mat ref = dct_indep::finish(cref, p.noise, 700 + 2 * r), def = dct_indep::finish(cdef, p.noise, 701 + 2 * r);
+    for (int k = 0; k < 3; ++k) {
+      PipelineOptions o;
+      o.mls.support = parse_support(supports[k]);
+      o.analysis.max_area = 2000;  // the hole is one huge dark blob
+      o.points = edges;
+      auto b = make_backend("cpu-par", o);
+      b->set_reference(ref);
+      const FrameOutput out = b->process(def);
+      for (const auto& f : out.fields) {
+        ASSERT_EQ(f.status, PointStatus::ok) << supports[k];
+        values[k].push_back(f.eyy);
+      }
+    }
+  }
+  double bias[3], noise[3];
+  for (int k = 0; k < 3; ++k) {
+    double mean = 0, var = 0;
+    const auto n = static_cast<double>(values[k].size());
+    for (double v : values[k]) mean += v / n;
+    for (double v : values[k]) var += (v - mean) * (v - mean) / (n - 1);
+    bias[k] = mean - truth;
+    noise[k] = std::sqrt(var);
+    std::printf("Kirsch e_yy at the hole edge, %s: bias %+.2f%%, noise %.2f%% of %.0f microstrain\n", supports[k],
+                100 * bias[k] / truth, 100 * noise[k] / truth, 1e6 * truth);
+  }
+  EXPECT_LE(std::abs(bias[1]) + noise[1], 0.05 * truth);
+  for (double v : values[1]) EXPECT_NEAR(v, truth, 0.05 * truth);
+  EXPECT_GT(std::abs(bias[2]), 3 * noise[2]);   // the large support: smoothing bias
+  EXPECT_GT(std::abs(bias[2]), 0.05 * truth);
+  EXPECT_GT(noise[0], 1.5 * noise[1]);          // the small support: noise
 }
 
 // Centroids (eq. 7.1 over the dot and a 2 px margin, background plane removed) against the

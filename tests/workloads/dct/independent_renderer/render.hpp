@@ -85,6 +85,10 @@ double coverage_error_bound(const Params& p);
 inline double exx(const Grad& g) { return g.xx; }
 inline double eyy(const Grad& g) { return g.yy; }
 inline double exy(const Grad& g) { return 0.5 * (g.xy + g.yx); }
+// Green-Lagrange strain E = (F'F - I) / 2, F = I + grad u: zero under a rigid rotation.
+inline double gl_xx(const Grad& g) { return g.xx + 0.5 * (g.xx * g.xx + g.yx * g.yx); }
+inline double gl_yy(const Grad& g) { return g.yy + 0.5 * (g.xy * g.xy + g.yy * g.yy); }
+inline double gl_xy(const Grad& g) { return 0.5 * (g.xy + g.yx + g.xx * g.xy + g.yx * g.yy); }
 
 // Writes dots.csv (id, reference and deformed centres, px) and truth.csv (a grid of
 // positions with u, the gradient and the small strains in microstrain) into `dir`.
