@@ -27,6 +27,8 @@ struct ReportOptions {
   std::string rounds_combine;
   std::string output;
   int worst = 10;
+  std::string tuned;                // tuning: the `dtflop tune -o` result
+  std::vector<std::string> peers;   // tuning: peers' replays on the same space
 };
 
 // The command line as given, for the report's header (words with spaces quoted).
@@ -62,7 +64,8 @@ void add_report_command(CLI::App& root) {
   auto* app = root.add_subcommand(
       "report",
       "Make a readable report (one self-contained HTML file with SVG charts, a Markdown summary and a CSV file per "
-      "chart) from machine profiles and sample stores: `machine`, `predicted` or `compare`.");
+      "chart) from machine profiles, sample stores and tuning results: `machine`, `predicted`, `compare` or "
+      "`tuning`.");
   app->require_subcommand(1);
   auto o = std::make_shared<ReportOptions>();
 
@@ -167,6 +170,32 @@ void add_report_command(CLI::App& root) {
     args.push_back({"-o", o->output});
     reports::Context ctx{join_cmd("compare", args), {o->machines[0], o->machines[1]}};
     finish(reports::compare_report(a, na, b, nb, ctx), o->output);
+  });
+
+  auto* t = app->add_subcommand("tuning",
+                                "A tuning (`dtflop tune -o`): the choice, time against accuracy with the Pareto front and "
+                                "the deadline, predicted against measured, and how each search approached the optimum");
+  t->add_option("--result,-r", o->tuned, "The result `dtflop tune -o` wrote")->required()->check(CLI::ExistingFile);
+  t->add_option("--peer", o->peers,
+                "A peer's replay on the same measured space (benchmarks/tune/peer_botorch.py's JSON; repeatable)")
+      ->check(CLI::ExistingFile);
+  t->add_option("-o,--output", o->output, "Folder to write the report into (must not exist)")->required();
+  t->callback([o] {
+    check_output(o->output);
+    auto read = [](const std::string& f) {
+      const std::string what = fmt::format("'{}'", f);
+      return parse_json_limited(read_file_limited(f, what, kMaxJsonFileBytes), what);
+    };
+    std::vector<nlohmann::json> peers;
+    std::vector<std::pair<std::string, std::string>> args = {{"--result", o->tuned}};
+    for (const auto& p : o->peers) {
+      peers.push_back(read(p));
+      args.push_back({"--peer", p});
+    }
+    args.push_back({"-o", o->output});
+    reports::Context ctx{join_cmd("tuning", args), {o->tuned}};
+    ctx.inputs.insert(ctx.inputs.end(), o->peers.begin(), o->peers.end());
+    finish(reports::tuning_report(read(o->tuned), o->tuned, peers, ctx), o->output);
   });
 }
 

@@ -320,6 +320,20 @@ json result_json(const Outcome& r, const Inputs& in, const tune::AccuracyModel& 
   for (std::size_t i : r.front) pf.push_back(candidate_json(r, s, i));
   out["pareto_front"] = pf;
   if (r.most_accurate) out["most_accurate_meeting_deadline"] = candidate_json(r, s, *r.most_accurate);
+  // Every configuration the verdicts rest on (measured ones; by prediction, every valid one), for
+  // `dtflop report tuning`.
+  json all = json::array();
+  for (std::size_t i : r.ranked) {
+    const auto& x = c[i];
+    json j = {{"label", x.label},
+              {"backend", x.backend->name()},
+              {"predicted_seconds", x.predicted.seconds},
+              {"interval90", {x.predicted.lo, x.predicted.hi}},
+              {"accuracy_error", x.accuracy.error}};
+    if (x.measured) j["measured_seconds"] = *x.measured;
+    all.push_back(std::move(j));
+  }
+  out["configurations"] = all;
   if (!r.replayed.empty()) {
     json rows = json::array();
     for (const auto& x : r.replayed)

@@ -7,13 +7,18 @@
 //                measured (same colour), the mean/max error table, the fitted parameters with
 //                their intervals, the chosen variant and its margin, the worst configurations;
 //   compare    - two profiles (two machines, or two runs of one), parameter by parameter with
-//                the ratio; or two runs' sample stores, configuration by configuration.
+//                the ratio; or two runs' sample stores, configuration by configuration;
+//   tuning     - a `dtflop tune -o` result: the choice, time against accuracy with the Pareto
+//                front and the deadline, predicted against measured, and how each strategy (and
+//                a peer's replay) approached the optimum.
 // Each returns a Document (reports/document.hpp); write_report() writes it.
 #pragma once
 
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "calibrate/sample.hpp"
 #include "model/predict.hpp"
@@ -58,6 +63,13 @@ Document compare_report(const MachineProfile& a, const std::string& name_a, cons
 // a side holds no sample or the two share no configuration.
 Document compare_runs_report(const std::vector<std::string>& stores_a, const std::string& name_a,
                              const std::vector<std::string>& stores_b, const std::string& name_b, const Context& ctx);
+
+// A `dtflop tune -o` result (`name`: its file, for messages) and the replays of peers run on the
+// same measured space (benchmarks/tune/peer_botorch.py's JSON: rows of strategy, budget and
+// median_fraction_of_optimum). Throws InputError (one line) for a result of another schema or
+// without the fields the report draws.
+Document tuning_report(const nlohmann::json& result, const std::string& name, const std::vector<nlohmann::json>& peers,
+                       const Context& ctx);
 
 // The transfer sweeps `dtflop probe` keeps in a profile's metadata (probes/machine.cpp writes
 // them): "probe.transfers.<series>", e.g. "probe.transfers.h2d_pinned", holds

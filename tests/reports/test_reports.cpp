@@ -364,6 +364,48 @@ TEST_F(ReportKinds, ComparisonOfTwoMachines) {
   check_rendered(out, dir_, browser_, 1);
 }
 
+TEST_F(ReportKinds, TuningReportOfAnArchivedTuning) {
+  // The 2-core machine's RBE tuning (every valid configuration measured, strategies replayed) and
+  // a peer's replay written here: the report draws each configuration, the result's Pareto front,
+  // and one line per strategy.
+  const std::string result = test::source_path("results/tuning/cpu-2026-11-24/rbe/replay.json");
+  const auto j = nlohmann::json::parse(test::slurp(result));
+  const auto peer = dir_ / "peer.json";
+  std::ofstream(peer) << R"({"rows": [{"strategy": "peer", "budget": 5, "median_fraction_of_optimum": 0.5},
+                                    {"strategy": "peer", "budget": 10, "median_fraction_of_optimum": 0.75}]})";
+  const auto out = dir_ / "tuning";
+  const auto r = test::run_dtflop(fmt::format("report tuning --result {} --peer {} -o {}", result, peer.string(), out.string()));
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string md = test::slurp(out / "report.md");
+  EXPECT_NE(md.find("Chosen: " + j.at("chosen").at("label").get<std::string>()), std::string::npos) << md;
+  // Every measured configuration is one point; the front, as the result holds it.
+  const auto time_accuracy = read_csv(out / "01-time-accuracy.csv");
+  std::size_t configurations = 0, front = 0;
+  for (const auto& row : time_accuracy) {
+    configurations += row.series == "configurations";
+    front += row.series == "Pareto front";
+  }
+  EXPECT_EQ(configurations, j.at("configurations").size());
+  EXPECT_EQ(front, j.at("pareto_front").size());
+  // The chosen configuration is the fastest point drawn.
+  double fastest = INFINITY;
+  for (const auto& row : time_accuracy)
+    if (row.series == "configurations") fastest = std::min(fastest, row.x);
+  EXPECT_EQ(fastest, j.at("chosen").at("measured_seconds").get<double>());
+  // One line per strategy: model, random and the peer.
+  std::set<std::string> strategies;
+  for (const auto& row : read_csv(out / "03-search.csv")) strategies.insert(row.series);
+  EXPECT_EQ(strategies, (std::set<std::string>{"model", "peer", "random"}));
+  // A file that is not a tuning result is refused in one line.
+  const auto bad = test::run_dtflop(fmt::format("report tuning --result {} -o {}",
+                                                test::source_path("docs/examples/h200.json"), (dir_ / "bad").string()));
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_NE(bad.err.find("dtflop.tuned"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(dir_ / "bad"));
+  if (browser_.empty()) GTEST_SKIP() << "chromium is not installed (scripts/test.sh installs it): not rendered";
+  check_rendered(out, dir_, browser_, 3);
+}
+
 TEST_F(ReportKinds, ComparisonOfTwoRuns) {
   if (std::system("command -v xz >/dev/null 2>&1") != 0) GTEST_SKIP() << "xz is not installed: cannot read the archived store";
   // Run A is the archived held-out store; run B the same samples with every time doubled.
