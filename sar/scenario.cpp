@@ -1,5 +1,6 @@
 #include "sar/scenario.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -256,6 +257,28 @@ void validate(const Scenario& s) {
 }
 
 Scenario parse_scenario(const std::string& text, const std::string& what) {
+  // yaml-cpp recurses once per level of nesting: refuse deep nesting before it parses (a scenario
+  // is 4 levels deep). Flow brackets outside quotes, and indentation, both count.
+  {
+    int depth = 0, top = 0;
+    char quote = 0;
+    std::size_t indent = 0;
+    bool line_start = true;
+    for (char c : text) {
+      if (c == '\n') line_start = true, indent = 0, quote = 0;
+      else if (line_start && c == ' ') ++indent;
+      else line_start = false;
+      if (indent > 64) throw InputError(fmt::format("{}: indented more than 64 spaces; a scenario is at most a few levels deep", what));
+      if (quote) {
+        if (c == quote) quote = 0;
+        continue;
+      }
+      if (c == '"' || c == '\'') quote = c;
+      else if (c == '[' || c == '{') top = std::max(top, ++depth);
+      else if (c == ']' || c == '}') --depth;
+      if (top > 16) throw InputError(fmt::format("{}: nested more than 16 levels deep; a scenario is at most a few", what));
+    }
+  }
   YAML::Node root;
   try {
     root = YAML::Load(text);
