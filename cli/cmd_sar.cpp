@@ -7,7 +7,11 @@
 #include <fmt/format.h>
 
 #include "cli/command.hpp"
+#include "cli/model_tables.hpp"
 #include "cli/workload_cli.hpp"
+#include "model/json_io.hpp"
+#include "model/units.hpp"
+#include "sar/counts.hpp"
 #include "model/errors.hpp"
 #include "sar/fusion.hpp"
 #include "sar/scenario.hpp"
@@ -109,9 +113,106 @@ void run_sar(const SarArgs& a) {
   set_exit_status(sar::run_team(s, o));
 }
 
+struct PredictSarArgs {
+  std::string scenario, rule, backend;
+  std::int64_t interval = 0;
+  PredictArgs predict;
+  ResultArgs result;
+};
+
+// `dtflop predict sar`: the model's time of one team step (one helicopter's share; all do the same).
+void predict_sar(const PredictSarArgs& a) {
+  sar::Scenario s = sar::load_scenario(a.scenario);
+  if (!a.rule.empty()) s.rule = sar::parse_rule(a.rule);
+  if (a.interval != 0) s.interval = a.interval;
+  if (!a.backend.empty()) s.backend = a.backend;
+  check_output(a.result.output, {a.scenario, a.predict.machine});
+  const std::int64_t team = std::int64_t(s.helicopters.size());
+  const sar::TeamCounts t = sar::team_counts(s, team);
+  const double steps = double(t.steps);
+  const double link = [&] {
+    double d = 0;
+    for (std::int64_t j = 1; j <= t.steps; ++j) d += sar::link_delay(s, sar::traffic(s, team, t.steps > 1 ? j : 1));
+    return d / steps;
+  }();
+  nlohmann::json out = {{"scenario", a.scenario},
+                        {"rule", sar::to_string(s.rule)},
+                        {"interval", s.interval},
+                        {"helicopters", team},
+                        {"backend", s.backend},
+                        {"grid", {t.shape.nx, t.shape.ny}},
+                        {"kernel", {t.shape.Ix, t.shape.Iy}},
+                        {"steps_per_period", t.steps},
+                        {"counts_per_period", {{"rbe", to_json(t.rbe)}, {"host", to_json(t.host)}, {"net", to_json(t.net)}}},
+                        {"link_delay_per_step", link}};
+  std::optional<double> total;
+  nlohmann::json parts = nlohmann::json::object();
+  if (!a.predict.machine.empty()) {
+    const MachineProfile m = load_profile(a.predict.machine);
+    const Variant want = wanted_variant(a.predict, m);
+    double sum = 0;
+    for (const auto& [name, counts] : {std::pair<const char*, const CostCounts*>{"rbe", &t.rbe}, {"host", &t.host},
+                                       {"net", &t.net}}) {
+      const Predicted p = predict_with_fallback(m, *counts, want);
+      if (!p.fallback.empty()) fmt::print(stderr, "dtflop: note: {}: {}\n", name, p.fallback);
+      parts[name] = {{"variant", std::string(to_string(p.variant))}, {"per_step", p.prediction.total / steps},
+                     {"prediction_per_period", to_json(p.prediction)}};
+      sum += p.prediction.total / steps;
+    }
+    total = sum;
+    out["machine"] = machine_json(a.predict.machine, m);
+    out["prediction_per_step"] = parts;
+    out["total_per_step"] = sum;
+    out["total_with_link_per_step"] = sum + link;
+  }
+  if (!a.result.output.empty()) write_file_atomically(a.result.output, out.dump(2) + "\n");
+  if (a.result.json) {
+    fmt::print("{}\n", out.dump(2));
+    return;
+  }
+  fmt::print("team step of '{}': {} helicopters, {} fusion{}, backend {}, grid {}x{}, kernel {}x{}\n", s.name, team,
+             sar::to_string(s.rule),
+             t.steps > 1 ? fmt::format(" every {} steps", s.interval) : std::string(), s.backend, t.shape.nx,
+             t.shape.ny, t.shape.Ix, t.shape.Iy);
+  fmt::print("\nCounts of one helicopter's period of {} step{}:\n  RBE ({}):\n", t.steps, t.steps == 1 ? "" : "s", s.backend);
+  print_counts(t.rbe);
+  fmt::print("  host work (likelihoods, fusion, control, estimate):\n");
+  print_counts(t.host);
+  fmt::print("  messages: {} messages, {} bytes\n", t.net.net_messages, t.net.net_bytes);
+  fmt::print("\nThe link model adds {} per step of physical time (not priced by the machine profile).\n",
+             format_duration(link));
+  if (!total) {
+    fmt::print("(add --machine machine.json for the model's time per team step)\n");
+    return;
+  }
+  fmt::print("\nPredicted per team step on {}:\n", machine_name(load_profile(a.predict.machine)));
+  for (const char* name : {"rbe", "host", "net"})
+    fmt::print("  {:5} {}\n", name, format_duration(parts[name]["per_step"].get<double>()));
+  fmt::print("  total {} (with the link model's delay {})\n", format_duration(*total), format_duration(*total + link));
+}
+
 }  // namespace
 
 void add_sar_command(CLI::App& root) {
+  // `dtflop predict sar`: beside the workloads of `dtflop predict`.
+  CLI::App* predict = nullptr;
+  for (CLI::App* sub : root.get_subcommands([](CLI::App* a) { return a->get_name() == "predict"; })) predict = sub;
+  if (predict) {
+    auto* p = predict->add_subcommand(
+        "sar", "The model's time of one step of the search-and-rescue team (docs/sar.md): each helicopter's RBE step, "
+               "its host work and its messages (the network term), per step, averaged over a fusion period");
+    auto pa = std::make_shared<PredictSarArgs>();
+    p->add_option("--scenario", pa->scenario, "Scenario YAML")->required()->type_name("FILE");
+    p->add_option("--rule", pa->rule, "Fusion rule, overriding the scenario's");
+    p->add_option("--interval", pa->interval, "Steps between belief fusions, overriding the scenario's")
+        ->check(CLI::Range(std::int64_t{1}, std::int64_t{10'000'000}));
+    p->add_option("--backend", pa->backend, "RBE backend, overriding the scenario's");
+    p->add_option("--machine", pa->predict.machine, "Machine profile (dtflop probe: L_net and B_net from net-mpi)")
+        ->type_name("FILE");
+    p->add_option("--variant", pa->predict.variant, "Model variant (default: the profile's chosen one, else extended)");
+    add_result_options(*p, pa->result);
+    p->callback([pa] { predict_sar(*pa); });
+  }
   auto* app = root.add_subcommand(
       "sar",
       "Cooperative search and rescue (docs/sar.md): a team of helicopters, one MPI process each (`mpirun -n N dtflop "
