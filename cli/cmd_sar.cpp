@@ -1,5 +1,6 @@
 // `dtflop sar --scenario FILE ...`: the cooperative search-and-rescue team (docs/sar.md). Run
 // under `mpirun -n N`, one process per helicopter; each reads the same scenario.
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -21,8 +22,20 @@
 namespace dtflop::cli {
 namespace {
 
+// "NXxNY": the grid's cells over the scenario's area. Throws InputError.
+void apply_cells(sar::Scenario& s, const std::string& cells) {
+  if (cells.empty()) return;
+  long long nx = 0, ny = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(cells.c_str(), "%lld%c%lld%c", &nx, &x, &ny, &extra) != 3 || x != 'x' || nx < 1 || ny < 1 ||
+      nx > 65536 || ny > 65536)
+    throw InputError(fmt::format("--cells '{}': give NXxNY, each 1 to 65536, e.g. 200x100", cells));
+  s.nx = nx, s.ny = ny;
+}
+
 struct SarArgs {
   std::string scenario;
+  std::string cells;
   std::string rule;
   std::int64_t interval = 0;
   std::string backend;
@@ -72,6 +85,7 @@ void run_sar(const SarArgs& a) {
     s.backend = a.backend;
   }
   if (a.steps != 0) s.steps = a.steps;
+  apply_cells(s, a.cells);
   if (!a.link.empty()) {
     if (a.link == "off") s.link_enabled = false, s.link_sleep = false;
     else if (a.link == "model") s.link_enabled = true, s.link_sleep = false;
@@ -114,7 +128,7 @@ void run_sar(const SarArgs& a) {
 }
 
 struct PredictSarArgs {
-  std::string scenario, rule, backend;
+  std::string scenario, rule, backend, cells;
   std::int64_t interval = 0;
   PredictArgs predict;
   ResultArgs result;
@@ -126,6 +140,8 @@ void predict_sar(const PredictSarArgs& a) {
   if (!a.rule.empty()) s.rule = sar::parse_rule(a.rule);
   if (a.interval != 0) s.interval = a.interval;
   if (!a.backend.empty()) s.backend = a.backend;
+  apply_cells(s, a.cells);
+  sar::validate(s);
   check_output(a.result.output, {a.scenario, a.predict.machine});
   const std::int64_t team = std::int64_t(s.helicopters.size());
   const sar::TeamCounts t = sar::team_counts(s, team);
@@ -153,6 +169,13 @@ void predict_sar(const PredictSarArgs& a) {
     double sum = 0;
     for (const auto& [name, counts] : {std::pair<const char*, const CostCounts*>{"rbe", &t.rbe}, {"host", &t.host},
                                        {"net", &t.net}}) {
+      if (std::string(name) == "net" && (!m.has(Param::B_net) || !m.has(Param::L_net))) {
+        parts[name] = {{"missing", "the profile has no L_net and B_net: run `dtflop probe` (net-mpi) where dtflop has MPI"},
+                       {"per_step", 0.0}};
+        fmt::print(stderr, "dtflop: note: the profile has no L_net and B_net, so the messages are not priced; run "
+                           "`dtflop probe --only net-mpi` on this machine\n");
+        continue;
+      }
       const Predicted p = predict_with_fallback(m, *counts, want);
       if (!p.fallback.empty()) fmt::print(stderr, "dtflop: note: {}: {}\n", name, p.fallback);
       parts[name] = {{"variant", std::string(to_string(p.variant))}, {"per_step", p.prediction.total / steps},
@@ -207,6 +230,7 @@ void add_sar_command(CLI::App& root) {
     p->add_option("--interval", pa->interval, "Steps between belief fusions, overriding the scenario's")
         ->check(CLI::Range(std::int64_t{1}, std::int64_t{10'000'000}));
     p->add_option("--backend", pa->backend, "RBE backend, overriding the scenario's");
+    p->add_option("--cells", pa->cells, "Grid cells NXxNY over the scenario's area, overriding the scenario's");
     p->add_option("--machine", pa->predict.machine, "Machine profile (dtflop probe: L_net and B_net from net-mpi)")
         ->type_name("FILE");
     p->add_option("--variant", pa->predict.variant, "Model variant (default: the profile's chosen one, else extended)");
@@ -226,6 +250,7 @@ void add_sar_command(CLI::App& root) {
       ->check(CLI::Range(std::int64_t{1}, std::int64_t{10'000'000}));
   app->add_option("--backend", a->backend, "RBE backend of every helicopter, overriding the scenario's (cpu-seq, "
                                            "cpu-par, cuda-seed, cuda-resident)");
+  app->add_option("--cells", a->cells, "Grid cells NXxNY over the scenario's area, overriding the scenario's");
   app->add_option("--steps", a->steps, "Steps per run, overriding the scenario's")
       ->check(CLI::Range(std::int64_t{1}, std::int64_t{10'000'000}));
   app->add_option("--seeds", a->seeds, "One run per seed: S, or A..B (default: the scenario's seed)");

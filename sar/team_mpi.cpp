@@ -3,6 +3,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -130,7 +131,7 @@ std::ofstream open_new(const std::filesystem::path& p) {
 }
 
 // Per-step series every rank contributes to rank 0: distance, entropy, detected, x, y, time,
-constexpr int kSeries = 8;  // + raft x, y
+constexpr int kSeries = 9;  // + raft x, y, and the estimate's error |mean - raft|
 
 int finish(int status) {
   MPI_Finalize();
@@ -228,6 +229,7 @@ int run_team(const Scenario& scenario, const TeamOptions& o) {
         double* row = &series[std::size_t((k - 1) * kSeries)];
         row[0] = r.distance, row[1] = r.estimate.entropy, row[2] = r.estimate.detected, row[3] = r.heli.x,
         row[4] = r.heli.y, row[5] = r.estimate.time, row[6] = r.raft.x, row[7] = r.raft.y;
+        row[8] = std::hypot(r.estimate.mean_x - r.raft.x, r.estimate.mean_y - r.raft.y);
         walls[std::size_t(2 * (k - 1))] = r.wall_compute;
         walls[std::size_t(2 * (k - 1) + 1)] = r.wall_exchange;
         if (r.estimate.detected == 1) {
@@ -255,13 +257,13 @@ int run_team(const Scenario& scenario, const TeamOptions& o) {
       if (rank == 0) {
         // series CSV: step, time, then per helicopter distance, entropy, detected.
         std::string csv = "step,time";
-        for (int p = 0; p < size; ++p) csv += fmt::format(",distance_{0},entropy_{0},detected_{0}", p);
+        for (int p = 0; p < size; ++p) csv += fmt::format(",distance_{0},entropy_{0},detected_{0},error_{0}", p);
         csv += "\n";
         for (std::int64_t j = 0; j < s.steps; ++j) {
           csv += fmt::format("{},{:.6f}", j + 1, series[std::size_t(j * kSeries + 5)]);
           for (int p = 0; p < size; ++p) {
             const double* q = &team_series[std::size_t(p) * series.size() + std::size_t(j * kSeries)];
-            csv += fmt::format(",{:.6f},{:.9g},{}", q[0], q[1], int(q[2]));
+            csv += fmt::format(",{:.6f},{:.9g},{},{:.6f}", q[0], q[1], int(q[2]), q[8]);
           }
           csv += "\n";
         }

@@ -58,13 +58,21 @@ Observation sense(const Scenario& s, const Helicopter& h, int platform, rbe::Poi
 }
 
 std::vector<double> likelihood(const Scenario& s, const rbe::Grid& grid, const Observation& o) {
-  std::vector<double> l(static_cast<std::size_t>(grid.cells()));
-  const double two_s2 = 2 * s.detection_spread * s.detection_spread;
+  // P_d is below 1e-13 of its peak beyond 7.7 spreads: cells farther than that from the sensor
+  // take the value of P_d = 0 (1 without a detection, 0 with one), the rest are computed.
+  const double reach = 7.7 * s.detection_spread;
   const bool hit = o.detected != 0;
+  std::vector<double> l(static_cast<std::size_t>(grid.cells()), hit ? 0.0 : 1.0);
+  const double two_s2 = 2 * s.detection_spread * s.detection_spread;
   const double sigma = s.noise_min + s.noise_per_km * std::hypot(o.observed_x - o.sensor_x, o.observed_y - o.sensor_y);
   const double norm = 1 / (2 * kPi * sigma * sigma);
-  for (std::int64_t iy = 0; iy < grid.ny(); ++iy)
-    for (std::int64_t ix = 0; ix < grid.nx(); ++ix) {
+  auto first = [](double v, double lo, double d) { return static_cast<std::int64_t>(std::floor((v - lo) / d)); };
+  const std::int64_t ix0 = std::max<std::int64_t>(0, first(o.sensor_x - reach, grid.x_min(), grid.dx()));
+  const std::int64_t ix1 = std::min<std::int64_t>(grid.nx() - 1, first(o.sensor_x + reach, grid.x_min(), grid.dx()));
+  const std::int64_t iy0 = std::max<std::int64_t>(0, first(o.sensor_y - reach, grid.y_min(), grid.dy()));
+  const std::int64_t iy1 = std::min<std::int64_t>(grid.ny() - 1, first(o.sensor_y + reach, grid.y_min(), grid.dy()));
+  for (std::int64_t iy = iy0; iy <= iy1; ++iy)
+    for (std::int64_t ix = ix0; ix <= ix1; ++ix) {
       const rbe::Point c = grid.centre(ix, iy);
       const double r2 = (c.x - o.sensor_x) * (c.x - o.sensor_x) + (c.y - o.sensor_y) * (c.y - o.sensor_y);
       const double pd = s.detection_max * std::exp(-r2 / two_s2);

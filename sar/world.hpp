@@ -47,7 +47,8 @@ Observation sense(const Scenario& s, const Helicopter& h, int platform, rbe::Poi
 
 // The likelihood of an observation on `grid`: for a detection P_d(x) N(z; x, sigma^2 I) with
 // sigma = noise_min + noise_per_km |z - sensor|; for none, 1 - P_d(x) (a negative observation).
-// Values are > 0 wherever detection_max < 1.
+// Values are > 0 wherever detection_max < 1 (no detection). Cells beyond 7.7 spreads of the
+// sensor, where P_d < 1e-13 of its peak, take P_d = 0.
 std::vector<double> likelihood(const Scenario& s, const rbe::Grid& grid, const Observation& o);
 
 // The search-and-track control: the turn command, among `control_turns` commands evenly spread
