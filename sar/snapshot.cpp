@@ -1,6 +1,7 @@
 #include "sar/snapshot.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 
 #include <fmt/format.h>
@@ -34,7 +35,8 @@ void write_snapshot(const std::string& path, const rbe::Grid& grid, std::span<co
   cv::Mat grey(h, w, CV_8UC1);
   for (int iy = 0; iy < h; ++iy)
     for (int ix = 0; ix < w; ++ix) {
-      const double v = top > 0 ? belief[static_cast<std::size_t>(grid.index(ix, iy))] / top : 0.0;
+      // Square-root scaled, so that a spread belief still shows beside its peak.
+      const double v = top > 0 ? std::sqrt(belief[static_cast<std::size_t>(grid.index(ix, iy))] / top) : 0.0;
       // y up: row 0 of the image is the top of the area.
       grey.at<unsigned char>(h - 1 - iy, ix) = static_cast<unsigned char>(std::clamp(v, 0.0, 1.0) * 255.0 + 0.5);
     }

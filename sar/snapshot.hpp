@@ -1,4 +1,4 @@
-// Belief snapshots as images: the belief (colour map, scaled to its maximum), the true raft's
+// Belief snapshots as images: the belief (colour map of the square root of belief / its maximum), the true raft's
 // track and position (white), each helicopter's track and position (one colour each).
 #pragma once
 
