@@ -15,7 +15,7 @@ mkdir -p "$out"
 {
   echo "made by: benchmarks/sar/test12.sh $out"
   echo "commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
-  echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')"
+  echo "machine: $(getconf _NPROCESSORS_ONLN) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')"
   echo "date: $(date -u +%Y-%m-%dT%H:%M:%SZ)"
 } > "$out/HOW.txt"
 python3 benchmarks/sar/summarize_parts.py "$out"

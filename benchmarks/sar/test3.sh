@@ -45,7 +45,7 @@ done
 {
   echo "made by: benchmarks/sar/test3.sh $out"
   echo "commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
-  echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'); 3 processes oversubscribed"
+  echo "machine: $(getconf _NPROCESSORS_ONLN) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'); 3 processes oversubscribed"
   echo "date: $(date -u +%Y-%m-%dT%H:%M:%SZ)"
 } > "$out/HOW.txt"
 python3 - "$out" <<'PY'

@@ -49,7 +49,7 @@ done
 {
   echo "made by: benchmarks/sar/test4.sh $seeds $out"
   echo "commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
-  echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')"
+  echo "machine: $(getconf _NPROCESSORS_ONLN) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')"
   echo "mpirun: $(mpirun --version | head -n 1)"
   echo "date: $(date -u +%Y-%m-%dT%H:%M:%SZ)"
 } > "$out/HOW.txt"
