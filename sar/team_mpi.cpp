@@ -80,9 +80,13 @@ class MpiTransport final : public Transport {
             missing += (missing.empty() ? "" : ", ") + std::to_string(p);
             if (first < 0) first = p;
           }
-        throw RankLost(first, step,
-                       stopped ? fmt::format("the launcher stopped this process while it waited for rank(s) {}", missing)
-                               : fmt::format("no message from rank(s) {} in {} s", missing, timeout_));
+        // One rank missing: that is the lost one. Several (the launcher stopped the others too
+        // before they sent): name them all; mpirun's own message names the one that ended.
+        const bool one = missing.find(',') == std::string::npos;
+        throw RankLost(one ? first : -1, step,
+                       stopped ? fmt::format("the launcher stopped this process while it waited for rank{} {}",
+                                             one ? "" : "s", missing)
+                               : fmt::format("no message from rank{} {} in {} s", one ? "" : "s", missing, timeout_));
       }
       std::this_thread::sleep_for(std::chrono::microseconds(20));
     }
@@ -344,7 +348,7 @@ int run_team(const Scenario& scenario, const TeamOptions& o) {
       }
     } catch (const RankLost& e) {
       const std::string who = e.rank() >= 0 ? fmt::format("helicopter {} (rank {}) was lost", e.rank(), e.rank())
-                                            : std::string("the team lost a process (mpirun names it)");
+                                            : std::string("the team lost a process (mpirun names it; see below)");
       fmt::print(stderr, "dtflop: failed: {} at step {}: {}; rank {} stops here and keeps its results{}; restart the team\n",
                  who, e.step(), e.what(), rank, o.records ? fmt::format(" in {}", rec_path.string()) : std::string());
       if (rec.is_open()) rec.close();
