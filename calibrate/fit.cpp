@@ -35,6 +35,8 @@ const double kLogBound = std::log(1e6);      // how far from its start a fitted 
 double default_start(Param p) {
   const auto unit = info(p).unit;
   if (p == Param::L_tree) return 30e-9;  // a step of a k-d tree: a few dependent loads
+  if (p == Param::L_net) return 2e-6;    // a message between processes of one host
+  if (p == Param::B_net) return 2e9;
   if (unit == "s") return 10e-6;
   if (p == Param::K_CW || p == Param::K_GR) return 1.0;  // a FLOP costs what any other does
   if (p == Param::S_GC_staged) return 256.0 * 1024;  // the staging chunks of today's drivers

@@ -30,12 +30,18 @@ struct RunCommon {
   MeasureSettings measure;
   bool no_cupti = false;
   ResultArgs result;
+  std::string estimate;  // --estimate FILE
 };
 
 void run(const RunCommon& o, const WorkloadArgs& a) {
   const workload::Workload& w = *a.workload;
   const Chosen c = choose(a);
   check_output(o.result.output, {o.predict.machine, o.predict.calibration});
+  if (!o.estimate.empty()) {
+    if (!w.has_estimate())
+      throw InputError(fmt::format("{}: --estimate is not available for this workload; leave it out", w.name()));
+    check_output(o.estimate, {o.predict.machine, o.predict.calibration, o.result.output});
+  }
   const std::optional<double> deadline = deadline_of(o.predict);
   // Everything that can be wrong with the profile (and a calibration) is found before anything is measured.
   std::optional<PredictionProfile> pp;
@@ -106,6 +112,11 @@ void run(const RunCommon& o, const WorkloadArgs& a) {
   // The deadline is judged on what was measured.
   if (deadline && total.median / steps > *deadline) set_exit_status(kExitMissed);
   if (!o.result.output.empty()) write_file_atomically(o.result.output, out.dump(2) + "\n");
+  if (!o.estimate.empty()) {
+    w.write_estimate(*c.backend, c.config, st.steps, o.estimate);
+    fmt::print(stderr, "dtflop run {}: estimate per step of one more run of {} {}{} written to {}\n", w.name(), st.steps,
+               w.step_name(), st.steps == 1 ? "" : "s", o.estimate);
+  }
   if (o.result.json) {
     fmt::print("{}\n", out.dump(2));
     return;
@@ -159,6 +170,10 @@ void add_run_command(CLI::App& root) {
   add_predict_options(*app, o->predict);
   add_measure_options(*app, o->measure, o->no_cupti);
   add_result_options(*app, o->result);
+  app->add_option("--estimate", o->estimate,
+                  "rbe: also run --steps steps once more, one at a time, and write the estimate after each (mean, "
+                  "covariance, MAP cell, entropy; step 0 is the prior) to FILE: JSON if it ends in .json, else CSV")
+      ->type_name("FILE");
   add_workload_subcommands(*app, [o](const WorkloadArgs& a) { run(*o, a); });
 }
 

@@ -17,6 +17,7 @@ void setup_all(CLI::App& root) {
   add_fields_command(root);
 #endif
   add_density_command(root);
+  add_sar_command(root);
 }
 
 }  // namespace dtflop::cli

@@ -14,7 +14,7 @@ install(TARGETS dtflop RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 install(TARGETS ${DTFLOP_ALL_LIBS} EXPORT dtflopTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/dtflop)
-foreach(dir model cuda probes workloads calibrate tune reports)
+foreach(dir model cuda probes workloads calibrate tune sar reports)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${dir}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/dtflop/${dir}
           FILES_MATCHING PATTERN "*.hpp" PATTERN "*.cuh")
 endforeach()
@@ -43,5 +43,8 @@ set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
-set(CPACK_DEBIAN_PACKAGE_DEPENDS "libeigen3-dev, libfmt-dev, nlohmann-json3-dev, libopencv-dev, libceres-dev, libnanoflann-dev")
+set(CPACK_DEBIAN_PACKAGE_DEPENDS "libeigen3-dev, libfmt-dev, nlohmann-json3-dev, libopencv-dev, libceres-dev, libnanoflann-dev, libyaml-cpp-dev")
+if(DTFLOP_HAVE_MPI)
+  string(APPEND CPACK_DEBIAN_PACKAGE_DEPENDS ", libopenmpi-dev, openmpi-bin")
+endif()
 include(CPack)

@@ -49,6 +49,8 @@ const std::vector<CountField>& count_fields() {
       {"N_CW", &C::N_CW, "FLOPs", "of N_C, of sliding-window loops (one unaligned load per FMA)", A::sum, &C::N_C},
       {"N_CC", &C::N_CC, "values", "through host memory by CPU work"},
       {"tree_steps", &C::tree_steps, "steps", "of host k-d tree builds and searches"},
+      {"net_messages", &C::net_messages, "messages", "sent by one process to others (MPI)"},
+      {"net_bytes", &C::net_bytes, "bytes", "of those messages' payloads"},
       {"cpu_syncs", &C::cpu_syncs, "syncs", "of the CPU threads: forks, joins, barriers"},
       {"cpu_footprint", &C::cpu_footprint, "bytes", "of host memory the CPU work touches in one step (0: not counted)",
        A::max},

@@ -62,6 +62,8 @@ struct CostCounts {
                                   // host work that no FLOP rate prices (latency+, L_tree each)
   std::int64_t cpu_syncs = 0;     // times the CPU threads start together or wait for each other
                                   // (a parallel region's fork and join, a barrier)
+  std::int64_t net_messages = 0;  // messages one process sends to others (MPI; L_net each)
+  std::int64_t net_bytes = 0;     // payload bytes of those messages (over B_net)
   HostMemory host_memory = HostMemory::pageable;
   int cpu_threads = 1;          // threads doing the CPU work
   std::vector<CopySize> copies_GC;  // the device->host copies by size (empty: not counted); their

@@ -56,6 +56,8 @@ struct Prediction {
   double lat_wait = 0;   // host_waits x host round trip to the device (in the total only)
   double lat_tree = 0;   // tree_steps x one step of host k-d tree work (CPU component, latency+)
   double dt_GS = 0;      // shared-memory tile fills, P N_GS / B_GS (latency+; device component)
+  double lat_net = 0;    // net_messages x L_net: messages between processes (latency+; total only)
+  double dt_net = 0;     // net_bytes / B_net: their bytes (total only)
   double total = 0;
 
   double dt_trans() const { return dt_CG + dt_GC + dt_GG; }  // eq. 3.4

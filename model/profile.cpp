@@ -57,6 +57,8 @@ const std::vector<ParamInfo>& all_params() {
       {Param::K_CW, "K_CW", "x", "cost of a sliding-window CPU FLOP (one unaligned load per FMA) relative to one at the CPU rate"},
       {Param::K_GR, "K_GR", "x", "cost of a GPU FLOP whose tap reads another row of device memory relative to one at V_G"},
       {Param::L_tree, "L_tree", "s", "one step of host k-d tree work: a point placed at one level, a level descended or a leaf point examined"},
+      {Param::L_net, "L_net", "s", "one message between two processes (MPI ping-pong, half a round trip of a small message)"},
+      {Param::B_net, "B_net", "B/s", "bandwidth of a message between two processes (MPI ping-pong of large messages)"},
   };
   return table;
 }
@@ -102,6 +104,8 @@ bool device_param(Param p) {
     case Param::B_llc:
     case Param::K_CW:
     case Param::L_tree:
+    case Param::L_net:
+    case Param::B_net:
       return false;
     default:
       return true;

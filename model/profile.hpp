@@ -52,6 +52,8 @@ enum class Param {
   K_CW,            // cost of a sliding-window FLOP (N_CW) relative to one at the CPU rate [x]
   K_GR,            // cost of an across-rows GPU FLOP (N_GR) relative to one at V_G         [x]
   L_tree,          // one step of host k-d tree work (tree_steps)                          [s]
+  L_net,           // one message between processes (MPI ping-pong: half a round trip)     [s]
+  B_net,           // bytes per second of a message between processes (MPI ping-pong)      [B/s]
 };
 
 struct ParamInfo {

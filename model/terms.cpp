@@ -13,6 +13,7 @@ std::string_view to_string(Phase p) {
     case Phase::G: return "G";
     case Phase::C: return "C";
     case Phase::wait: return "wait";
+    case Phase::net: return "net";
   }
   return "?";
 }
@@ -24,12 +25,13 @@ std::string_view describe(Phase p) {
     case Phase::G: return "kernels";
     case Phase::C: return "CPU work (dt_C)";
     case Phase::wait: return "host waits for the device";
+    case Phase::net: return "messages between processes";
   }
   return "?";
 }
 
 const std::vector<Phase>& all_phases() {
-  static const std::vector<Phase> all = {Phase::CG, Phase::GC, Phase::G, Phase::C, Phase::wait};
+  static const std::vector<Phase> all = {Phase::CG, Phase::GC, Phase::G, Phase::C, Phase::wait, Phase::net};
   return all;
 }
 
@@ -158,6 +160,11 @@ double cc_seconds(const MachineProfile& m, const CostCounts& c, Variant, const P
   return P * static_cast<double>(c.N_CC) * host_seconds_per_byte(m, c);
 }
 
+// dt_net: bytes (not values of P bytes) over B_net.
+double net_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing&) {
+  return static_cast<double>(c.net_bytes) / m.get(Param::B_net).value;
+}
+
 // The two simple shapes: P N / B, values moved over a bandwidth, and n L, events at a fixed cost.
 template <std::int64_t CostCounts::*N, Pick B>
 constexpr Price per_byte() {
@@ -215,6 +222,10 @@ const std::vector<Term>& terms() {
        per_event<&C::tree_steps, only<Param::L_tree>>()},
       {"lat_wait", &P::lat_wait, Phase::wait, kLatencyVariants, sum, "host_waits", "L_wait",
        "host waits for the device", per_event<&C::host_waits, only<Param::L_wait>>()},
+      {"lat_net", &P::lat_net, Phase::net, kLatencyVariants, sum, "net_messages", "L_net",
+       "messages between processes: latency", per_event<&C::net_messages, only<Param::L_net>>()},
+      {"dt_net", &P::dt_net, Phase::net, kEveryVariant, sum, "net_bytes (bytes)", "B_net",
+       "messages between processes: bandwidth", {positive<&C::net_bytes>, needs_one<only<Param::B_net>>, net_seconds}},
   };
   return table;
 }

@@ -31,6 +31,7 @@ enum class Phase {
   G,     // kernels: device memory traffic, arithmetic and their fixed costs
   C,     // CPU work
   wait,  // the host waiting for the device: in the total only
+  net,   // messages between processes (a team of MPI processes): in the total only
 };
 std::string_view to_string(Phase p);
 // What the phase is, for printed tables: "host->device copies", ..., "CPU work (dt_C)".

@@ -19,7 +19,7 @@ double normal_cdf(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
 // Does the prediction of `counts` have device terms (a GPU backend's), by the term table?
 bool on_device(const CostCounts& c) {
   for (Phase p : all_phases())
-    if (p != Phase::C && counts_phase(c, p)) return true;
+    if (p != Phase::C && p != Phase::net && counts_phase(c, p)) return true;
   return false;
 }
 

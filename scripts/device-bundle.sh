@@ -7,7 +7,8 @@
 #     -o FOLDER  where the bundle goes (default .carry/; it is emptied first)
 #     -b BUILD   build folder (default build-device/), configured Release with
 #                DTFLOP_IMAGE_IO=OFF: OpenCV's image codecs and video I/O alone pull in ~180 MiB
-#                of libraries, so the commands that read or write image files are left out
+#                of libraries, so the commands that read or write image files are left out;
+#                and DTFLOP_WITH_MPI=OFF: the GPU machine has no OpenMPI (dtflop sar says so)
 #     -m MIB     fail when the bundle is larger (default 60)
 #   JOBS=n sets the build's parallel jobs (default: all cores).
 #   e.g. scripts/device-bundle.sh dtflop test_rbe_gpu bench_rbe
@@ -40,7 +41,7 @@ if [ -e "$out" ] && { [ "$out" = "$build" ] || [ -n "$(ls -A "$out" | grep -vx '
   exit 2
 fi
 
-cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDTFLOP_IMAGE_IO=OFF >/dev/null
+cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDTFLOP_IMAGE_IO=OFF -DDTFLOP_WITH_MPI=OFF >/dev/null
 cmake --build "$build" -j "${JOBS:-$(nproc)}" --target "$@"
 rm -rf "$out" && mkdir -p "$out/bin" "$out/lib"
 # Libraries every Linux system has, and the driver's own: never bundled.

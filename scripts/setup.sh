@@ -11,6 +11,7 @@ cd "$(dirname "$0")/.."
 packages=(cmake ninja-build g++ pkg-config libeigen3-dev libfmt-dev nlohmann-json3-dev libcli11-dev
           libopencv-dev libceres-dev libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
           libyaml-cpp-dev           # scenario and configuration files (tune/, sar/)
+          libopenmpi-dev openmpi-bin  # the search-and-rescue team: one MPI process per helicopter (sar/)
           clang libclang-rt-14-dev  # clang + libFuzzer: the fuzz targets (fuzz/)
           xz-utils)                 # the archived stores in results/
 # The test suite (--sanitize): headless Chromium and a font, with which the report tests open

@@ -34,6 +34,11 @@ bool ParamSpec::applies_to(std::string_view backend) const {
 
 std::string Backend::unavailable() const { return {}; }
 
+void Workload::write_estimate(const Backend& /*backend*/, const Config& /*config*/, std::int64_t /*steps*/,
+                              const std::string& /*file*/) const {
+  throw InputError(fmt::format("{}: --estimate is not available for this workload; leave it out", name()));
+}
+
 const Backend& Workload::backend(std::string_view name) const {
   for (const auto& b : backends())
     if (b->name() == name) return *b;

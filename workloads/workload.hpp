@@ -180,6 +180,13 @@ class Workload {
   // Named plans and what each holds, for --help.
   virtual std::vector<std::pair<std::string, std::string>> plan_names() const = 0;
   virtual ProtocolDefaults defaults(const Backend& backend) const = 0;
+  // Runs `config` for `steps` steps once more and writes what it estimates after each (the RBE:
+  // mean, covariance, MAP cell, entropy; rbe/estimate.hpp) to `file`: JSON when the name ends
+  // in .json, else CSV. The default throws InputError: the workload has no such output.
+  virtual void write_estimate(const Backend& backend, const Config& config, std::int64_t steps,
+                              const std::string& file) const;
+  // Whether write_estimate() is available (checked before anything is measured).
+  virtual bool has_estimate() const { return false; }
 
  protected:
   // Workload-specific checks of a configuration whose parameters are each in their domain.

@@ -190,6 +190,7 @@ double predicted(const Prediction& p, Phase c) {
              (p.lat_launch + p.lat_wave + p.lat_atomic + p.dt_GS);
     case Phase::C: return p.dt_C;
     case Phase::wait: return p.lat_wait;
+    case Phase::net: return p.lat_net + p.dt_net;
   }
   return 0;
 }
@@ -202,6 +203,7 @@ bool exercised(const CostCounts& k, Phase c) {
     case Phase::G: return k.N_GG > 0 || k.N_G > 0 || k.launches > 0 || k.waves > 0 || k.N_GS > 0 || k.atomics > 0;
     case Phase::C: return k.N_C > 0 || k.N_CC > 0 || k.cpu_syncs > 0;
     case Phase::wait: return k.host_waits > 0;
+    case Phase::net: return k.net_messages > 0 || k.net_bytes > 0;
   }
   return false;
 }

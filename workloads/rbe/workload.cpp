@@ -7,6 +7,7 @@
 
 #include "model/units.hpp"
 #include "workloads/rbe/backend.hpp"
+#include "workloads/rbe/estimate.hpp"
 
 namespace dtflop::rbe {
 namespace {
@@ -232,6 +233,25 @@ class RbeWorkload final : public workload::Workload {
     // after 2 warm-up runs. A host step takes up to a second: one per repetition.
     if (b.needs_gpu()) return {10, 7, 2};
     return {1, 5, 1};
+  }
+  // The synthetic problem of `c` on the backend, one step at a time: the estimate of the prior
+  // (step 0) and after each step.
+  bool has_estimate() const override { return true; }
+  void write_estimate(const workload::Backend& b, const Config& c, std::int64_t steps,
+                      const std::string& file) const override {
+    if (steps < 1) throw InputError(fmt::format("rbe: --estimate needs at least 1 step, got {}", steps));
+    auto backend = make_backend(b.name(), options_of(c, nullptr));
+    const Problem p = synthetic_problem(shape_of(c), static_cast<std::uint64_t>(workload::get_int(c, "problem-seed")));
+    backend->init(p);
+    std::vector<Estimate> rows;
+    rows.reserve(static_cast<std::size_t>(steps) + 1);
+    rows.push_back(estimate(p.grid, backend->belief()));
+    for (std::int64_t k = 1; k <= steps; ++k) {
+      (void)backend->step(p.likelihood);
+      rows.push_back(estimate(p.grid, backend->belief()));
+      rows.back().step = k;
+    }
+    write_estimates(file, rows);
   }
 
  protected:

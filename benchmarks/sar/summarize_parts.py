@@ -1,0 +1,79 @@
+#!/usr/bin/env python3
+"""Speedups of Tests 1-2 (bench_sar_parts CSVs in FOLDER): per backend and size, cpu-seq's
+prediction, correction and step time over the backend's. Writes FOLDER/speedup.md and
+FOLDER/speedup-test1.svg, FOLDER/speedup-test2.svg (prediction speedup). Standard library only.
+
+    python3 benchmarks/sar/summarize_parts.py results/sar/test12-cpu"""
+import csv
+import glob
+import os
+import sys
+
+
+def load(folder):
+    rows = []
+    for path in sorted(glob.glob(os.path.join(folder, "test*.csv"))):
+        with open(path) as f:
+            rows += list(csv.DictReader(f))
+    return rows
+
+
+def svg(path, title, xlabel, curves):
+    w, h, left, bottom, top, right = 720, 400, 70, 50, 40, 170
+    xs = [x for _, pts in curves for x, _ in pts] or [1]
+    ys = [y for _, pts in curves for _, y in pts] or [1]
+    x1, y1 = max(xs), max(ys) * 1.1
+    sx = lambda x: left + x / x1 * (w - left - right)
+    sy = lambda y: h - bottom - y / y1 * (h - bottom - top)
+    colours = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd"]
+    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">',
+           f'<rect width="{w}" height="{h}" fill="white"/>', f'<text x="{left}" y="22" font-size="14">{title}</text>',
+           f'<line x1="{left}" y1="{h - bottom}" x2="{w - right}" y2="{h - bottom}" stroke="black"/>',
+           f'<line x1="{left}" y1="{top}" x2="{left}" y2="{h - bottom}" stroke="black"/>',
+           f'<text x="{(w - right) / 2}" y="{h - 12}">{xlabel}</text>']
+    for i in range(6):
+        out.append(f'<text x="{sx(x1 * i / 5) - 10:.1f}" y="{h - bottom + 16}">{x1 * i / 5:.0f}</text>')
+        out.append(f'<text x="{left - 50}" y="{sy(y1 * i / 5) + 4:.1f}">{y1 * i / 5:.1f}x</text>')
+    for k, (name, pts) in enumerate(curves):
+        c = colours[k % len(colours)]
+        out.append('<polyline points="' + " ".join(f"{sx(x):.1f},{sy(y):.1f}" for x, y in pts) +
+                   f'" fill="none" stroke="{c}" stroke-width="1.6"/>')
+        out.append(f'<text x="{w - right + 10}" y="{top + 18 * k}" fill="{c}">{name}</text>')
+    out.append("</svg>")
+    open(path, "w").write("\n".join(out) + "\n")
+
+
+def main():
+    folder = sys.argv[1] if len(sys.argv) > 1 else "results/sar/test12-cpu"
+    rows = load(folder)
+    if not rows:
+        sys.exit(f"summarize_parts: no test*.csv in {folder}")
+    base = {(r["test"], r["nx"], r["Ix"]): r for r in rows if r["backend"] == "cpu-seq"}
+    md = ["| test | backend | grid | kernel | predict | correct | step | speedup predict | speedup correct | "
+          "speedup step | belief fusion (3, host) |", "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    curves = {}
+    for r in rows:
+        b = base.get((r["test"], r["nx"], r["Ix"]))
+        if not b:
+            continue
+        def ratio(key):
+            v = float(r[key])
+            return float(b[key]) / v if v > 0 else float("nan")
+        fusion = float(b["fusion_s"])
+        md.append(f"| {r['test']} | {r['backend']} | {r['nx']}x{r['ny']} | {r['Ix']} | {float(r['predict_s']) * 1e3:.3f} ms | "
+                  f"{float(r['correct_s']) * 1e3:.3f} ms | {float(r['step_s']) * 1e3:.3f} ms | {ratio('predict_s'):.1f}x | "
+                  f"{ratio('correct_s'):.1f}x | {ratio('step_s'):.1f}x | {fusion * 1e3:.3f} ms |")
+        if r["backend"] != "cpu-seq":
+            x = float(r["Ix"]) if r["test"] == "1" else float(r["nx"])
+            curves.setdefault((r["test"], r["backend"]), []).append((x, ratio("step_s")))
+    open(os.path.join(folder, "speedup.md"), "w").write("\n".join(md) + "\n")
+    for test, xlabel in (("1", "kernel size I"), ("2", "grid n (n x n)")):
+        c = [(b, sorted(pts)) for (t, b), pts in curves.items() if t == test]
+        if c:
+            svg(os.path.join(folder, f"speedup-test{test}.svg"), f"Test {test}: speedup of a step over cpu-seq",
+                xlabel, c)
+    print("\n".join(md))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,54 @@
+#include "sar/counts.hpp"
+
+#include <cmath>
+
+#include "sar/fusion.hpp"
+#include "workloads/rbe/likelihood.hpp"
+
+namespace dtflop::sar {
+
+TeamCounts team_counts(const Scenario& s, std::int64_t team, const rbe::BackendOptions& options) {
+  validate(s);
+  TeamCounts t;
+  const rbe::Grid g = s.grid();
+  const rbe::GaussianMotion m = rbe::moments(s.drift(s.step_time));
+  const rbe::KernelSize k = rbe::kernel_size_for_mass(m, g, s.kernel_mass);
+  t.shape = {s.nx, s.ny, k.Ix, k.Iy};
+  const bool periodic = (s.rule == Rule::belief || s.rule == Rule::loglinear) && team > 1;
+  t.steps = periodic ? s.interval : 1;
+  const std::int64_t cells = g.cells();
+  t.rbe = rbe::step_counts(s.backend, t.shape, options).scaled(t.steps);
+
+  CostCounts h;
+  h.P = 8;
+  h.precision = Precision::fp64;
+  // Likelihoods: one per step, one per platform with observation fusion, and their product.
+  const std::int64_t likelihoods = s.rule == Rule::observation ? team : 1;
+  h.N_C += t.steps * likelihoods * cells * kLikelihoodFlopsPerCell;
+  h.N_CC += t.steps * likelihoods * cells;
+  if (s.rule == Rule::observation && team > 1) h += rbe::observation_fusion_counts(cells, team);
+  if (periodic) {
+    if (s.rule == Rule::belief) {
+      h += rbe::belief_fusion_counts(cells, team);
+    } else {  // log-linear: a log per cell per belief, the weighted sum, an exp and the division
+      h.N_C += team * cells * 13 + cells * 13 + cells;
+      h.N_CC += team * cells + 3 * cells;
+    }
+  }
+  // Control: turns x look-ahead positions x the cells within 4 spreads of each.
+  const double reach_cells = (8 * s.detection_spread / g.dx() + 1) * (8 * s.detection_spread / g.dy() + 1);
+  const auto window = static_cast<std::int64_t>(std::min(double(cells), reach_cells));
+  h.N_C += t.steps * s.control_turns * s.control_lookahead * window * kControlFlopsPerCell;
+  h.N_C += t.steps * cells * kEstimateFlopsPerCell;
+  h.N_CC += t.steps * 2 * cells;
+  t.host = h;
+
+  for (std::int64_t j = 1; j <= t.steps; ++j) {
+    const Traffic tr = traffic(s, team, periodic ? j : 1);
+    t.net.net_messages += tr.messages;
+    t.net.net_bytes += tr.bytes;
+  }
+  return t;
+}
+
+}  // namespace dtflop::sar

@@ -1,0 +1,33 @@
+// The cost counts of a team step (one helicopter's step; every helicopter does the same work),
+// for the DTFLOP model: its RBE backend's step, the likelihoods, the fusion's arithmetic, the
+// control and the estimate on the CPU, and the messages (net_messages, net_bytes: the network
+// term, docs/model.md 2.8). Belief fusion happens every `interval` steps, so the counts are of
+// one period of `interval` steps (one step for observation fusion and none).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "model/cost_counts.hpp"
+#include "sar/scenario.hpp"
+#include "workloads/rbe/backend.hpp"
+
+namespace dtflop::sar {
+
+// FLOPs per cell of a likelihood (distance, a Gaussian's exponent, exp ~ 12 FLOPs), of the
+// estimate (moments and p ln p) and per cell visited by the control (distance, exp).
+inline constexpr std::int64_t kLikelihoodFlopsPerCell = 20;
+inline constexpr std::int64_t kEstimateFlopsPerCell = 30;
+inline constexpr std::int64_t kControlFlopsPerCell = 20;
+
+struct TeamCounts {
+  CostCounts rbe;      // the RBE backend's steps of the period (its own precision)
+  CostCounts host;     // the host's float64 work of the period: likelihoods, fusion, control, estimate
+  CostCounts net;      // the period's messages
+  std::int64_t steps = 1;  // steps in the period
+  rbe::Shape shape;    // grid and kernel of a step
+};
+// Throws InputError for a bad scenario or backend.
+TeamCounts team_counts(const Scenario& s, std::int64_t team, const rbe::BackendOptions& options = {});
+
+}  // namespace dtflop::sar
