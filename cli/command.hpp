@@ -20,6 +20,7 @@ void add_fields_command(CLI::App& root);
 void add_density_command(CLI::App& root);
 void add_report_command(CLI::App& root);
 void add_characterize_command(CLI::App& root);
+void add_live_command(CLI::App& root);  // cmd_live.cpp (camera and stream input)
 
 // Adds every command to `root`.
 void setup_all(CLI::App& root);

@@ -83,6 +83,8 @@ class FrameSource {
   bool next(Frame& f);
 
   const SourceStats& stats() const { return stats_; }
+  // Frames per second the source runs at (its setting, the file's rate); 0 when unknown.
+  double frame_rate() const { return nominal_fps(); }
   const SourceSpec& spec() const { return spec_; }
   // "Aravis-Fake-GV01 (Aravis, 512x512 Mono16)" and the like.
   virtual std::string describe() const = 0;
@@ -92,7 +94,7 @@ class FrameSource {
 
   enum class Grab { frame, end, lost };
   // One frame from the source, with its sequence number and timestamp; `lost` when the source
-  // has gone (then `why` says how). `has_sequence`: the source numbers its frames itself.
+  // has gone (then `why` says how).
   virtual Grab grab(Frame& f, std::string& why) = 0;
   // Reopens after `lost`; throws (anything) when it cannot.
   virtual void reopen() = 0;
