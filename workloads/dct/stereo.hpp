@@ -1,0 +1,90 @@
+// Stereo DCT (library dtflop_stereo, OpenCV calib3d): camera and stereo calibration from
+// checkerboard views, calibration targets rendered from a known camera pair, and triangulation
+// of matched dot centroids into 3D positions and the out-of-plane displacement u_z.
+//
+// Conventions: pixel centres at integer coordinates (as the specimen renderer, specimen.hpp);
+// a camera maps a point X of its own frame to x = K * distort(X / X.z); the right camera's frame
+// is x_right = R * x_left + T (OpenCV's stereoCalibrate), so the baseline is |T| in the
+// checkerboard's length unit.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace dtflop::dct::stereo {
+
+struct Camera {
+  cv::Matx33d K = cv::Matx33d::eye();
+  cv::Mat dist = cv::Mat::zeros(1, 5, CV_64F);  // k1 k2 p1 p2 k3
+  cv::Size size;
+};
+
+struct Rig {
+  Camera left, right;
+  cv::Matx33d R = cv::Matx33d::eye();
+  cv::Vec3d T;  // right = R left + T
+  double baseline() const { return cv::norm(T); }
+};
+
+// A known pair: two cameras of focal length f px on an image of `size`, `baseline` apart
+// along x, each turned by `convergence_deg` toward the other (so their axes cross in front),
+// with radial distortion k1.
+Rig make_rig(cv::Size size, double f, double baseline, double convergence_deg, double k1 = 0);
+
+struct Board {
+  cv::Size inner;       // inner corners (columns x rows)
+  double square = 1.0;  // side of a square, in the length unit of T
+};
+
+// The board's inner corners in its own plane (z = 0).
+std::vector<cv::Point3f> board_corners(const Board& b);
+
+// A view of the board: its pose in the left camera's frame.
+struct Pose {
+  cv::Vec3d rvec, tvec;
+};
+
+// Renders `camera`'s image of the board at `pose` (8-bit, white margin of one square around
+// the squares, grey 40/215, 8x8 supersampled squares whose edges are projected with
+// cv::projectPoints every 1/8 square, so the lens distortion bends them).
+cv::Mat render_board(const Camera& camera, const Board& b, const Pose& pose_in_camera);
+
+// A pose seen from the right camera of `rig`, given the pose in the left camera's frame.
+Pose in_right(const Rig& rig, const Pose& left);
+
+struct Calibration {
+  Rig rig;
+  double rms_left = 0, rms_right = 0;  // reprojection RMS of each camera's own calibration, px
+  double rms_stereo = 0;               // stereoCalibrate's RMS, px
+  double epipolar_rms = 0;             // RMS distance of right corners to their epipolar lines, px
+  int views_used = 0;
+  std::vector<std::string> notes;      // views where the board was not found, and verdicts
+};
+
+// Calibrates both cameras and the pair from image pairs of `b`. Throws InputError when fewer
+// than 3 pairs show the whole board in both images, or the images differ in size.
+Calibration calibrate(const std::vector<cv::Mat>& left, const std::vector<cv::Mat>& right, const Board& b);
+
+// What the errors mean, one line each: a reprojection RMS under 0.1 px is good, up to 0.5 px
+// usable, more a calibration to redo (blur, a moved board, too few or too similar views).
+std::vector<std::string> judge(const Calibration& c);
+
+// Writes / reads a calibration (OpenCV FileStorage, YAML). read_rig throws InputError for a
+// missing or malformed file, non-finite values or a non-rotation R, and, with `expect`, images
+// of another size than the calibration's.
+void write_rig(const std::string& path, const Calibration& c);
+Rig read_rig(const std::string& path, std::optional<cv::Size> expect = std::nullopt);
+
+// 3D points (left camera frame) of matched image points in the two cameras (undistorted, then
+// cv::triangulatePoints). Throws InputError when the lists differ in length.
+std::vector<cv::Point3d> triangulate(const Rig& rig, const std::vector<cv::Point2d>& left,
+                                     const std::vector<cv::Point2d>& right);
+
+// Out-of-plane displacement of each point: (deformed - reference) along the normal of the
+// plane fitted to the reference points (least squares), oriented toward the left camera.
+std::vector<double> out_of_plane(const std::vector<cv::Point3d>& reference, const std::vector<cv::Point3d>& deformed);
+
+}  // namespace dtflop::dct::stereo
