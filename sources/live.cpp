@@ -103,7 +103,7 @@ LiveConfig parse_live_config(const std::string& yaml, const std::string& name) {
   if (!root.IsMap()) throw InputError(fmt::format("{}: a run configuration is a YAML map of keys (source: ..., ...)", name));
   static const std::set<std::string> known = {"source", "reference", "roi", "threshold", "polarity", "area",
                                               "backend", "interpolation", "weight", "support", "points", "threads",
-                                              "search_radius", "output", "max_frames"};
+                                              "search_radius", "output", "max_frames", "overlay_every"};
   for (const auto& kv : root) {
     const std::string key = kv.first.IsScalar() ? kv.first.as<std::string>() : "?";
     if (!known.count(key)) {
@@ -186,6 +186,7 @@ LiveConfig parse_live_config(const std::string& yaml, const std::string& name) {
   if (auto v = r.real("search_radius", 0, 16384)) p.match.search_radius = *v;
   if (auto s = r.text("output")) c.output = *s;
   if (auto m = r.integer("max_frames", 0, 100'000'000)) c.max_frames = *m;
+  if (auto m = r.integer("overlay_every", 0, 100'000'000)) c.overlay_every = *m;
   return c;
 }
 
@@ -281,8 +282,19 @@ LiveReport run_live(const LiveConfig& config, sources::FrameSource& source, dct:
     r.dots = static_cast<int>(out.dots.size());
     r.matched = out.matches.matched;
     const double c0 = now_s();
-    if (!dir.empty())
-      dct::write_fields_csv(dir / fmt::format("frame_{:06d}.csv", rep.frames.size() + 1), backend.points(), out.fields);
+    const std::size_t index = rep.frames.size() + 1;
+    if (!dir.empty()) {
+      dct::write_fields_csv(dir / fmt::format("frame_{:06d}.csv", index), backend.points(), out.fields);
+      if (config.overlay_every > 0 && (index - 1) % static_cast<std::size_t>(config.overlay_every) == 0)
+        for (dct::Field f : {dct::Field::ux, dct::Field::uy, dct::Field::exx, dct::Field::eyy, dct::Field::exy}) {
+          std::vector<double> v;
+          for (const auto& x : out.fields)
+            v.push_back(x.status == dct::PointStatus::ok ? dct::field_value(x, f) : std::nan(""));
+          dct::write_image(dir / fmt::format("frame_{:06d}_{}.png", index, dct::field_name(f)),
+                           dct::overlay(frame.image, backend.points(), config.pipeline.points_x,
+                                        config.pipeline.points_y, v, dct::field_name(f), dct::field_unit(f)));
+        }
+    }
     const double end = now_s();
     r.write_s = end - c0;
     r.latency_s = end - frame.arrival_s;

@@ -32,6 +32,7 @@ namespace dtflop::live {
 //   search_radius: 0
 //   output: folder                     # fields CSV per frame, summary.json
 //   max_frames: 0                      # 0: until the stream ends
+//   overlay_every: 0                   # colour-mapped PNGs of every field every N frames (0: none)
 struct LiveConfig {
   std::string source;
   std::string reference = "first";
@@ -41,6 +42,7 @@ struct LiveConfig {
   bool support_given = false;
   std::string output;
   std::int64_t max_frames = 0;
+  std::int64_t overlay_every = 0;
 };
 
 // Reads and validates `path`. Throws InputError naming the file and the field that is wrong
@@ -54,7 +56,7 @@ struct FrameRecord {
   double timestamp_s = 0;
   double latency_s = 0;   // from the frame's arrival to its fields written
   double process_s = 0;   // the backend's time on the frame
-  double write_s = 0;     // writing its CSV
+  double write_s = 0;     // writing its CSV (and overlays, on the frames that have them)
   int dots = 0, matched = 0, valid_points = 0;
   double mean_exx = 0, mean_eyy = 0;  // over valid points (strain)
 };

@@ -48,6 +48,7 @@ threads: 1
 search_radius: 3.5
 output: out
 max_frames: 12
+overlay_every: 5
 )",
                                          "run.yaml");
   EXPECT_EQ(c.source, "file:clip.avi?paced=1");
@@ -67,6 +68,7 @@ max_frames: 12
   EXPECT_DOUBLE_EQ(c.pipeline.match.search_radius, 3.5);
   EXPECT_EQ(c.output, "out");
   EXPECT_EQ(c.max_frames, 12);
+  EXPECT_EQ(c.overlay_every, 5);
 }
 
 TEST(LiveConfig, InvalidFilesAreRefusedNamingTheField) {
@@ -86,6 +88,7 @@ TEST(LiveConfig, InvalidFilesAreRefusedNamingTheField) {
       {"threads: 2.5", "'threads'"},
       {"search_radius: .nan", "'search_radius'"},
       {"max_frames: [1]", "'max_frames'"},
+      {"overlay_every: -2", "'overlay_every'"},
       {"source: {a: 1}", "'source'"},
       {"[unclosed", "not YAML"},
       {"- a\n- b", "map"},
@@ -172,7 +175,7 @@ TEST(LiveCli, EndToEndOnAnImageSequence) {
   write_ramp(dir, 4);
   {
     std::ofstream y(dir / "run.yaml");
-    y << "backend: cpu-par\nthreads: 1\nsupport: 60dots\npoints: 8x8\n";
+    y << "backend: cpu-par\nthreads: 1\nsupport: 60dots\npoints: 8x8\noverlay_every: 2\n";
   }
   const auto r = test::run_dtflop(fmt::format("live dct --config {} --source 'images:{}?fps=30&paced=1' -o {}",
                                               (dir / "run.yaml").string(), (dir / "f_%03d.png").string(),
@@ -185,6 +188,14 @@ TEST(LiveCli, EndToEndOnAnImageSequence) {
   EXPECT_EQ(js["frames_measured"], 3);
   EXPECT_EQ(js["frames_dropped"], 0);
   EXPECT_TRUE(js.contains("keeps_up"));  // paced at 30 fps: judged against the period
+  // Overlays on frames 1 and 3 (every 2nd), each a colour image of the frame's size.
+  for (int k : {1, 3}) {
+    const cv::Mat o = cv::imread((dir / "out" / fmt::format("frame_{:06d}_e_xx.png", k)).string(), cv::IMREAD_UNCHANGED);
+    ASSERT_FALSE(o.empty()) << k;
+    EXPECT_EQ(o.channels(), 3);
+    EXPECT_GE(o.cols, 480);
+  }
+  EXPECT_FALSE(fs::exists(dir / "out" / "frame_000002_e_xx.png"));
 }
 
 TEST(LiveCli, BadInputIsOneLineAndExitTwo) {
