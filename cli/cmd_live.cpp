@@ -23,6 +23,12 @@
 #include "model/units.hpp"
 #include "sources/frame_source.hpp"
 #include "sources/live.hpp"
+#include "workloads/dct/io.hpp"
+#ifdef DTFLOP_HAVE_VIEWER
+#include "sources/viewer.hpp"
+#endif
+#include <chrono>
+#include <thread>
 #include "workloads/dct/backend.hpp"
 #include "workloads/dct/specimen.hpp"
 
@@ -37,7 +43,20 @@ struct LiveArgs {
   std::string output;
   std::int64_t max_frames = -1;
   PredictArgs predict;
+  int serve = 0;            // viewer port (0: none)
+  std::string serve_field = "e_xx";
+  double linger = 0;        // seconds the viewer stays up after the run
 };
+
+double steady_now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+dct::Field field_named(const std::string& name) {
+  for (dct::Field f : {dct::Field::ux, dct::Field::uy, dct::Field::exx, dct::Field::eyy, dct::Field::exy})
+    if (dct::field_name(f) == name) return f;
+  throw InputError(fmt::format("--serve-field '{}': give u_x, u_y, e_xx, e_yy or e_xy", name));
+}
 
 void run_live_dct(const LiveArgs& a) {
   live::LiveConfig c = live::load_live_config(a.config);
@@ -62,14 +81,55 @@ void run_live_dct(const LiveArgs& a) {
     wanted = wanted_variant(a.predict, *profile);
   }
   const sources::SourceSpec spec = sources::parse_source_spec(c.source);
+  const dct::Field shown = field_named(a.serve_field);
+#ifdef DTFLOP_HAVE_VIEWER
+  std::unique_ptr<live::Viewer> viewer;
+  if (a.serve) viewer = std::make_unique<live::Viewer>(a.serve);
+#else
+  if (a.serve) throw InputError("--serve: this dtflop was built without cpp-httplib; install libcpp-httplib-dev and rebuild");
+#endif
   auto backend = dct::make_backend(c.backend, c.pipeline);
   auto source = sources::open_source(spec);
   fmt::print(stderr, "dtflop live dct: {} -> {} on backend {}\n", source->describe(), c.output, backend->name());
+  const double period = source->frame_rate() > 0 ? 1.0 / source->frame_rate() : 0.0;
+  double last_publish = -1, first_time = -1;
+  std::int64_t measured = 0;
+#ifdef DTFLOP_HAVE_VIEWER
+  if (viewer) fmt::print(stderr, "dtflop live dct: viewer at {}\n", viewer->url());
+#endif
 
   std::vector<double> predicted;
   std::string fallback;
   std::optional<Judged> first_judged;
-  const live::LiveReport rep = live::run_live(c, *source, *backend, [&](const live::FrameRecord&, const dct::FrameOutput& out) {
+  const live::LiveReport rep = live::run_live(c, *source, *backend, [&](const live::FrameRecord& r, const dct::FrameOutput& out,
+                                                                        const cv::Mat& image) {
+    ++measured;
+    const double now = steady_now();
+    if (first_time < 0) first_time = now;
+#ifdef DTFLOP_HAVE_VIEWER
+    // The viewer gets a frame at most every 0.2 s (encoding a PNG costs time of its own).
+    if (viewer && (last_publish < 0 || now - last_publish >= 0.2)) {
+      last_publish = now;
+      std::vector<double> v;
+      for (const auto& x : out.fields) v.push_back(x.status == dct::PointStatus::ok ? dct::field_value(x, shown) : std::nan(""));
+      const nlohmann::json status = {
+          {"frame", r.sequence},
+          {"fps", measured > 1 && now > first_time ? nlohmann::json((measured - 1) / (now - first_time)) : nlohmann::json()},
+          {"latency_s", r.latency_s},
+          {"margin_s", period > 0 ? nlohmann::json(period - r.latency_s) : nlohmann::json()},
+          {"dropped", source->stats().dropped},
+          {"field", dct::field_name(shown) + " [" + dct::field_unit(shown) + "]"}};
+      viewer->publish(dct::overlay(image, backend->points(), c.pipeline.points_x, c.pipeline.points_y, v,
+                                   dct::field_name(shown), dct::field_unit(shown)),
+                      status);
+    }
+#else
+    (void)r;
+    (void)image;
+    (void)shown;
+    (void)last_publish;
+    (void)period;
+#endif
     if (!profile) return;
     const Predicted p = predict_with_fallback(*profile, out.counts, wanted);
     predicted.push_back(p.prediction.total);
@@ -170,6 +230,12 @@ void run_live_dct(const LiveArgs& a) {
   if (std::filesystem::is_directory(dir)) write_file_atomically(dir / "summary.json", js.dump(2) + "\n");
   fmt::print("wrote {0}/frames.csv (one row per frame), {0}/frame_NNNNNN.csv (fields) and {0}/summary.json\n",
              c.output);
+#ifdef DTFLOP_HAVE_VIEWER
+  if (viewer && a.linger > 0) {
+    fmt::print(stderr, "dtflop live dct: the viewer stays at {} for {} s\n", viewer->url(), a.linger);
+    std::this_thread::sleep_for(std::chrono::duration<double>(a.linger));
+  }
+#endif
   if (!rep.stopped_because.empty()) {
     if (rep.source.disconnected) {
       fmt::print(stderr, "dtflop: failed: the run stopped: {}; the {} frames measured before are kept\n",
@@ -255,6 +321,13 @@ void add_live_command(CLI::App& root) {
       ->check(number_in(0, 1e8, true));
   dct->add_option("--machine", a->predict.machine, "Machine profile (dtflop probe) for the model's prediction per frame");
   dct->add_option("--variant", a->predict.variant, "Model variant: seed, memory or extended (default: the profile's)");
+  dct->add_option("--serve", a->serve,
+                  "Serve a live view (field image with colour bar, frame rate, deadline margin) on 127.0.0.1:PORT")
+      ->check(number_in(1024, 65535, true));
+  dct->add_option("--serve-field", a->serve_field, "Field the viewer shows: u_x, u_y, e_xx, e_yy or e_xy")
+      ->capture_default_str();
+  dct->add_option("--serve-linger", a->linger, "Seconds the viewer stays up after the run ends")
+      ->check(number_in(0, 86400));
   dct->callback([a] { run_live_dct(*a); });
 
   auto* vid = app->add_subcommand(

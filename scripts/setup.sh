@@ -12,6 +12,7 @@ packages=(cmake ninja-build g++ pkg-config libeigen3-dev libfmt-dev nlohmann-jso
           libopencv-dev libceres-dev libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
           libyaml-cpp-dev           # scenario and configuration files (tune/, sar/)
           libaravis-dev libusb-1.0-0-dev  # GenICam cameras (sources/); aravis-0.8.pc needs libusb's .pc
+          libcpp-httplib-dev        # the live viewer (sources/viewer.hpp)
           clang libclang-rt-14-dev  # clang + libFuzzer: the fuzz targets (fuzz/)
           xz-utils)                 # the archived stores in results/
 # The test suite (--sanitize): headless Chromium and a font, with which the report tests open

@@ -213,7 +213,7 @@ double percentile(std::vector<double> v, double p) {
 }
 
 LiveReport run_live(const LiveConfig& config, sources::FrameSource& source, dct::Backend& backend,
-                    const std::function<void(const FrameRecord&, const dct::FrameOutput&)>& on_frame) {
+                    const std::function<void(const FrameRecord&, const dct::FrameOutput&, const cv::Mat&)>& on_frame) {
   namespace fs = std::filesystem;
   LiveReport rep;
   const fs::path dir(config.output);
@@ -306,7 +306,7 @@ LiveReport run_live(const LiveConfig& config, sources::FrameSource& source, dct:
                          r.timestamp_s, 1e3 * r.latency_s, 1e3 * r.process_s, 1e3 * r.write_s, r.dots, r.matched,
                          r.valid_points, 1e6 * r.mean_exx, 1e6 * r.mean_eyy)
           << std::flush;
-    if (on_frame) on_frame(r, out);
+    if (on_frame) on_frame(r, out, frame.image);
     if (r.valid_points == 0) {
       rep.stopped_because = fmt::format("frame {}: no point has a valid value ({} dots found, {} matched); check the "
                                         "threshold, polarity and area limits against the images",

@@ -76,11 +76,11 @@ double percentile(std::vector<double> v, double p);
 
 // Runs `config` on `source`: the reference is the first frame (or the configured file), then
 // every further frame is measured and its fields written to `config.output`/frame_NNNNNN.csv.
-// `on_frame` (optional) sees each frame's record and output as it is measured. A bad frame, a
+// `on_frame` (optional) sees each frame's record, output and image as it is measured. A bad frame, a
 // frame without valid points or a source that stops ends the run with `stopped_because` set;
 // what was measured before is kept (its CSVs written, its records returned). Throws InputError
 // only before the first frame is measured (no reference, a reference without dots).
 LiveReport run_live(const LiveConfig& config, sources::FrameSource& source, dct::Backend& backend,
-                    const std::function<void(const FrameRecord&, const dct::FrameOutput&)>& on_frame = {});
+                    const std::function<void(const FrameRecord&, const dct::FrameOutput&, const cv::Mat&)>& on_frame = {});
 
 }  // namespace dtflop::live

@@ -1,8 +1,13 @@
 // Live mode: the YAML run configuration (valid and invalid), the frame-by-frame loop on a
 // rendered image sequence checked against the closed form, a stream that stops mid-way, and
 // `dtflop live dct` end to end.
+#include <signal.h>
+#include <unistd.h>
+
+#include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <thread>
 #include <fstream>
 
 #include <fmt/format.h>
@@ -136,7 +141,7 @@ TEST(RunLive, MeasuresEachFrameAsItComesAgainstTheClosedForm) {
   auto src = sources::open_source(sources::parse_source_spec("images:" + (dir / "f_%03d.png").string()));
   auto backend = dct::make_backend(c.backend, c.pipeline);
   int seen = 0;
-  const LiveReport rep = run_live(c, *src, *backend, [&](const FrameRecord& r, const dct::FrameOutput&) {
+  const LiveReport rep = run_live(c, *src, *backend, [&](const FrameRecord& r, const dct::FrameOutput&, const cv::Mat&) {
     ++seen;
     // Its CSV is on disk when the frame is reported: written as measured, not at the end.
     EXPECT_TRUE(fs::exists(dir / "out" / fmt::format("frame_{:06d}.csv", seen))) << r.sequence;
@@ -219,6 +224,80 @@ TEST(LiveCli, BadInputIsOneLineAndExitTwo) {
   EXPECT_EQ(missing.status, 2);
   EXPECT_NE(missing.err.find("no video file"), std::string::npos) << missing.err;
 }
+
+#ifdef DTFLOP_HAVE_VIEWER
+// Headless Chromium's DOM of `url` after `ms` of the page's own time.
+std::string dom_of(const std::string& url, const fs::path& dir, int ms) {
+  const std::string cmd = fmt::format(
+      "chromium --headless --no-sandbox --disable-gpu --user-data-dir={} --virtual-time-budget={} --dump-dom {} >{} "
+      "2>/dev/null",
+      (dir / "profile").string(), ms, url, (dir / "dom.html").string());
+  EXPECT_EQ(std::system(cmd.c_str()), 0);
+  fs::remove_all(dir / "profile");
+  return test::slurp(dir / "dom.html");
+}
+
+long frame_shown(const std::string& dom) {
+  const auto at = dom.find("field.png?frame=");
+  return at == std::string::npos ? -1 : std::stol(dom.substr(at + 16));
+}
+
+TEST(LiveCli, ViewerInHeadlessChromiumShowsTheFieldUpdating) {
+  if (std::system("command -v chromium >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "chromium is missing: install it (scripts/setup.sh --sanitize does)";
+  const auto dir = test::fresh_test_dir("dtflop_live");
+  write_ramp(dir, 24);
+  {
+    std::ofstream y(dir / "run.yaml");
+    y << "backend: cpu-seq\nsupport: 60dots\npoints: 8x8\n";
+  }
+  const int port = 20000 + ::getpid() % 20000;
+  const std::string url = fmt::format("http://127.0.0.1:{}/", port);
+  // Paced at 3 frames/s: 8 s of frames, then the viewer stays 30 s (the test ends it sooner).
+  const std::string cmd = fmt::format(
+      "{}/dtflop live dct --config {} --source 'images:{}?fps=3&paced=1' -o {} --serve {} --serve-linger 30 "
+      ">{} 2>&1 & echo $! >{}",
+      DTFLOP_BINARY_DIR, (dir / "run.yaml").string(), (dir / "f_%03d.png").string(), (dir / "out").string(), port,
+      (dir / "live.log").string(), (dir / "pid").string());
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  const int pid = std::stoi(test::slurp(dir / "pid"));
+  long first = -1;
+  std::string dom;
+  for (int i = 0; i < 40 && first < 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(250));
+    dom = dom_of(url, dir, 1500);
+    first = frame_shown(dom);
+  }
+  ASSERT_GE(first, 1) << dom << test::slurp(dir / "live.log");
+  EXPECT_NE(dom.find("frames/s"), std::string::npos) << dom;
+  EXPECT_NE(dom.find("deadline margin"), std::string::npos) << dom;
+  EXPECT_NE(dom.find("e_xx [microstrain]"), std::string::npos) << dom;
+  // A while later the page shows a later frame: the image updates.
+  long later = first;
+  for (int i = 0; i < 20 && later <= first; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    later = frame_shown(dom_of(url, dir, 1500));
+  }
+  EXPECT_GT(later, first);
+  // A screenshot: the field in its diverging colours (a strongly red or blue pixel) on the page.
+  const std::string shot = fmt::format(
+      "chromium --headless --no-sandbox --disable-gpu --hide-scrollbars --user-data-dir={} --virtual-time-budget=2000 "
+      "--window-size=900,700 --screenshot={} {} >/dev/null 2>&1",
+      (dir / "profile").string(), (dir / "shot.png").string(), url);
+  EXPECT_EQ(std::system(shot.c_str()), 0);
+  ::kill(pid, SIGTERM);
+  const cv::Mat png = cv::imread((dir / "shot.png").string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(png.empty());
+  EXPECT_EQ(png.size(), cv::Size(900, 700));
+  int coloured = 0;
+  for (int y = 0; y < png.rows; ++y)
+    for (int x = 0; x < png.cols; ++x) {
+      const cv::Vec3b p = png.at<cv::Vec3b>(y, x);
+      coloured += std::abs(int{p[2]} - int{p[0]}) > 80;  // red against blue
+    }
+  EXPECT_GT(coloured, 500) << "no field colours in the screenshot";
+}
+#endif
 
 }  // namespace
 }  // namespace dtflop::live
