@@ -60,7 +60,7 @@ class CaptureReader final : public Reader {
         if (!std::filesystem::is_regular_file(spec_.target))
           throw InputError(fmt::format("source '{}': no video file '{}'; give the path of a video file", spec_.text,
                                        spec_.target));
-        ok = cap_.open(spec_.target, cv::CAP_FFMPEG) || cap_.open(spec_.target, cv::CAP_ANY);
+        ok = cap_.open(spec_.target, cv::CAP_FFMPEG);  // (CAP_ANY would also try gPhoto2, which leaks probing USB)
         if (!ok)
           throw InputError(fmt::format("source '{}': '{}' is not a video OpenCV can decode; give an mp4/avi/mkv file "
                                        "(or images:NAME_%04d.png for an image sequence)",
