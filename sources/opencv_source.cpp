@@ -199,13 +199,19 @@ class OpenCvSource final : public FrameSource {
   Grab grab(Frame& f, std::string& why) override {
     if (!spec_.paced) {
       try {
-        return reader_->read(f) ? Grab::frame : Grab::end;
+        if (reader_->read(f)) return Grab::frame;
       } catch (const InputError&) {
         throw;
       } catch (const std::exception& e) {
         why = e.what();
         return Grab::lost;
       }
+      // A file or pipeline ends; a camera does not: one that stops sending has gone.
+      if (spec_.kind == SourceSpec::Kind::device || spec_.kind == SourceSpec::Kind::gphoto2) {
+        why = fmt::format("{} camera {} stopped sending frames (unplugged?)", to_string(spec_.kind), spec_.target);
+        return Grab::lost;
+      }
+      return Grab::end;
     }
     std::unique_lock lock(mutex_);
     cv_.wait(lock, [this] { return !queue_.empty() || done_; });
@@ -220,7 +226,12 @@ class OpenCvSource final : public FrameSource {
     (void)why;
     return Grab::frame;
   }
-  void reopen() override { throw InputError("a file or pipeline that failed is not reopened"); }
+  // Cameras (V4L2, gPhoto2) are opened again; a file or pipeline that failed is not.
+  void reopen() override {
+    if ((spec_.kind != SourceSpec::Kind::device && spec_.kind != SourceSpec::Kind::gphoto2) || spec_.paced)
+      throw InputError("a file or pipeline that failed is not reopened");
+    reader_ = make_reader(spec_);
+  }
   bool numbers_frames() const override { return reader_->numbered() || spec_.paced; }
   double nominal_fps() const override { return reader_->fps(); }
 
