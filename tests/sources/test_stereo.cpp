@@ -140,6 +140,24 @@ TEST(Stereo, TriangulatedOutOfPlaneMotionMatchesTheClosedForms) {
   }
 }
 
+TEST(Stereo, GradientOfUzMatchesATiltAndARigidMotion) {
+  const Rig rig = truth();
+  const auto X0 = plate();
+  for (const double slope : {0.0, 1e-3}) {
+    std::vector<cv::Point3d> X1;
+    for (const auto& p : X0) X1.emplace_back(p.x, p.y, p.z - 0.3 - slope * (p.x - 100));  // w = 0.3 + slope (x - 100)
+    const auto P0 = triangulate(rig, project(rig.left, X0, cv::Matx33d::eye(), {0, 0, 0}), project(rig.right, X0, rig.R, rig.T));
+    const auto P1 = triangulate(rig, project(rig.left, X1, cv::Matx33d::eye(), {0, 0, 0}), project(rig.right, X1, rig.R, rig.T));
+    const auto g = out_of_plane_gradient(P0, out_of_plane(P0, P1));
+    ASSERT_EQ(g.size(), X0.size());
+    for (const auto& v : g) {
+      EXPECT_NEAR(v[0], slope, 2e-6);  // e1 is the x axis on this plate
+      EXPECT_NEAR(v[1], 0.0, 2e-6);
+    }
+  }
+  EXPECT_THROW(out_of_plane_gradient(X0, {1.0, 2.0}), InputError);
+}
+
 TEST(Stereo, MismatchedPointListsAreRefused) {
   EXPECT_THROW(triangulate(truth(), {{1, 2}}, {}), InputError);
 }

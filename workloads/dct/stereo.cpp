@@ -1,5 +1,6 @@
 #include "workloads/dct/stereo.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -249,28 +250,70 @@ std::vector<cv::Point3d> triangulate(const Rig& rig, const std::vector<cv::Point
   return out;
 }
 
-std::vector<double> out_of_plane(const std::vector<cv::Point3d>& reference, const std::vector<cv::Point3d>& deformed) {
-  if (reference.size() != deformed.size() || reference.size() < 3)
-    throw InputError("out-of-plane displacement needs the same points (at least 3) in both states");
+PlaneFrame fit_plane(const std::vector<cv::Point3d>& points) {
+  if (points.size() < 3) throw InputError("a plane needs at least 3 points");
   cv::Point3d mean(0, 0, 0);
-  for (const auto& p : reference) mean += p;
-  mean *= 1.0 / static_cast<double>(reference.size());
-  cv::Mat A(static_cast<int>(reference.size()), 3, CV_64F);
+  for (const auto& p : points) mean += p;
+  mean *= 1.0 / static_cast<double>(points.size());
+  cv::Mat A(static_cast<int>(points.size()), 3, CV_64F);
   for (int i = 0; i < A.rows; ++i) {
-    const cv::Point3d d = reference[static_cast<std::size_t>(i)] - mean;
+    const cv::Point3d d = points[static_cast<std::size_t>(i)] - mean;
     A.at<double>(i, 0) = d.x;
     A.at<double>(i, 1) = d.y;
     A.at<double>(i, 2) = d.z;
   }
   cv::SVD svd(A, cv::SVD::FULL_UV);
-  cv::Vec3d n(svd.vt.at<double>(2, 0), svd.vt.at<double>(2, 1), svd.vt.at<double>(2, 2));
-  if (n.dot(cv::Vec3d(mean.x, mean.y, mean.z)) > 0) n = -n;  // toward the camera (the origin)
+  PlaneFrame f;
+  f.origin = cv::Vec3d(mean.x, mean.y, mean.z);
+  f.n = cv::Vec3d(svd.vt.at<double>(2, 0), svd.vt.at<double>(2, 1), svd.vt.at<double>(2, 2));
+  if (f.n.dot(f.origin) > 0) f.n = -f.n;  // toward the camera (the origin)
+  const cv::Vec3d x(1, 0, 0);
+  f.e1 = x - x.dot(f.n) * f.n;
+  f.e1 /= cv::norm(f.e1);
+  f.e2 = f.n.cross(f.e1);
+  return f;
+}
+
+std::vector<double> out_of_plane(const std::vector<cv::Point3d>& reference, const std::vector<cv::Point3d>& deformed) {
+  if (reference.size() != deformed.size() || reference.size() < 3)
+    throw InputError("out-of-plane displacement needs the same points (at least 3) in both states");
+  const PlaneFrame f = fit_plane(reference);
   std::vector<double> w;
   for (std::size_t i = 0; i < reference.size(); ++i) {
     const cv::Point3d d = deformed[i] - reference[i];
-    w.push_back(n.dot(cv::Vec3d(d.x, d.y, d.z)));
+    w.push_back(f.n.dot(cv::Vec3d(d.x, d.y, d.z)));
   }
   return w;
+}
+
+std::vector<cv::Vec2d> out_of_plane_gradient(const std::vector<cv::Point3d>& reference, const std::vector<double>& uz,
+                                             int neighbours) {
+  if (reference.size() != uz.size() || neighbours < 3 || reference.size() < static_cast<std::size_t>(neighbours))
+    throw InputError(fmt::format("the gradient of u_z needs one value per point and at least {} points (have {} and {})",
+                                 std::max(neighbours, 3), uz.size(), reference.size()));
+  const PlaneFrame f = fit_plane(reference);
+  std::vector<cv::Point2d> s;
+  for (const auto& p : reference) {
+    const cv::Vec3d d = cv::Vec3d(p.x, p.y, p.z) - f.origin;
+    s.emplace_back(d.dot(f.e1), d.dot(f.e2));
+  }
+  std::vector<cv::Vec2d> out;
+  std::vector<std::pair<double, std::size_t>> by_distance(s.size());
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    for (std::size_t j = 0; j < s.size(); ++j) by_distance[j] = {cv::norm(s[j] - s[i]), j};
+    std::partial_sort(by_distance.begin(), by_distance.begin() + neighbours, by_distance.end());
+    cv::Mat A(neighbours, 3, CV_64F), b(neighbours, 1, CV_64F), x;
+    for (int k = 0; k < neighbours; ++k) {
+      const std::size_t j = by_distance[static_cast<std::size_t>(k)].second;
+      A.at<double>(k, 0) = 1;
+      A.at<double>(k, 1) = s[j].x - s[i].x;
+      A.at<double>(k, 2) = s[j].y - s[i].y;
+      b.at<double>(k) = uz[j];
+    }
+    if (!cv::solve(A, b, x, cv::DECOMP_SVD)) x = cv::Mat::zeros(3, 1, CV_64F);
+    out.emplace_back(x.at<double>(1), x.at<double>(2));
+  }
+  return out;
 }
 
 }  // namespace dtflop::dct::stereo

@@ -83,8 +83,22 @@ Rig read_rig(const std::string& path, std::optional<cv::Size> expect = std::null
 std::vector<cv::Point3d> triangulate(const Rig& rig, const std::vector<cv::Point2d>& left,
                                      const std::vector<cv::Point2d>& right);
 
+// The plane fitted (least squares) to reference points: its centroid, in-plane axes e1 (the left
+// camera's x axis projected onto it) and e2, and its normal n, turned toward the left camera.
+struct PlaneFrame {
+  cv::Vec3d origin, e1, e2, n;
+};
+PlaneFrame fit_plane(const std::vector<cv::Point3d>& points);
+
 // Out-of-plane displacement of each point: (deformed - reference) along the normal of the
 // plane fitted to the reference points (least squares), oriented toward the left camera.
 std::vector<double> out_of_plane(const std::vector<cv::Point3d>& reference, const std::vector<cv::Point3d>& deformed);
+
+// The gradient of u_z over the plate, (du_z/ds1, du_z/ds2) along the plane's e1, e2, at each
+// reference point: the least-squares plane through (s1, s2, u_z) of its `neighbours` nearest
+// points (itself included). Throws InputError for lists of different lengths or fewer than
+// `neighbours` >= 3 points.
+std::vector<cv::Vec2d> out_of_plane_gradient(const std::vector<cv::Point3d>& reference, const std::vector<double>& uz,
+                                             int neighbours = 9);
 
 }  // namespace dtflop::dct::stereo
