@@ -101,6 +101,24 @@ TEST(Stereo, CalibrationRecoversFocalLengthAndBaselineWithinATenthOfAPercent) {
   EXPECT_THROW(read_rig((dir / "none.yaml").string()), InputError);
 }
 
+TEST(Stereo, CircleGridCalibrationRecoversFocalLengthAndBaseline) {
+  const Rig rig = truth();
+  const Board circles{{4, 11}, 30.0, Board::Target::circles};  // 4 x 11 asymmetric: 105 x 150 mm
+  std::vector<cv::Mat> L, R;
+  for (const Pose& p : poses(20)) {
+    L.push_back(render_board(rig.left, circles, p));
+    R.push_back(render_board(rig.right, circles, in_right(rig, p)));
+  }
+  const Calibration c = calibrate(L, R, circles);
+  for (const auto& n : c.notes) std::printf("%s\n", n.c_str());
+  EXPECT_GE(c.views_used, 12);
+  for (const Camera* cam : {&c.rig.left, &c.rig.right}) {
+    EXPECT_NEAR(cam->K(0, 0), 1600, 1.6) << "fx";
+    EXPECT_NEAR(cam->K(1, 1), 1600, 1.6) << "fy";
+  }
+  EXPECT_NEAR(c.rig.baseline(), 200, 0.2);
+}
+
 TEST(Stereo, TooFewViewsAreRefused) {
   const Rig rig = truth();
   std::vector<cv::Mat> L, R;

@@ -36,6 +36,13 @@ Rig make_rig(cv::Size size, double f, double baseline, double convergence_deg, d
 
 std::vector<cv::Point3f> board_corners(const Board& b) {
   std::vector<cv::Point3f> p;
+  if (b.target == Board::Target::circles) {
+    const double h = b.square / 2;
+    for (int i = 0; i < b.inner.height; ++i)
+      for (int j = 0; j < b.inner.width; ++j)
+        p.emplace_back(static_cast<float>((2 * j + i % 2) * h), static_cast<float>(i * h), 0.f);
+    return p;
+  }
   for (int y = 0; y < b.inner.height; ++y)
     for (int x = 0; x < b.inner.width; ++x)
       p.emplace_back(static_cast<float>(x * b.square), static_cast<float>(y * b.square), 0.f);
@@ -73,14 +80,36 @@ cv::Mat render_board(const Camera& camera, const Board& b, const Pose& pose) {
                         cvRound((kSuper * q.y + (kSuper - 1) / 2.0) * (1 << kShift)));
     return poly;
   };
-  const int cols = b.inner.width + 1, rows = b.inner.height + 1;  // squares
-  // The white board: the squares and a margin of one square.
-  std::vector<std::vector<cv::Point>> white = {polygon(-2, -2, cols, rows)};
-  cv::fillPoly(img, white, cv::Scalar(215), cv::LINE_8, kShift);
   std::vector<std::vector<cv::Point>> black;
-  for (int y = 0; y < rows; ++y)
-    for (int x = 0; x < cols; ++x)
-      if ((x + y) % 2 == 0) black.push_back(polygon(x - 1, y - 1, x, y));
+  if (b.target == Board::Target::circles) {
+    // The white board: the circles' grid and a margin of one pitch; dark discs of radius square / 5.
+    const double w = (2 * b.inner.width) * 0.5, h = (b.inner.height - 1) * 0.5;  // extent, in squares
+    std::vector<std::vector<cv::Point>> white = {polygon(-1, -1, w + 0.5, h + 1)};
+    cv::fillPoly(img, white, cv::Scalar(215), cv::LINE_8, kShift);
+    for (const cv::Point3f& c : board_corners(b)) {
+      std::vector<cv::Point3f> ring;
+      for (int k = 0; k < 64; ++k) {
+        const double a = 2 * CV_PI * k / 64;
+        ring.emplace_back(static_cast<float>(c.x + 0.2 * b.square * std::cos(a)),
+                          static_cast<float>(c.y + 0.2 * b.square * std::sin(a)), 0.f);
+      }
+      std::vector<cv::Point2f> q;
+      cv::projectPoints(ring, pose.rvec, pose.tvec, camera.K, camera.dist, q);
+      std::vector<cv::Point> poly;
+      for (const auto& p : q)
+        poly.emplace_back(cvRound((kSuper * p.x + (kSuper - 1) / 2.0) * (1 << kShift)),
+                          cvRound((kSuper * p.y + (kSuper - 1) / 2.0) * (1 << kShift)));
+      black.push_back(std::move(poly));
+    }
+  } else {
+    const int cols = b.inner.width + 1, rows = b.inner.height + 1;  // squares
+    // The white board: the squares and a margin of one square.
+    std::vector<std::vector<cv::Point>> white = {polygon(-2, -2, cols, rows)};
+    cv::fillPoly(img, white, cv::Scalar(215), cv::LINE_8, kShift);
+    for (int y = 0; y < rows; ++y)
+      for (int x = 0; x < cols; ++x)
+        if ((x + y) % 2 == 0) black.push_back(polygon(x - 1, y - 1, x, y));
+  }
   cv::fillPoly(img, black, cv::Scalar(40), cv::LINE_8, kShift);
   cv::Mat out;
   cv::resize(img, out, camera.size, 0, 0, cv::INTER_AREA);
@@ -90,6 +119,11 @@ cv::Mat render_board(const Camera& camera, const Board& b, const Pose& pose) {
 namespace {
 
 bool find_corners(const cv::Mat& img, const Board& b, std::vector<cv::Point2f>& corners) {
+  if (b.target == Board::Target::circles) {
+    cv::SimpleBlobDetector::Params p;
+    p.maxArea = 1e6f;  // large discs of close views
+    return cv::findCirclesGrid(img, b.inner, corners, cv::CALIB_CB_ASYMMETRIC_GRID, cv::SimpleBlobDetector::create(p));
+  }
   if (!cv::findChessboardCorners(img, b.inner, corners, cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE))
     return false;
   cv::cornerSubPix(img, corners, {7, 7}, {-1, -1},
@@ -115,7 +149,7 @@ Calibration calibrate(const std::vector<cv::Mat>& left, const std::vector<cv::Ma
                                    size.height));
     std::vector<cv::Point2f> a, bb;
     if (!find_corners(left[i], b, a) || !find_corners(right[i], b, bb)) {
-      c.notes.push_back(fmt::format("view {}: the {}x{} board is not wholly seen in both images; left out", i + 1,
+      c.notes.push_back(fmt::format("view {}: the {}x{} target is not wholly seen in both images; left out", i + 1,
                                     b.inner.width, b.inner.height));
       continue;
     }

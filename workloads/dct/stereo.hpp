@@ -35,11 +35,15 @@ struct Rig {
 Rig make_rig(cv::Size size, double f, double baseline, double convergence_deg, double k1 = 0);
 
 struct Board {
-  cv::Size inner;       // inner corners (columns x rows)
-  double square = 1.0;  // side of a square, in the length unit of T
+  enum class Target { checkerboard, circles };
+  cv::Size inner;       // checkerboard: inner corners; circles: circles per row x rows
+  double square = 1.0;  // side of a square, or the circles' pitch, in the length unit of T
+  // circles: OpenCV's asymmetric grid (unambiguous under rotation): circle (row i, column j) at
+  // ((2j + i mod 2) square / 2, i square / 2), dark discs of radius square / 8 ... square / 4.
+  Target target = Target::checkerboard;
 };
 
-// The board's inner corners in its own plane (z = 0).
+// The board's inner corners (circle centres) in its own plane (z = 0).
 std::vector<cv::Point3f> board_corners(const Board& b);
 
 // A view of the board: its pose in the left camera's frame.
@@ -48,8 +52,8 @@ struct Pose {
 };
 
 // Renders `camera`'s image of the board at `pose` (8-bit, white margin of one square around
-// the squares, grey 40/215, 8x8 supersampled squares whose edges are projected with
-// cv::projectPoints every 1/8 square, so the lens distortion bends them).
+// the squares or circles, grey 40/215, 8x8 supersampled; square edges are projected with
+// cv::projectPoints every 1/8 side and circles as 64-gons, so the lens distortion bends them).
 cv::Mat render_board(const Camera& camera, const Board& b, const Pose& pose_in_camera);
 
 // A pose seen from the right camera of `rig`, given the pose in the left camera's frame.
