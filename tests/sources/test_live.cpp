@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <thread>
 #include <fstream>
+#include <sstream>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -237,9 +238,14 @@ std::string dom_of(const std::string& url, const fs::path& dir, int ms) {
   return test::slurp(dir / "dom.html");
 }
 
+// The frame the page's image shows (its src attribute; the page's script names the URL too).
 long frame_shown(const std::string& dom) {
-  const auto at = dom.find("field.png?frame=");
-  return at == std::string::npos ? -1 : std::stol(dom.substr(at + 16));
+  const std::string key = "src=\"field.png?frame=";
+  const auto at = dom.find(key);
+  if (at == std::string::npos) return -1;
+  long v = -1;
+  std::istringstream(dom.substr(at + key.size(), 20)) >> v;
+  return v;
 }
 
 TEST(LiveCli, ViewerInHeadlessChromiumShowsTheFieldUpdating) {
