@@ -15,6 +15,7 @@ void setup_all(CLI::App& root) {
 #ifdef DTFLOP_IMAGE_IO
   add_specimen_command(root);  // these two read or write image files
   add_fields_command(root);
+  add_live_command(root);  // reads cameras, videos and streams
 #endif
   add_density_command(root);
   add_sar_command(root);

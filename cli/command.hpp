@@ -21,6 +21,7 @@ void add_density_command(CLI::App& root);
 void add_report_command(CLI::App& root);
 void add_characterize_command(CLI::App& root);
 void add_sar_command(CLI::App& root);
+void add_live_command(CLI::App& root);  // cmd_live.cpp (camera and stream input)
 
 // Adds every command to `root`.
 void setup_all(CLI::App& root);

@@ -14,7 +14,7 @@ install(TARGETS dtflop RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 install(TARGETS ${DTFLOP_ALL_LIBS} EXPORT dtflopTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/dtflop)
-foreach(dir model cuda probes workloads calibrate tune sar reports)
+foreach(dir model cuda probes workloads calibrate tune sar reports sources)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${dir}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/dtflop/${dir}
           FILES_MATCHING PATTERN "*.hpp" PATTERN "*.cuh")
 endforeach()

@@ -12,12 +12,18 @@ packages=(cmake ninja-build g++ pkg-config libeigen3-dev libfmt-dev nlohmann-jso
           libopencv-dev libceres-dev libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev
           libyaml-cpp-dev           # scenario and configuration files (tune/, sar/)
           libopenmpi-dev openmpi-bin  # the search-and-rescue team: one MPI process per helicopter (sar/)
+          libaravis-dev libusb-1.0-0-dev  # GenICam cameras (sources/); aravis-0.8.pc needs libusb's .pc
+          libcpp-httplib-dev        # the live viewer (sources/viewer.hpp)
           clang libclang-rt-14-dev  # clang + libFuzzer: the fuzz targets (fuzz/)
           xz-utils)                 # the archived stores in results/
 # The test suite (--sanitize): headless Chromium and a font, with which the report tests open
 # every kind of report as a person would (tests/reports/); the main job does not need them.
 for arg in "$@"; do
-  if [ "$arg" = "--sanitize" ]; then packages+=(chromium fonts-dejavu-core); fi
+  # The frame sources' peers (tests/sources/): Aravis's fake GigE Vision camera, GStreamer's
+  # videotestsrc and gst-inspect-1.0.
+  if [ "$arg" = "--sanitize" ]; then
+    packages+=(chromium fonts-dejavu-core aravis-tools gstreamer1.0-plugins-base gstreamer1.0-tools)
+  fi
 done
 missing=()
 for p in "${packages[@]}"; do

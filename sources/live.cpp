@@ -1,0 +1,322 @@
+#include "sources/live.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include "model/errors.hpp"
+#include "model/units.hpp"
+#include "workloads/dct/io.hpp"
+
+namespace dtflop::live {
+namespace {
+
+double now_s() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// Field access with the file and key in every message.
+class Reader {
+ public:
+  Reader(const YAML::Node& root, std::string name) : root_(root), name_(std::move(name)) {}
+
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
+    throw InputError(fmt::format("{}: '{}' {}", name_, key, what));
+  }
+  std::optional<std::string> text(const std::string& key) const {
+    const YAML::Node n = root_[key];
+    if (!n) return std::nullopt;
+    if (!n.IsScalar()) fail(key, "must be a single value (text), not a list or map");
+    const std::string s = n.as<std::string>();
+    if (s.empty() || s.size() > 4096) fail(key, "is empty or longer than 4096 characters");
+    return s;
+  }
+  std::optional<std::int64_t> integer(const std::string& key, std::int64_t lo, std::int64_t hi) const {
+    const YAML::Node n = root_[key];
+    if (!n) return std::nullopt;
+    return whole(n, key, lo, hi);
+  }
+  std::int64_t whole(const YAML::Node& n, const std::string& key, std::int64_t lo, std::int64_t hi) const {
+    if (!n.IsScalar()) fail(key, fmt::format("must be a whole number in [{}, {}]", lo, hi));
+    const std::string s = n.as<std::string>();
+    std::int64_t v = 0;
+    std::size_t used = 0;
+    try {
+      v = std::stoll(s, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != s.size() || s.empty() || v < lo || v > hi)
+      fail(key, fmt::format("is '{}': write a whole number in [{}, {}]", s.substr(0, 40), lo, hi));
+    return v;
+  }
+  std::optional<double> real(const std::string& key, double lo, double hi) const {
+    const YAML::Node n = root_[key];
+    if (!n) return std::nullopt;
+    if (!n.IsScalar()) fail(key, fmt::format("must be a number in [{}, {}]", lo, hi));
+    const std::string s = n.as<std::string>();
+    double v = 0;
+    std::size_t used = 0;
+    try {
+      v = std::stod(s, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != s.size() || !std::isfinite(v) || v < lo || v > hi)
+      fail(key, fmt::format("is '{}': write a finite number in [{}, {}]", s.substr(0, 40), lo, hi));
+    return v;
+  }
+  std::optional<std::vector<std::int64_t>> list(const std::string& key, std::size_t size, std::int64_t lo,
+                                                std::int64_t hi) const {
+    const YAML::Node n = root_[key];
+    if (!n) return std::nullopt;
+    if (!n.IsSequence() || n.size() != size)
+      fail(key, fmt::format("must be a list of {} whole numbers (e.g. [{}])", size, size == 4 ? "0, 0, 640, 480" : "12, 20000"));
+    std::vector<std::int64_t> out;
+    for (const auto& x : n) out.push_back(whole(x, key, lo, hi));
+    return out;
+  }
+
+ private:
+  YAML::Node root_;
+  std::string name_;
+};
+
+}  // namespace
+
+LiveConfig parse_live_config(const std::string& yaml, const std::string& name) {
+  if (yaml.size() > (1u << 20))
+    throw InputError(fmt::format("{}: a run configuration of over 1 MiB is not one; give the YAML file", name));
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml);
+  } catch (const YAML::Exception& e) {
+    throw InputError(fmt::format("{}: not YAML (line {}: {}); fix the file", name, e.mark.line + 1, e.msg));
+  }
+  if (!root.IsMap()) throw InputError(fmt::format("{}: a run configuration is a YAML map of keys (source: ..., ...)", name));
+  static const std::set<std::string> known = {"source", "reference", "roi", "threshold", "polarity", "area",
+                                              "backend", "interpolation", "weight", "support", "points", "threads",
+                                              "search_radius", "output", "max_frames", "overlay_every"};
+  for (const auto& kv : root) {
+    const std::string key = kv.first.IsScalar() ? kv.first.as<std::string>() : "?";
+    if (!known.count(key)) {
+      std::string list;
+      for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
+      throw InputError(fmt::format("{}: unknown key '{}'; the keys are {}", name, key.substr(0, 60), list));
+    }
+  }
+  const Reader r(root, name);
+  LiveConfig c;
+  using namespace dtflop::dct;
+  PipelineOptions& p = c.pipeline;
+  if (auto s = r.text("source")) c.source = *s;
+  if (auto s = r.text("reference")) c.reference = *s;
+  if (auto roi = r.list("roi", 4, 0, 16384)) {
+    const auto& v = *roi;
+    if (v[2] < 1 || v[3] < 1 || v[0] + v[2] > 16384 || v[1] + v[3] > 16384)
+      r.fail("roi", "must be [x, y, width, height] with width, height >= 1 inside 16384 px");
+    p.analysis.roi = cv::Rect(static_cast<int>(v[0]), static_cast<int>(v[1]), static_cast<int>(v[2]),
+                              static_cast<int>(v[3]));
+  }
+  if (auto s = r.text("threshold")) {
+    if (s->rfind("fixed:", 0) == 0) {
+      p.analysis.method = ThresholdMethod::fixed;
+      char* end = nullptr;
+      const double t = std::strtod(s->c_str() + 6, &end);
+      if (end == s->c_str() + 6 || *end != '\0' || !std::isfinite(t) || t < 0 || t > 255)
+        r.fail("threshold", fmt::format("is '{}': write fixed:128 (0..255, 8-bit scale), otsu or adaptive", *s));
+      p.analysis.threshold = t;
+    } else {
+      try {
+        p.analysis.method = threshold_method_from_string(*s);
+      } catch (const InputError& e) {
+        r.fail("threshold", fmt::format("is '{}': {}", *s, e.what()));
+      }
+    }
+  }
+  if (auto s = r.text("polarity")) {
+    if (*s == "dark") p.analysis.polarity = Polarity::dark_dots;
+    else if (*s == "light") p.analysis.polarity = Polarity::light_dots;
+    else r.fail("polarity", fmt::format("is '{}': write dark or light", *s));
+  }
+  if (auto a = r.list("area", 2, 1, 100'000'000)) {
+    if ((*a)[0] > (*a)[1]) r.fail("area", "must be [min, max] with min <= max (px)");
+    p.analysis.min_area = static_cast<int>((*a)[0]);
+    p.analysis.max_area = static_cast<int>(std::min<std::int64_t>((*a)[1], std::numeric_limits<int>::max()));
+  }
+  if (auto s = r.text("backend")) {
+    try {
+      (void)backend_kind(*s);
+    } catch (const InputError& e) {
+      r.fail("backend", fmt::format("is '{}': {}", *s, e.what()));
+    }
+    c.backend = *s;
+  }
+  auto parse = [&](const std::string& key, auto f) {
+    if (auto s = r.text(key)) {
+      try {
+        f(*s);
+      } catch (const InputError& e) {
+        r.fail(key, fmt::format("is '{}': {}", *s, e.what()));
+      }
+    }
+  };
+  parse("interpolation", [&](const std::string& s) { p.interp = interp_from_string(s); });
+  parse("weight", [&](const std::string& s) { p.mls.weight = weight_from_string(s); });
+  parse("support", [&](const std::string& s) {
+    p.mls.support = parse_support(s);
+    c.support_text = s;
+    c.support_given = true;
+  });
+  p.mls.support_at_most_found = !c.support_given;
+  parse("points", [&](const std::string& s) {
+    const Size2 g = parse_size2(s, "points", 4096);
+    if (g.x < 2 || g.y < 2) throw InputError("write at least 2x2");
+    p.points_x = static_cast<int>(g.x);
+    p.points_y = static_cast<int>(g.y);
+  });
+  if (auto t = r.integer("threads", 0, 1024)) p.threads = static_cast<int>(*t);
+  if (auto v = r.real("search_radius", 0, 16384)) p.match.search_radius = *v;
+  if (auto s = r.text("output")) c.output = *s;
+  if (auto m = r.integer("max_frames", 0, 100'000'000)) c.max_frames = *m;
+  if (auto m = r.integer("overlay_every", 0, 100'000'000)) c.overlay_every = *m;
+  return c;
+}
+
+LiveConfig load_live_config(const std::filesystem::path& path) {
+  std::error_code ec;
+  const auto st = std::filesystem::status(path, ec);
+  if (!std::filesystem::is_regular_file(st))
+    throw InputError(fmt::format("--config '{}' is not a file; give the run's YAML configuration", path.string()));
+  if (std::filesystem::file_size(path, ec) > (1u << 20))
+    throw InputError(fmt::format("--config '{}' is over 1 MiB; give the run's YAML configuration", path.string()));
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return parse_live_config(s.str(), path.string());
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const double at = std::clamp(p, 0.0, 100.0) / 100.0 * static_cast<double>(v.size() - 1);
+  const auto lo = static_cast<std::size_t>(std::floor(at));
+  const std::size_t hi = std::min(lo + 1, v.size() - 1);
+  return v[lo] + (at - static_cast<double>(lo)) * (v[hi] - v[lo]);
+}
+
+LiveReport run_live(const LiveConfig& config, sources::FrameSource& source, dct::Backend& backend,
+                    const std::function<void(const FrameRecord&, const dct::FrameOutput&, const cv::Mat&)>& on_frame) {
+  namespace fs = std::filesystem;
+  LiveReport rep;
+  const fs::path dir(config.output);
+  sources::Frame frame;
+  // The reference: a file, or the stream's first frame.
+  if (config.reference != "first") {
+    backend.set_reference(dct::read_grey(config.reference));
+  } else {
+    if (!source.next(frame)) {
+      rep.source = source.stats();
+      throw InputError(fmt::format("source '{}' gave no frame to take the reference from{}; check the source",
+                                   source.spec().text,
+                                   rep.source.last_error.empty() ? "" : " (" + rep.source.last_error + ")"));
+    }
+    backend.set_reference(frame.image);
+  }
+  rep.reference_dots = static_cast<int>(backend.reference_dots().size());
+  // frames.csv: one row per measured frame, flushed as it is written (kept if the run stops).
+  std::ofstream log;
+  if (!dir.empty()) {
+    fs::create_directories(dir);
+    log.open(dir / "frames.csv");
+    if (!log) throw InputError(fmt::format("cannot write {}; give an output folder you can write", (dir / "frames.csv").string()));
+    log << "frame,sequence,timestamp_s,latency_ms,process_ms,write_ms,dots,matched,valid_points,"
+           "mean_e_xx_microstrain,mean_e_yy_microstrain\n";
+  }
+  double first_arrival = -1, last_end = 0;
+  for (std::int64_t k = 0; config.max_frames == 0 || k < config.max_frames; ++k) {
+    const double w0 = now_s();
+    bool got = false;
+    try {
+      got = source.next(frame);
+    } catch (const std::exception& e) {
+      rep.stopped_because = e.what();
+      break;
+    }
+    if (!got) {
+      if (source.stats().disconnected)
+        rep.stopped_because = fmt::format("the source went away: {}", source.stats().last_error);
+      break;
+    }
+    rep.wait_seconds.push_back(now_s() - w0);
+    if (first_arrival < 0) first_arrival = frame.arrival_s;
+    FrameRecord r;
+    r.sequence = frame.sequence;
+    r.timestamp_s = frame.timestamp_s;
+    dct::FrameOutput out;
+    const double p0 = now_s();
+    try {
+      out = backend.process(frame.image);
+    } catch (const std::exception& e) {
+      rep.stopped_because = fmt::format("frame {}: {}", frame.sequence, e.what());
+      break;
+    }
+    r.process_s = now_s() - p0;
+    for (const auto& f : out.fields)
+      if (f.status == dct::PointStatus::ok) {
+        ++r.valid_points;
+        r.mean_exx += f.exx;
+        r.mean_eyy += f.eyy;
+      }
+    if (r.valid_points) {
+      r.mean_exx /= r.valid_points;
+      r.mean_eyy /= r.valid_points;
+    }
+    r.dots = static_cast<int>(out.dots.size());
+    r.matched = out.matches.matched;
+    const double c0 = now_s();
+    const std::size_t index = rep.frames.size() + 1;
+    if (!dir.empty()) {
+      dct::write_fields_csv(dir / fmt::format("frame_{:06d}.csv", index), backend.points(), out.fields);
+      if (config.overlay_every > 0 && (index - 1) % static_cast<std::size_t>(config.overlay_every) == 0)
+        for (dct::Field f : {dct::Field::ux, dct::Field::uy, dct::Field::exx, dct::Field::eyy, dct::Field::exy}) {
+          std::vector<double> v;
+          for (const auto& x : out.fields)
+            v.push_back(x.status == dct::PointStatus::ok ? dct::field_value(x, f) : std::nan(""));
+          dct::write_image(dir / fmt::format("frame_{:06d}_{}.png", index, dct::field_name(f)),
+                           dct::overlay(frame.image, backend.points(), config.pipeline.points_x,
+                                        config.pipeline.points_y, v, dct::field_name(f), dct::field_unit(f)));
+        }
+    }
+    const double end = now_s();
+    r.write_s = end - c0;
+    r.latency_s = end - frame.arrival_s;
+    last_end = end;
+    for (const auto& [stage, s] : out.seconds) rep.stage_seconds[stage].push_back(s);
+    rep.frames.push_back(r);
+    if (log.is_open())
+      log << fmt::format("{},{},{:.6f},{:.3f},{:.3f},{:.3f},{},{},{},{:.2f},{:.2f}\n", rep.frames.size(), r.sequence,
+                         r.timestamp_s, 1e3 * r.latency_s, 1e3 * r.process_s, 1e3 * r.write_s, r.dots, r.matched,
+                         r.valid_points, 1e6 * r.mean_exx, 1e6 * r.mean_eyy)
+          << std::flush;
+    if (on_frame) on_frame(r, out, frame.image);
+    if (r.valid_points == 0) {
+      rep.stopped_because = fmt::format("frame {}: no point has a valid value ({} dots found, {} matched); check the "
+                                        "threshold, polarity and area limits against the images",
+                                        frame.sequence, r.dots, r.matched);
+      break;
+    }
+  }
+  rep.source = source.stats();
+  rep.wall_s = first_arrival < 0 ? 0 : last_end - first_arrival;
+  return rep;
+}
+
+}  // namespace dtflop::live
