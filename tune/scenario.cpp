@@ -17,6 +17,8 @@ namespace {
 constexpr std::uintmax_t kMaxScenarioBytes = std::uintmax_t{1} << 20;
 constexpr int kMaxYamlDepth = 16;
 
+std::size_t invalid_utf8_at(const std::string& t);
+
 struct Reader {
   std::string origin;
   [[noreturn]] void fail(const std::string& field, const std::string& what) const {
@@ -26,6 +28,7 @@ struct Reader {
 
 std::string scalar_text(const YAML::Node& n, const Reader& r, const std::string& field) {
   if (!n.IsScalar()) r.fail(field, "expected a single value (text or number)");
+  if (invalid_utf8_at(n.Scalar()) != std::string::npos) r.fail(field, "a key that is not UTF-8 text");
   return n.Scalar();
 }
 
@@ -38,6 +41,7 @@ nlohmann::json to_json(const YAML::Node& n, const Reader& r, const std::string& 
     case YAML::NodeType::Undefined: return nullptr;
     case YAML::NodeType::Scalar: {
       const std::string& s = n.Scalar();
+      if (invalid_utf8_at(s) != std::string::npos) r.fail(field, "a value that is not UTF-8 text");
       if (n.Tag() != "!" && !s.empty()) {  // quoted scalars ("!") stay text
         if (s == "true") return true;
         if (s == "false") return false;
@@ -118,6 +122,34 @@ std::vector<std::string> axis_values(const nlohmann::json& v, const Reader& r, c
   return out;
 }
 
+// The byte offset of the first byte that does not continue valid UTF-8 (YAML text is UTF-8), or
+// npos: no over-long forms, no surrogates, nothing beyond U+10FFFF.
+std::size_t invalid_utf8_at(const std::string& t) {
+  const auto* b = reinterpret_cast<const unsigned char*>(t.data());
+  const std::size_t n = t.size();
+  for (std::size_t i = 0; i < n;) {
+    const unsigned c = b[i];
+    std::size_t len = 0;
+    unsigned lo = 0x80, hi = 0xBF;  // the range of the second byte
+    if (c < 0x80) len = 1;
+    else if (c >= 0xC2 && c <= 0xDF) len = 2;
+    else if (c == 0xE0) len = 3, lo = 0xA0;
+    else if ((c >= 0xE1 && c <= 0xEC) || c == 0xEE || c == 0xEF) len = 3;
+    else if (c == 0xED) len = 3, hi = 0x9F;
+    else if (c == 0xF0) len = 4, lo = 0x90;
+    else if (c >= 0xF1 && c <= 0xF3) len = 4;
+    else if (c == 0xF4) len = 4, hi = 0x8F;
+    else return i;
+    if (i + len > n) return i;
+    for (std::size_t k = 1; k < len; ++k) {
+      const unsigned d = b[i + k];
+      if (k == 1 ? (d < lo || d > hi) : (d < 0x80 || d > 0xBF)) return i;
+    }
+    i += len;
+  }
+  return std::string::npos;
+}
+
 std::string resolve(const std::string& p, const std::filesystem::path& base) {
   if (p.empty()) return p;
   const std::filesystem::path path(p);
@@ -128,6 +160,16 @@ std::string resolve(const std::string& p, const std::filesystem::path& base) {
 
 Scenario parse_scenario(const std::string& yaml, const std::filesystem::path& base, const std::string& origin) {
   const Reader r{origin};
+  if (const std::size_t at = invalid_utf8_at(yaml); at != std::string::npos)
+    throw InputError(fmt::format("scenario {}: byte {} is not UTF-8 text; save the file as UTF-8", origin, at));
+  // YAML allows no control characters but tab, line feed and carriage return (and a NUL would
+  // make yaml-cpp guess UTF-16 or UTF-32 and transcode the text).
+  for (std::size_t i = 0; i < yaml.size(); ++i) {
+    const auto c = static_cast<unsigned char>(yaml[i]);
+    if ((c < 0x20 && c != '\t' && c != '\n' && c != '\r') || c == 0x7F)
+      throw InputError(fmt::format("scenario {}: byte {} is a control character (0x{:02x}); a scenario is text", origin,
+                                   i, c));
+  }
   YAML::Node root;
   try {
     root = YAML::Load(yaml);

@@ -77,6 +77,12 @@ TEST(Scenario, NamesTheFieldTheValueAndWhatWasExpected) {
   EXPECT_NE(error_of("- a list\n").find("expected a mapping"), std::string::npos);
   EXPECT_NE(error_of(base + "accuracy: 5\n").find("accuracy: expected a mapping"), std::string::npos);
   EXPECT_NE(error_of(base + "deadline: .nan\n").find("deadline"), std::string::npos);
+  // Text that is not UTF-8 (found by the fuzz target: it reached a JSON serializer in a message).
+  EXPECT_NE(error_of(base + "description: grid\xff\xff\n")
+                .find("byte " + std::to_string(base.size() + 17) + " is not UTF-8"),
+            std::string::npos);
+  EXPECT_NE(error_of(base + "description: \xed\xa0\x80\n").find("not UTF-8"), std::string::npos);  // a surrogate
+  EXPECT_EQ(error_of(base + "description: caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x9a\x81\n"), "");  // é € 🚁
 }
 
 TEST(Scenario, AFileIsReadWithinItsLimitAndAMissingOneIsNamed) {
