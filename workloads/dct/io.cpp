@@ -75,6 +75,9 @@ std::optional<std::pair<std::int64_t, std::int64_t>> declared_size(const std::st
         ++at;
       }
       if (at == first) return std::nullopt;
+      // A number ends at whitespace: OpenCV's reader takes "766#6666..." otherwise than this one
+      // (it allocated 3 GB for "P6 766#666666*6666 7"), so such a header is refused as damaged.
+      if (at < n && std::string_view(" \t\n\v\f\r").find(bytes[at]) == std::string_view::npos) return std::nullopt;
       return v;
     };
     const auto w = number();
