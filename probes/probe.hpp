@@ -67,6 +67,8 @@ struct ProbeReport {
 struct Probe {
   std::string name;         // e.g. "cpu-memory"
   std::string description;  // one line
+  // The runner (probes/machine.cpp) skips a probe that needs a GPU where none is usable, saying
+  // why once, so its run() is called only with a usable device.
   bool needs_gpu = false;
   int order = 0;            // probes run in ascending order
   std::function<ProbeReport(const ProbeOptions&)> run;
