@@ -44,7 +44,7 @@ void run(const PredictCommon& o, const WorkloadArgs& a) {
   std::optional<Judged> judged;
   if (pp) {
     for (const auto& n : pp->notes) fmt::print(stderr, "dtflop: note: {}\n", n);
-    pred = predict_with_fallback(pp->profile, counts, wanted_variant(o.predict, pp->profile));
+    pred = predict_with_fallback(pp->profile, counts, wanted_variant(o.predict, pp->profile, c.backend));
     if (!pred->fallback.empty()) fmt::print(stderr, "dtflop: note: {}\n", pred->fallback);
     judged = judge(*pred, *pp, counts, deadline);
     out["machine"] = machine_json(o.predict.machine, pp->profile);

@@ -49,7 +49,7 @@ void run(const RunCommon& o, const WorkloadArgs& a) {
   if (!o.predict.machine.empty() || !o.predict.calibration.empty()) {
     pp = prediction_profile(o.predict, w, *c.backend, c.config);
     for (const auto& n : pp->notes) fmt::print(stderr, "dtflop: note: {}\n", n);
-    wanted = wanted_variant(o.predict, pp->profile);
+    wanted = wanted_variant(o.predict, pp->profile, c.backend);
     (void)predict_with_fallback(pp->profile, c.backend->counts(c.config, &pp->profile.identity), *wanted);
   }
   const MachineProfile* profile = pp ? &pp->profile : nullptr;

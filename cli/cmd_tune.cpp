@@ -153,7 +153,7 @@ tune::Predicted predict_one(const Inputs& in, const workload::Backend& b, const 
   }
   const MachineProfile& profile = cal ? cal->applied.profile : in.machine;
   const CostCounts counts = b.counts(c, &in.machine.identity);
-  const Variant wanted = cal ? cal->calibration.variant : chosen_variant(profile).value_or(Variant::extended);
+  const Variant wanted = cal ? cal->calibration.variant : chosen_variant(profile).value_or(b.model_variant());
   const Predicted p = predict_with_fallback(profile, counts, wanted);
   const BasisError basis = cal ? cal->basis : basis_of(profile, counts, p.variant);
   const Interval iv = interval_of(p.prediction, profile, counts, basis);

@@ -153,9 +153,22 @@ int run(const ValidateOptions& o) {
                                    s.key, describe(s.machine), o.machine, describe(profile.identity), why));
   }
 
-  // A probe profile names no variant: predict every sample with the richest variant the profile
-  // supports for all of them, as `predict` falls back (the probes give no K_GR, B_GS, L_atomic).
+  // A probe profile names no variant: predict with the one the samples' backends declare for their
+  // code (workload::Backend::model_variant; extended where they differ), or the richest simpler one
+  // the profile supports for all of them, as `predict` falls back (the probes give no B_GS, L_atomic).
   if (o.variant.empty() && !chosen_variant(profile)) {
+    std::optional<Variant> declared;
+    bool alike = true;
+    for (const auto& s : samples) {
+      const Variant v = workload::find(s.workload).backend(s.backend).model_variant();
+      alike = alike && (!declared || *declared == v);
+      declared = v;
+    }
+    if (declared && alike) {
+      variant = *declared;
+      variant_from = "the one the backend declares for its code";
+    }
+    const Variant wanted = variant;
     std::vector<Param> missing;
     for (const auto& s : samples) {
       std::vector<Param> m;
@@ -165,7 +178,7 @@ int run(const ValidateOptions& o) {
         missing = m;
       }
     }
-    if (!missing.empty()) fmt::print(stderr, "dtflop: note: {}\n", fallback_note(Variant::extended, variant, missing));
+    if (!missing.empty()) fmt::print(stderr, "dtflop: note: {}\n", fallback_note(wanted, variant, missing));
   }
   if (calibration)
     for (const auto& s : samples)

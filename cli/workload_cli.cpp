@@ -261,13 +261,14 @@ int exit_status_of(const DeadlineVerdict& v) {
   return 0;
 }
 
-Variant wanted_variant(const PredictArgs& args, const MachineProfile& profile) {
+Variant wanted_variant(const PredictArgs& args, const MachineProfile& profile, const workload::Backend* backend) {
   if (!args.variant.empty()) {
     const auto v = variant_from_string(args.variant);
     if (!v) throw InputError(fmt::format("--variant '{}' is unknown; use {}", args.variant, variant_names()));
     return *v;
   }
-  return chosen_variant(profile).value_or(Variant::extended);
+  if (const auto chosen = chosen_variant(profile)) return *chosen;
+  return backend ? backend->model_variant() : Variant::extended;
 }
 
 Predicted predict_with_fallback(const MachineProfile& profile, const CostCounts& counts, Variant wanted) {

@@ -108,8 +108,11 @@ nlohmann::json uncertainty_json(const Judged& j, std::optional<double> deadline)
 std::string judged_text(const Predicted& p, const Judged& j, std::optional<double> deadline);
 // The exit status a deadline verdict gives: 0 met, kExitMissed, kExitUncertain.
 int exit_status_of(const DeadlineVerdict& v);
-// The variant `args` asks for on `profile`: --variant, else the profile's chosen one, else extended.
-Variant wanted_variant(const PredictArgs& args, const MachineProfile& profile);
+// The variant `args` asks for on `profile`: --variant, else the profile's chosen one, else the one
+// `backend` declares for its code (a probe-only profile; workload::Backend::model_variant), else
+// extended.
+Variant wanted_variant(const PredictArgs& args, const MachineProfile& profile,
+                       const workload::Backend* backend = nullptr);
 // Predicts `counts` on `profile` with the wanted variant, or with the richest simpler one whose
 // parameters the profile holds (saying why in `fallback`). Throws MissingParameter only when not
 // even the seed variant can be computed (e.g. a GPU backend on a profile without a GPU).

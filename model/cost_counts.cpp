@@ -47,6 +47,8 @@ const std::vector<CountField>& count_fields() {
       {"host_waits", &C::host_waits, "waits", "of the host for device work it submitted"},
       {"N_C", &C::N_C, "FLOPs", "on the CPU"},
       {"N_CW", &C::N_CW, "FLOPs", "of N_C, of sliding-window loops (one unaligned load per FMA)", A::sum, &C::N_C},
+      {"N_CD", &C::N_CD, "FLOPs", "of N_C, of chained sliding-window loops (each tap's addition waits for the last)",
+       A::sum, &C::N_C},
       {"N_CC", &C::N_CC, "values", "through host memory by CPU work"},
       {"tree_steps", &C::tree_steps, "steps", "of host k-d tree builds and searches"},
       {"net_messages", &C::net_messages, "messages", "sent by one process to others (MPI)"},
@@ -83,6 +85,11 @@ void check_consistent(const CostCounts& c) {
                                    "workload's counts are inconsistent",
                                    f.name, n, whole.name, total, f.name, f.unit, f.meaning));
   }
+  // The two kinds of sliding-window FLOPs are priced apart, so none is in both.
+  if (c.N_CW + c.N_CD > c.N_C)
+    throw InputError(fmt::format("the counts give N_CW = {} and N_CD = {}, together more than N_C = {} (a CPU FLOP "
+                                 "is of one kind of sliding window at most): the workload's counts are inconsistent",
+                                 c.N_CW, c.N_CD, c.N_C));
 }
 
 CostCounts& CostCounts::operator+=(const CostCounts& o) {

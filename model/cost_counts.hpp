@@ -43,6 +43,12 @@ struct CostCounts {
                                 // the CPU rate (memory and extended variants). Loops bound by the
                                 // FMA units or by chains of dependent additions are not counted
                                 // here; 0 = none
+  std::int64_t N_CD = 0;        // of N_C, the FLOPs of chained sliding-window loops: a correlation
+                                // along contiguous memory with few outputs in flight (a group of
+                                // 8 float64 accumulators, compiled for the baseline instruction
+                                // set), so every tap's addition waits for the previous tap's.
+                                // Priced K_CD times a FLOP at the CPU rate (memory and extended
+                                // variants); 0 = none. A FLOP is in N_CW or N_CD, never both
   std::int64_t N_GS = 0;        // values kernels copy from device memory into shared-memory tiles
                                 // (halos included), counted per round of blocks on the busiest
                                 // multiprocessor times the multiprocessors, like N_G (latency+)

@@ -50,6 +50,7 @@ enum class Param {
   S_GC_staged,     // bytes of a copy that pass at B_GC_staged                         [B]
   S_GC_flat,       // bytes after those that cost nothing more; the rest at B_GC_pageable [B]
   K_CW,            // cost of a sliding-window FLOP (N_CW) relative to one at the CPU rate [x]
+  K_CD,            // cost of a chained sliding-window FLOP (N_CD) relative to one at the CPU rate [x]
   K_GR,            // cost of an across-rows GPU FLOP (N_GR) relative to one at V_G         [x]
   L_tree,          // one step of host k-d tree work (tree_steps)                          [s]
   L_net,           // one message between processes (MPI ping-pong: half a round trip)     [s]

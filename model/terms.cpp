@@ -135,16 +135,20 @@ double g_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const 
 
 // dt_C_arith. Over the CPU rate of cpu_threads threads (docs/model.md 2.3); memory and extended:
 // the sliding-window FLOPs (N_CW) cost K_CW times the others (their loads, one per FMA and most
-// of them unaligned, hold the arithmetic back: docs/model.md 2.4).
+// of them unaligned, hold the arithmetic back), the chained ones (N_CD) K_CD times (each tap's
+// addition waits for the one before: docs/model.md 2.4).
 bool sliding_window(const CostCounts& c, Variant v) { return kHostMemoryVariants.contains(v) && c.N_CW > 0; }
+bool chained_window(const CostCounts& c, Variant v) { return kHostMemoryVariants.contains(v) && c.N_CD > 0; }
 std::vector<Param> c_needs(const CostCounts& c, Variant v, const Pricing&) {
   auto out = cpu_params(v_c1(c), v_c(c), c.cpu_threads);
   if (sliding_window(c, v)) out.push_back(Param::K_CW);
+  if (chained_window(c, v)) out.push_back(Param::K_CD);
   return out;
 }
 double c_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing&) {
-  return priced_flops(c.N_C, c.N_CW, sliding_window(c, v) ? m.get(Param::K_CW).value : 1.0) /
-         cpu_rate(m, c.precision, c.cpu_threads);
+  const double flops = priced_flops(c.N_C, c.N_CW, sliding_window(c, v) ? m.get(Param::K_CW).value : 1.0) +
+                       (chained_window(c, v) ? m.get(Param::K_CD).value - 1 : 0.0) * static_cast<double>(c.N_CD);
+  return flops / cpu_rate(m, c.precision, c.cpu_threads);
 }
 
 // dt_CC. The CPU work's host memory traffic, over the bandwidth of cpu_threads threads; the
@@ -209,9 +213,9 @@ const std::vector<Term>& terms() {
       {"dt_GS", &P::dt_GS, Phase::G, kLatencyVariants, sum, "P N_GS", "B_GS", "shared-memory tile fills",
        per_byte<&C::N_GS, only<Param::B_GS>>()},
       {"dt_C_arith", &P::dt_C_arith, Phase::C, kEveryVariant, overlap,
-       "N_C + (K_CW - 1) N_CW; seed, latency: N_C",
+       "N_C + (K_CW - 1) N_CW + (K_CD - 1) N_CD; seed, latency: N_C",
        "V_C1_fp32 or V_C1_fp64 (precision), and V_C_fp32 or V_C_fp64 for cpu_threads > 1 (2.3); K_CW (memory, "
-       "extended, N_CW > 0)",
+       "extended, N_CW > 0); K_CD (memory, extended, N_CD > 0)",
        "CPU arithmetic", {positive<&C::N_C>, c_needs, c_seconds}},
       {"dt_CC", &P::dt_CC, Phase::C, kHostMemoryVariants, overlap, "P N_CC",
        "B_host_1, and B_host for cpu_threads > 1; B_llc_1 (and B_llc) when 0 < cpu_footprint < LLC (2.4)",

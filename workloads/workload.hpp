@@ -33,6 +33,7 @@
 #include "cuda/error.hpp"
 #include "model/cost_counts.hpp"
 #include "model/errors.hpp"
+#include "model/predict.hpp"
 #include "model/profile.hpp"
 
 namespace dtflop::workload {
@@ -112,6 +113,12 @@ class Backend {
   const std::string& name() const { return info_.name; }
   bool needs_gpu() const { return info_.needs_gpu; }
 
+  // The model variant that describes this backend's code where no fit has chosen one (a probe-only
+  // profile): its phases as separate loops on the host (memory) or copies, kernels and host work
+  // one after another on a GPU (latency). Every fit so far chose these (docs/model.md 2.5,
+  // docs/PERFORMANCE.md): memory for each CPU backend, latency for each GPU one. A backend whose
+  // code overlaps its traffic with its arithmetic overrides it.
+  virtual Variant model_variant() const { return needs_gpu() ? Variant::latency : Variant::memory; }
   // Why this backend cannot run on this machine, one line ending with what to do; empty when it
   // can (the default: a CPU backend always can; GPU backends say whether a CUDA device is usable).
   virtual std::string unavailable() const;

@@ -153,15 +153,34 @@ TEST(Predict, SlidingWindowFlopsCostKCwTimesTheOthersInTheMemoryVariants) {
     ADD_FAILURE() << "no MissingParameter";
   } catch (const MissingParameter& e) {
     EXPECT_NE(std::string(e.what()).find("K_CW"), std::string::npos) << e.what();
-    // No probe measures it: the message sends the user to the calibration, not to a probe.
-    EXPECT_NE(std::string(e.what()).find("dtflop calibrate"), std::string::npos) << e.what();
-    EXPECT_EQ(std::string(e.what()).find("dtflop probe"), std::string::npos) << e.what();
+    // The cpu-window probe measures it: the message sends the user to a probe.
+    EXPECT_NE(std::string(e.what()).find("dtflop probe"), std::string::npos) << e.what();
   }
   // More sliding-window FLOPs than FLOPs: inconsistent counts.
   c.N_CW = c.N_C + 1;
   EXPECT_THROW(predict(m, c, Variant::memory), InputError);
   c.N_CW = -1;
   EXPECT_THROW(predict(m, c, Variant::latency), InputError);
+}
+
+TEST(Predict, ChainedWindowFlopsCostKCdTimesTheOthersBesideTheSlidingWindowOnes) {
+  auto m = test::round_profile();  // K_CW = 1.5, V_C1 100 GFLOP/s
+  m.set(Param::K_CD, Parameter{4.0, Provenance::probed, {}, {}, {}});
+  CostCounts c;
+  c.N_C = 1'000'000;  // 10 us at the FMA rate
+  c.N_CW = 200'000;   // 2 us -> 3 us at K_CW = 1.5
+  c.N_CD = 500'000;   // 5 us -> 20 us at K_CD = 4
+  EXPECT_NEAR(predict(m, c, Variant::memory).dt_C, (3e5 + 3e5 + 2e6) / 100e9, 1e-15);
+  EXPECT_NEAR(predict(m, c, Variant::extended).dt_C, 26e-6, 1e-15);
+  EXPECT_NEAR(predict(m, c, Variant::latency).dt_C, 10e-6, 1e-15);  // every FLOP alike
+  EXPECT_TRUE(needs(c, Variant::memory, Param::K_CD));
+  EXPECT_FALSE(needs(c, Variant::latency, Param::K_CD));
+  CostCounts none = c;
+  none.N_CD = 0;
+  EXPECT_FALSE(needs(none, Variant::memory, Param::K_CD));
+  // A FLOP is of one kind of window at most.
+  c.N_CD = 900'000;
+  EXPECT_THROW(predict(m, c, Variant::memory), InputError);
 }
 
 TEST(Predict, AcrossRowGpuFlopsCostKGrTimesTheOthersInTheLatencyVariants) {

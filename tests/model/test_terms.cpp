@@ -505,8 +505,9 @@ TEST(RichestSupportedVariant, AProbedProfileFallsBackToTheVariantItHasTheParamet
     const std::string note = fallback_note(wanted, Variant::latency, missing);
     EXPECT_NE(note.find("K_CW ("), std::string::npos) << note;
     EXPECT_NE(note.find("predicting with the latency variant instead"), std::string::npos) << note;
-    EXPECT_NE(note.find("dtflop calibrate"), std::string::npos) << note;
-    EXPECT_EQ(note.find("dtflop probe"), std::string::npos) << note;
+    // The cpu-window probe measures K_CW: the note sends the user to it, not to a calibration.
+    EXPECT_NE(note.find("measure K_CW with `dtflop probe`"), std::string::npos) << note;
+    EXPECT_EQ(note.find("dtflop calibrate"), std::string::npos) << note;
     EXPECT_EQ(note.find('\n'), std::string::npos) << note;
     EXPECT_NO_THROW(predict(probed, cpu, Variant::latency));
   }
@@ -528,6 +529,10 @@ TEST(RichestSupportedVariant, AProbedProfileFallsBackToTheVariantItHasTheParamet
   gpu.host_memory = HostMemory::pinned;
   EXPECT_EQ(richest_supported_variant(probed, gpu, Variant::extended, &missing), Variant::seed);
   EXPECT_EQ(as_set(missing), (std::set<Param>{Param::B_GS, Param::L_atomic}));
+  // No probe measures them: the note sends the user to a calibration.
+  const std::string fitted_note = fallback_note(Variant::extended, Variant::seed, missing);
+  EXPECT_NE(fitted_note.find("dtflop calibrate"), std::string::npos) << fitted_note;
+  EXPECT_EQ(fitted_note.find("dtflop probe"), std::string::npos) << fitted_note;
   EXPECT_NO_THROW(predict(probed, gpu, Variant::seed));
   // Sized pageable copies: the staging figures apply only where the profile has them, so a
   // probed profile keeps the latency variant's plain line rather than falling back.

@@ -95,6 +95,31 @@ TEST(CpuKernels, StreamKernelsHandleAnyLength) {
   }
 }
 
+// Both window kernels against the correlation written out in float64, on values whose every
+// partial sum is exact, for rows of one group and of several.
+TEST(CpuKernels, WindowKernelsComputeTheCorrelation) {
+  for (std::int64_t taps : {1, 5, 33}) {
+    for (int groups : {1, 3}) {
+      const std::int64_t nc = groups * cpu::kWindowChainedGroup, nw = groups * cpu::kWindowWideGroup;
+      std::vector<double> in64(static_cast<std::size_t>(nw + taps - 1)), k64(static_cast<std::size_t>(taps));
+      for (std::size_t i = 0; i < in64.size(); ++i) in64[i] = static_cast<double>((i * 5 + 1) % 13) - 6;
+      for (std::size_t a = 0; a < k64.size(); ++a) k64[a] = static_cast<double>(a % 4) + 1;
+      std::vector<float> in32(in64.begin(), in64.end()), k32(k64.begin(), k64.end());
+      auto expect = [&](std::int64_t x) {
+        double s = 0;
+        for (std::int64_t a = 0; a < taps; ++a) s += k64[static_cast<std::size_t>(a)] * in64[static_cast<std::size_t>(x + a)];
+        return s;
+      };
+      std::vector<double> out64(static_cast<std::size_t>(nc), -1e300);
+      EXPECT_EQ(cpu::window_chained(in64.data(), k64.data(), taps, nc, out64.data()), 2.0 * nc * taps);
+      for (std::int64_t x = 0; x < nc; ++x) EXPECT_EQ(out64[static_cast<std::size_t>(x)], expect(x)) << x;
+      std::vector<float> out32(static_cast<std::size_t>(nw), -1e30f);
+      EXPECT_EQ(cpu::window_wide(in32.data(), k32.data(), taps, nw, out32.data()), 2.0 * nw * taps);
+      for (std::int64_t x = 0; x < nw; ++x) EXPECT_EQ(out32[static_cast<std::size_t>(x)], expect(x)) << x;
+    }
+  }
+}
+
 TEST(Team, RunsEveryWorkerAtOnceAndReportsErrors) {
   Team team(3);
   EXPECT_EQ(team.size(), 3);

@@ -68,6 +68,22 @@ TEST(CpuProbes, FmaGivesFourRates) {
   }
 }
 
+TEST(CpuProbes, WindowGivesBothCostRatios) {
+  ProbeOptions o;
+  o.effort = Effort::smoke;
+  const ProbeReport r = probe("cpu-window").run(o);
+  expect_sane(r);
+  for (Param p : {Param::K_CD, Param::K_CW}) {
+    const auto* m = find(r, p);
+    ASSERT_NE(m, nullptr) << info(p).name;
+    // A loop of FMAs cannot beat the FMA units by more than timing noise, and no CPU of this
+    // century runs one at a thousandth of their rate.
+    EXPECT_GT(m->value, 0.5) << info(p).name;
+    EXPECT_LT(m->value, 1000) << info(p).name;
+    EXPECT_EQ(m->stats.n, 3u);  // the smoke plan's repetitions of the loop
+  }
+}
+
 TEST(Identity, DescribesThisCpu) {
   const CpuInfo c = cpu_info();
   EXPECT_FALSE(c.model.empty());

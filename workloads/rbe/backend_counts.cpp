@@ -29,7 +29,8 @@ CostCounts cpu_seq_counts(const Shape& s, Convolution prediction) {
     // Zero-padded lines, every output taking every tap, rows in whole groups of
     // reference::kGroup outputs: the x-pass runs n_y rows of n_x, the y-pass n_x of n_y.
     auto whole = [](std::int64_t n) { return (n + reference::kGroup - 1) / reference::kGroup * reference::kGroup; };
-    c.N_C = 2 * (s.ny * whole(s.nx) * s.Ix + s.nx * whole(s.ny) * s.Iy) + correction;
+    c.N_CD = 2 * (s.ny * whole(s.nx) * s.Ix + s.nx * whole(s.ny) * s.Iy);  // chained taps
+    c.N_C = c.N_CD + correction;
     // x-pass r+w, y-pass (transpose, x-pass, transpose back) 3 x r+w, multiply (pred, l -> q),
     // sum (q), divide (q -> p); kernels once.
     c.N_CC = 2 * ng + 6 * ng + 3 * ng + ng + 2 * ng + s.Ix + s.Iy;

@@ -25,8 +25,10 @@ std::int64_t edge_taps(std::int64_t kernel_size);
 //   X = kGroup ceil(n_x / kGroup), Y = kGroup ceil(n_y / kGroup)
 //   full:      N_C = 2 (I_x n_x - S(I_x)) (I_y n_y - S(I_y)) + 3 n_g + 1,  N_CC = 8 n_g + I_x I_y
 //   (multiply by l: n_g, sum: n_g, A_c x sum: 1, divide: n_g)
-// N_CW = 0: each output's taps are one chain of dependent additions, bound by their latency
-// rather than by the loads.
+// N_CW = 0. Separable: N_CD = 2 (n_y X I_x + n_x Y I_y), every tap of both passes: each group of
+// kGroup outputs holds one float64 accumulator per output, so each tap's addition waits for the
+// previous tap's (chained sliding window, priced K_CD). Full 2D: N_CD = 0, its taps are one
+// chain per output, a shape no probe measures yet.
 CostCounts cpu_seq_counts(const Shape& s, Convolution prediction);
 
 // cpu-par, float32, `threads` threads, zero-padded buffers so every output takes every tap. The

@@ -71,6 +71,8 @@ TEST(RbeBackendCounts, CpuSeqByHand) {
   EXPECT_EQ(c.N_C, 2 * (8 * 16 * 3 + 10 * 8 * 4) + 3 * 80 + 1);
   EXPECT_EQ(c.N_CC, 14 * 80 + 3 + 4);  // the y-pass through two transposes
   EXPECT_EQ(c.N_CW, 0);  // chains of dependent additions: bound by their latency, not the loads
+  EXPECT_EQ(c.N_CD, 2 * (8 * 16 * 3 + 10 * 8 * 4));  // every tap of both passes is such a chain
+  EXPECT_EQ(cpu_seq_counts(s, Convolution::full).N_CD, 0);  // one chain per output: not this shape
   EXPECT_EQ(c.cpu_syncs, 0);
   EXPECT_EQ(c.P, 8);
   EXPECT_EQ(c.cpu_threads, 1);
