@@ -49,6 +49,10 @@ struct CostCounts {
                                 // set), so every tap's addition waits for the previous tap's.
                                 // Priced K_CD times a FLOP at the CPU rate (memory and extended
                                 // variants); 0 = none. A FLOP is in N_CW or N_CD, never both
+  std::int64_t N_CS = 0;        // of N_C, the FLOPs of one serial chain: a plain sum whose every
+                                // addition waits for the one before (no other chain beside it).
+                                // Priced at V_CS, the rate of such a chain (latency, memory and
+                                // extended variants); 0 = none. Not also in N_CW or N_CD
   std::int64_t N_GS = 0;        // values kernels copy from device memory into shared-memory tiles
                                 // (halos included), counted per round of blocks on the busiest
                                 // multiprocessor times the multiprocessors, like N_G (latency+)

@@ -221,6 +221,13 @@ double window_wide(const float* in, const float* k, std::int64_t taps, std::int6
   return 2.0 * static_cast<double>(n) * static_cast<double>(taps);
 }
 
+double serial_sum(const double* in, std::int64_t n, double* sum) {
+  double s = 0;
+  for (std::int64_t i = 0; i < n; ++i) s += in[i];
+  *sum = s;
+  return static_cast<double>(n);
+}
+
 std::string_view window_wide_isa() {
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
   __builtin_cpu_init();

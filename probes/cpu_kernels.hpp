@@ -55,6 +55,9 @@ inline constexpr int kWindowChainedGroup = 8;
 inline constexpr int kWindowWideGroup = 64;
 double window_chained(const double* in, const double* k, std::int64_t taps, std::int64_t n, double* out);
 double window_wide(const float* in, const float* k, std::int64_t taps, std::int64_t n, float* out);
+// The plain float64 sum of in[0..n), one addition after another (a serial chain, as the
+// workloads' sums are written). Returns n FLOPs and the sum in *sum.
+double serial_sum(const double* in, std::int64_t n, double* sum);
 // The instruction set window_wide runs with on this CPU: "x86-64-v3 (AVX2+FMA)" or "baseline".
 std::string_view window_wide_isa();
 

@@ -1,10 +1,11 @@
 // K_CD and K_CW: what a FLOP of a sliding-window correlation costs on this CPU, relative to one at
-// the probed FMA rate of one thread, for the two shapes the CPU backends' taps have
-// (cpu_kernels.hpp, docs/model.md 2.4):
+// the probed FMA rate of one thread, for the two shapes the CPU backends' taps have, and V_CS, the
+// rate of a plain sum (cpu_kernels.hpp, docs/model.md 2.4):
 //   K_CD  float64, 8 outputs in flight, baseline instruction set: chains of dependent additions,
 //         paced by the adder's latency (the float64 reference loops, cpu-seq's taps);
 //   K_CW  float32, 64 outputs in flight, AVX2+FMA where the CPU has it: paced by one unaligned
-//         vector load per FMA (the vectorized loops, cpu-par's x-pass).
+//         vector load per FMA (the vectorized loops, cpu-par's x-pass);
+//   V_CS  one chain of dependent float64 additions over a row (the workloads' host sums).
 // A row of 2048 outputs and 33 taps stays in the first-level cache, so memory plays no part: the
 // ratio is the loop's own. The FMA rates are rerun here (the cpu-fma probe's kernel) so that each
 // ratio is of one run. Every output of every timed call is checked against its exact value.
@@ -135,6 +136,30 @@ Measurement window(const Plan& p, int group, std::string key, std::string label,
                           fmt::format("{}; a row of {} outputs, {} taps, median of {}", how, p.n, p.taps, p.reps));
 }
 
+// The serial chain: a float64 sum of the row (small integers: exact), `calls` times.
+Measurement serial(const Plan& p) {
+  const std::int64_t n = 4096;  // 32 KiB: in the first-level cache, so the chain and not memory sets the pace
+  std::vector<double> in(static_cast<std::size_t>(n));
+  for (std::size_t i = 0; i < in.size(); ++i) in[i] = static_cast<double>((i * 7 + 3) % 11);
+  double exact = 0;
+  for (double v : in) exact += v;
+  auto once = [&](std::int64_t calls) {
+    double flops = 0, sum = 0;
+    for (std::int64_t c = 0; c < calls; ++c) {
+      in[0] = static_cast<double>(c % 2 ? 1 : 3);  // every call sums different values
+      flops += cpu::serial_sum(in.data(), n, &sum);
+      if (sum != exact + in[0] - 3) throw ValidationError(fmt::format("CPU serial sum is {}, expected {}", sum, exact + in[0] - 3));
+    }
+    in[0] = 3;
+    return flops;
+  };
+  const Timed t = time_calls(once, p);
+  return rate_measurement("serial_fp64", "CPU serial chain of float64 additions, 1 thread", "FLOP/s", t.flops,
+                          t.seconds, Param::V_CS,
+                          fmt::format("a plain sum of {} values, each addition waiting for the last, median of {}", n,
+                                      p.reps));
+}
+
 Measurement ratio(const Measurement& reference, const Measurement& loop, Param param, std::string label) {
   Measurement k;
   k.key = std::string(info(param).name);
@@ -163,7 +188,9 @@ ProbeReport run(const ProbeOptions& o) {
   o.say(fmt::format("  CPU chained window (fp64): {:.2f} GFLOP/s, K_CD {:.2f}; wide window (fp32): {:.1f} GFLOP/s, "
                     "K_CW {:.2f}",
                     chained.value / 1e9, k_cd.value, wide.value / 1e9, k_cw.value));
-  for (const Measurement* m : {&fp64, &chained, &k_cd, &fp32, &wide, &k_cw}) r.measurements.push_back(*m);
+  const Measurement chain = serial(p);
+  o.say(fmt::format("  CPU serial chain (fp64 sum): {:.2f} GFLOP/s", chain.value / 1e9));
+  for (const Measurement* m : {&fp64, &chained, &k_cd, &fp32, &wide, &k_cw, &chain}) r.measurements.push_back(*m);
   return r;
 }
 
@@ -173,6 +200,6 @@ ProbeReport run(const ProbeOptions& o) {
 DTFLOP_PROBE_UNIT(probe_cpu_window) {
   registry.add({"cpu-window",
                 "CPU sliding-window correlations against the FMA rate (K_CD: chained float64 taps, K_CW: vectorized "
-                "float32 taps)",
+                "float32 taps) and the rate of a plain sum (V_CS)",
                 false, 22, dtflop::probes::run});
 }

@@ -183,6 +183,32 @@ TEST(Predict, ChainedWindowFlopsCostKCdTimesTheOthersBesideTheSlidingWindowOnes)
   EXPECT_THROW(predict(m, c, Variant::memory), InputError);
 }
 
+TEST(Predict, ASerialChainRunsAtItsOwnRateOnOneThread) {
+  auto m = test::round_profile();  // V_C1_fp32 100 GFLOP/s
+  m.set(Param::V_CS, Parameter{1e9, Provenance::probed, {}, {}, {}});
+  CostCounts c;
+  c.N_C = 1'000'001;  // a host sum of 10^6 values and one multiplication
+  c.N_CS = 1'000'000;
+  // latency+: 1 ms for the chain at 1 GFLOP/s, 10 ps for the multiplication at the FMA rate.
+  for (Variant v : {Variant::latency, Variant::memory, Variant::extended})
+    EXPECT_NEAR(predict(m, c, v).dt_C, 1e-3 + 1.0 / 100e9, 1e-15) << to_string(v);
+  EXPECT_NEAR(predict(m, c, Variant::seed).dt_C, 1'000'001 / 100e9, 1e-15);  // the seed: one rate
+  EXPECT_TRUE(needs(c, Variant::latency, Param::V_CS));
+  EXPECT_FALSE(needs(c, Variant::seed, Param::V_CS));
+  // The chain is one thread's, whatever cpu_threads is.
+  c.cpu_threads = 16;
+  EXPECT_NEAR(predict(m, c, Variant::latency).dt_C - 1e-3, 1.0 / m.get(Param::V_C_fp32).value, 1e-15);
+  // Only the chain: no CPU rate needed.
+  c.N_C = c.N_CS;
+  auto chain_only = m;
+  chain_only.erase(Param::V_C1_fp32);
+  chain_only.erase(Param::V_C_fp32);
+  EXPECT_NEAR(predict(chain_only, c, Variant::latency).dt_C, 1e-3, 1e-15);
+  // Not more than N_C, nor with the window kinds together.
+  c.N_CW = 1;
+  EXPECT_THROW(predict(m, c, Variant::latency), InputError);
+}
+
 TEST(Predict, AcrossRowGpuFlopsCostKGrTimesTheOthersInTheLatencyVariants) {
   const auto m = test::round_profile();  // K_GR = 2, V_G_fp32 = 50 TFLOP/s
   CostCounts c;

@@ -82,6 +82,10 @@ TEST(CpuProbes, WindowGivesBothCostRatios) {
     EXPECT_LT(m->value, 1000) << info(p).name;
     EXPECT_EQ(m->stats.n, 3u);  // the smoke plan's repetitions of the loop
   }
+  const auto* chain = find(r, Param::V_CS);
+  ASSERT_NE(chain, nullptr);
+  EXPECT_GT(chain->value, 1e7);  // an addition every few cycles: 10^8 .. 10^10 per second
+  EXPECT_LT(chain->value, 1e11);
 }
 
 TEST(Identity, DescribesThisCpu) {

@@ -41,6 +41,7 @@ CostCounts cpu_seq_counts(const Shape& s, Convolution prediction) {
     c.N_CC = 2 * ng + 3 * ng + ng + 2 * ng + s.Ix * s.Iy;
     c.cpu_footprint = 5 * ng * c.P;  // p, l, u, the prediction, q
   }
+  c.N_CS = ng;  // the correction's sum of q: one chain of n_g dependent additions
   return c;
 }
 
@@ -79,6 +80,7 @@ CostCounts cpu_par_counts(const Shape& s, Convolution prediction, int threads) {
 CostCounts cuda_seed_counts(const Shape& s, HostMemory memory) {
   CostCounts c = seed_gpu_counts(s, memory);
   c.N_C += 1;  // A_c x sum, which the seed counts inside its n_g summations
+  c.N_CS = s.cells();  // the host's sum of q: one chain of n_g dependent additions
   // The row kernel's taps: each reads u one row further on (rbe_seed_row_multiply).
   c.N_GR = 2 * s.cells() * s.Iy;
   return c;

@@ -28,7 +28,8 @@ std::int64_t edge_taps(std::int64_t kernel_size);
 // N_CW = 0. Separable: N_CD = 2 (n_y X I_x + n_x Y I_y), every tap of both passes: each group of
 // kGroup outputs holds one float64 accumulator per output, so each tap's addition waits for the
 // previous tap's (chained sliding window, priced K_CD). Full 2D: N_CD = 0, its taps are one
-// chain per output, a shape no probe measures yet.
+// chain per output, a shape no probe measures yet. N_CS = n_g: the correction's sum of q is one
+// chain of dependent additions (priced at V_CS).
 CostCounts cpu_seq_counts(const Shape& s, Convolution prediction);
 
 // cpu-par, float32, `threads` threads, zero-padded buffers so every output takes every tap. The
@@ -52,7 +53,8 @@ CostCounts cpu_par_counts(const Shape& s, Convolution prediction, int threads);
 // cuda-seed: eqs. 5.10-5.16 (seed_gpu_counts) plus the one multiplication A_c x sum on the CPU
 // that the seed folds into its n_g summations: N_C = n_g + 1. Of N_G, the row kernel's taps
 // read u one row further on each (a new cache line per warp, where the column kernel's taps
-// re-read the lines of the taps before): N_GR = 2 n_g I_y.
+// re-read the lines of the taps before): N_GR = 2 n_g I_y. The host's sum is one chain of
+// dependent additions: N_CS = n_g.
 CostCounts cuda_seed_counts(const Shape& s, HostMemory memory);
 
 // How cuda-resident covers the grid for a shape and a layout.

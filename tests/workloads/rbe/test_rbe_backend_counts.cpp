@@ -73,6 +73,8 @@ TEST(RbeBackendCounts, CpuSeqByHand) {
   EXPECT_EQ(c.N_CW, 0);  // chains of dependent additions: bound by their latency, not the loads
   EXPECT_EQ(c.N_CD, 2 * (8 * 16 * 3 + 10 * 8 * 4));  // every tap of both passes is such a chain
   EXPECT_EQ(cpu_seq_counts(s, Convolution::full).N_CD, 0);  // one chain per output: not this shape
+  EXPECT_EQ(c.N_CS, 80);  // the correction's sum: one chain of n_g additions, in both modes
+  EXPECT_EQ(cpu_seq_counts(s, Convolution::full).N_CS, 80);
   EXPECT_EQ(c.cpu_syncs, 0);
   EXPECT_EQ(c.P, 8);
   EXPECT_EQ(c.cpu_threads, 1);
@@ -121,6 +123,7 @@ TEST(RbeBackendCounts, CudaSeedIsEquations5_10To5_16) {
     EXPECT_EQ(c.N_C, ng + 1);                       // 5.15, plus A_c x sum
     EXPECT_EQ(c.N_G, 2 * ng * (33 + 21 + 1));       // 5.16
     EXPECT_EQ(c.N_GR, 2 * ng * 21);                 // the row kernel's taps, one row apart
+    EXPECT_EQ(c.N_CS, ng);                          // the host sum: one chain of dependent additions
     EXPECT_EQ(c.transfers_CG, 5);
     EXPECT_EQ(c.transfers_GC, 2);
     EXPECT_EQ(c.launches, 3);
