@@ -27,6 +27,8 @@ class MpiBackend final : public workload::Backend {
     k.net_bytes = (team - 1) * bytes;
     return k;
   }
+  // The protocol of calibrate/measure.hpp runs in one process; an exchange needs the team.
+  std::string unavailable() const override { return std::string("backend mpi: ") + kHow; }
   std::unique_ptr<workload::Run> prepare(const Config&, std::int64_t) const override { throw InputError(kHow); }
 };
 
@@ -35,7 +37,7 @@ class NetWorkload final : public workload::Workload {
   NetWorkload() {
     params_ = {
         {"team", Kind::integer, "processes of the team", 3, 2, 4096, {}, {}, "processes"},
-        {"bytes", Kind::integer, "payload of one message", nullptr, 1, double(std::int64_t{1} << 30), {}, {}, "B"},
+        {"bytes", Kind::integer, "payload of one message (default: an observation, sar/world.hpp)", 48, 1, double(std::int64_t{1} << 30), {}, {}, "B"},
         {"exchanges", Kind::integer, "exchanges per repetition (a sample's steps)", 20, 1, 1e6, {}, {}, ""},
     };
     backends_.push_back(std::make_unique<MpiBackend>());
