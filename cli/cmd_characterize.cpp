@@ -186,6 +186,8 @@ void run(const CharacterizeOptions& o) {
   for (const workload::Workload* w : workload::all())
     for (const auto& b : w->backends()) {
       if (b->needs_gpu() && !gpu) continue;
+      // A backend the in-process protocol cannot run (sar-net's mpi: its samples come from an MPI team).
+      if (!b->needs_gpu() && !b->unavailable().empty()) continue;
       jobs.push_back({std::string(w->name()), b->name(), out / fmt::format("{}-{}", w->name(), b->name())});
     }
   // Rounds: the fastest of them stands for a configuration, which shields the fit from a

@@ -2,22 +2,29 @@
 // under `mpirun -n N`, one process per helicopter; each reads the same scenario.
 #include <cstdio>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
 
+#include "calibrate/machine.hpp"
+#include "calibrate/sample.hpp"
+#include "calibrate/store.hpp"
 #include "cli/command.hpp"
 #include "cli/model_tables.hpp"
 #include "cli/workload_cli.hpp"
 #include "model/json_io.hpp"
+#include "model/stats.hpp"
 #include "model/units.hpp"
 #include "sar/counts.hpp"
 #include "model/errors.hpp"
 #include "sar/fusion.hpp"
 #include "sar/scenario.hpp"
 #include "sar/team.hpp"
+#include "sar/world.hpp"
 #include "workloads/rbe/backend.hpp"
+#include "workloads/workload.hpp"
 
 namespace dtflop::cli {
 namespace {
@@ -50,6 +57,11 @@ struct SarArgs {
   std::string fail_at;
   bool quiet = false;
   bool check = false;
+  // The exchange sweep (samples of the network term for `dtflop calibrate`).
+  bool exchange_sweep = false;
+  std::vector<std::int64_t> sizes;
+  std::string store;
+  int exchanges = 20, repetitions = 5;
 };
 
 // "S" or "A..B" (at most 100000 seeds).
@@ -74,6 +86,83 @@ std::vector<std::uint64_t> parse_seeds(const std::string& text) {
   std::vector<std::uint64_t> v;
   for (std::uint64_t s = a; s <= b; ++s) v.push_back(s);
   return v;
+}
+
+// The team's exchange at each message size (default: an observation, powers of 2 from 64 bytes,
+// and a belief of the scenario's grid), each size one sample in the store (workload "sar-net",
+// backend "mpi", counts net_messages and net_bytes only): `dtflop calibrate` fits L_net and B_net
+// from them and `dtflop validate` checks them held out (docs/sar.md).
+void exchange_sweep(const sar::Scenario& s, const SarArgs& a) {
+  if (a.store.empty()) throw InputError("--exchange-sweep writes its samples to a sample store; name it with --store FILE");
+  std::vector<std::int64_t> sizes = a.sizes;
+  const std::int64_t belief = s.nx * s.ny * 4;
+  if (sizes.empty()) {
+    sizes.push_back(sar::kObservationBytes);
+    for (std::int64_t b = 64; b < belief; b *= 2) sizes.push_back(b);
+    sizes.push_back(belief);
+  }
+  for (auto b : sizes)
+    if (b < 1 || b > (std::int64_t{1} << 30))
+      throw InputError(fmt::format("--sizes: {} bytes is outside 1 .. 1 GiB per message", b));
+  sar::ExchangeSweep sw;
+  sw.bytes = sizes;
+  sw.exchanges = a.exchanges;
+  sw.repetitions = a.repetitions;
+  sw.peer_timeout = a.peer_timeout;
+  auto writer = std::make_shared<std::unique_ptr<calib::StoreWriter>>();
+  auto keys = std::make_shared<std::set<std::string>>();
+  auto here = std::make_shared<MachineIdentity>();
+  const std::string store = a.store;
+  const bool quiet = a.quiet;
+  const workload::Workload& net = workload::find("sar-net");
+  const workload::Backend& mpi = net.backend("mpi");
+  auto config = [&net, &mpi](int team, std::int64_t bytes, int exchanges) {
+    return net.validate({{"team", team}, {"bytes", bytes}, {"exchanges", exchanges}}, mpi);
+  };
+  auto key = [&net, &mpi, config](int team, std::int64_t bytes, int exchanges) {
+    return net.key(mpi, config(team, bytes, exchanges));
+  };
+  auto begin = [=, &net, &mpi](int team) {
+    *here = calib::this_machine();
+    const calib::StoreContents c = calib::read_store(store);
+    for (const auto& smp : c.samples) {
+      std::string why;
+      if (!same_machine(smp.machine, *here, &why))
+        throw InputError(fmt::format("sample store '{}' holds samples measured on another machine ({}); use another "
+                                     "--store here", store, why));
+      keys->insert(smp.key);
+    }
+    std::vector<std::string> warnings;
+    *writer = std::make_unique<calib::StoreWriter>(store, warnings);
+    for (const auto& w : warnings) fmt::print(stderr, "dtflop: warning: {}\n", w);
+    std::size_t already = 0;
+    for (auto b : sw.bytes) already += keys->count(key(team, b, sw.exchanges));
+    if (already > 0)
+      fmt::print(stderr, "dtflop sar: {} of {} sizes are in '{}' already; each is measured again as another "
+                         "sample\n", already, sw.bytes.size(), store);
+  };
+  auto sink = [=, &net, &mpi](const sar::ExchangeSample& x) {
+    calib::Sample smp;
+    smp.key = key(x.team, x.bytes, x.exchanges);
+    smp.machine = *here;
+    smp.workload = std::string(net.name());
+    smp.backend = mpi.name();
+    smp.plan = "exchange-sweep";
+    smp.parameters = config(x.team, x.bytes, x.exchanges);
+    smp.counts = mpi.counts(smp.parameters, nullptr).scaled(x.exchanges);  // declared per exchange
+    smp.steps = x.exchanges;
+    smp.warmup = 1;
+    smp.source = calib::TimingSource::host;
+    smp.timing_note = "host clock: the slowest rank's wall time of the exchanges (each rank sends one message to "
+                      "every other over the team's MPI transport and receives theirs), after a barrier";
+    smp.components[calib::Component::total] = summarize(x.seconds);
+    smp.measured_at = calib::utc_now();
+    (*writer)->append(smp);
+    if (!quiet)
+      fmt::print(stderr, "dtflop sar: exchange of {} bytes among {}: {} per exchange (median of {})\n", x.bytes, x.team,
+                 format_quantity(smp.components[calib::Component::total].median / x.exchanges, "s"), x.seconds.size());
+  };
+  set_exit_status(sar::run_exchange_sweep(sw, begin, sink));
 }
 
 void run_sar(const SarArgs& a) {
@@ -124,6 +213,12 @@ void run_sar(const SarArgs& a) {
                s.backend, t.messages, t.bytes);
     return;
   }
+  if (a.exchange_sweep) {
+    exchange_sweep(s, a);
+    return;
+  }
+  if (!a.store.empty() || !a.sizes.empty())
+    throw InputError("--store and --sizes belong to --exchange-sweep; add it, or leave them out for a team run");
   set_exit_status(sar::run_team(s, o));
 }
 
@@ -272,6 +367,17 @@ void add_sar_command(CLI::App& root) {
   app->add_option("--fail-at", a->fail_at, "Testing: RANK:STEP, that rank kills itself at that step (lost-rank handling)");
   app->add_flag("--quiet", a->quiet, "No progress line per run");
   app->add_flag("--check", a->check, "Validate the scenario and the options, print what would run, and stop (no MPI)");
+  app->add_flag("--exchange-sweep", a->exchange_sweep,
+                "Instead of a run: time the team's MPI exchange at each of --sizes and append one sample per size to "
+                "--store (network term counts only: `dtflop calibrate` fits L_net and B_net from them)");
+  app->add_option("--sizes", a->sizes, "Exchange sweep: bytes per message, e.g. 48,4096,57600 (default: an "
+                                       "observation, powers of 2 from 64 bytes, a belief of the scenario's grid)")
+      ->delimiter(',');
+  app->add_option("--store", a->store, "Exchange sweep: the sample store to append to")->type_name("FILE");
+  app->add_option("--exchanges", a->exchanges, "Exchange sweep: exchanges per repetition")
+      ->capture_default_str()->check(CLI::Range(1, 1000000));
+  app->add_option("--repetitions", a->repetitions, "Exchange sweep: timed repetitions per size")
+      ->capture_default_str()->check(CLI::Range(1, 10000));
   app->callback([a] { run_sar(*a); });
 }
 

@@ -27,13 +27,11 @@ TeamCounts team_counts(const Scenario& s, std::int64_t team, const rbe::BackendO
   h.N_C += t.steps * likelihoods * cells * kLikelihoodFlopsPerCell;
   h.N_CC += t.steps * likelihoods * cells;
   if (s.rule == Rule::observation && team > 1) h += rbe::observation_fusion_counts(cells, team);
-  if (periodic) {
-    if (s.rule == Rule::belief) {
-      h += rbe::belief_fusion_counts(cells, team);
-    } else {  // log-linear: a log per cell per belief, the weighted sum, an exp and the division
-      h.N_C += team * cells * 13 + cells * 13 + cells;
-      h.N_CC += team * cells + 3 * cells;
-    }
+  if (periodic) {  // the backend's own fusion and wire belief, once a period
+    const auto rule = s.rule == Rule::belief ? rbe::FusionRule::product : rbe::FusionRule::loglinear;
+    const auto backend = rbe::make_backend(s.backend, options);
+    t.rbe += backend->fusion_counts(t.shape, rule, team, options);
+    t.rbe += backend->wire_counts(t.shape, options);
   }
   // Control: turns x look-ahead positions x the cells within 4 spreads of each.
   const double reach_cells = (8 * s.detection_spread / g.dx() + 1) * (8 * s.detection_spread / g.dy() + 1);

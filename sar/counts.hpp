@@ -21,8 +21,10 @@ inline constexpr std::int64_t kEstimateFlopsPerCell = 30;
 inline constexpr std::int64_t kControlFlopsPerCell = 20;
 
 struct TeamCounts {
-  CostCounts rbe;      // the RBE backend's steps of the period (its own precision)
-  CostCounts host;     // the host's float64 work of the period: likelihoods, fusion, control, estimate
+  CostCounts rbe;      // the RBE backend's steps of the period and, where beliefs are fused, its
+                       // fusion and wire belief (fusion_counts.hpp; the backend's own precision)
+  CostCounts host;     // the host's float64 work of the period: likelihoods, observation fusion,
+                       // control, estimate
   CostCounts net;      // the period's messages
   std::int64_t steps = 1;  // steps in the period
   rbe::Shape shape;    // grid and kernel of a step

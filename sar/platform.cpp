@@ -102,24 +102,28 @@ Record Platform::step(std::int64_t k, Transport& transport) {
     reset(l, r.dt);
   }
   if (fuses_beliefs(s_, k) && team_ > 1) {
-    const std::vector<float> mine = to_wire(backend_->belief());
+    // The belief is fused where it lives, by the backend (cuda-resident: on the device; only the
+    // wire belief comes back to be sent, and the others go up).
+    const std::vector<float> mine = backend_->wire_belief();
     const double e0 = now();
     if (s_.link_sleep) std::this_thread::sleep_for(std::chrono::duration<double>(r.link_delay));
     const auto got = transport.exchange(bytes_of(std::span<const float>(mine)), k);
     exchange += now() - e0;
-    std::vector<std::vector<double>> beliefs;
+    std::vector<std::vector<float>> wires;
     for (int p = 0; p < team_; ++p) {
+      if (p == index_) continue;
       const auto& g = got[std::size_t(p)];
       if (g.size() != mine.size() * sizeof(float))
         throw std::runtime_error(fmt::format("platform {} sent {} bytes for a belief, expected {}", p, g.size(),
                                              mine.size() * sizeof(float)));
       std::vector<float> w(mine.size());
       std::memcpy(w.data(), g.data(), g.size());
-      beliefs.push_back(from_wire(w));
+      wires.push_back(std::move(w));
     }
+    const std::vector<std::span<const float>> others(wires.begin(), wires.end());
     try {
-      std::vector<double> fused = s_.rule == Rule::belief ? rbe::fuse_beliefs(grid_, beliefs) : loglinear_pool(grid_, beliefs);
-      reset(std::move(fused), r.dt);
+      backend_->fuse(s_.rule == Rule::belief ? rbe::FusionRule::product : rbe::FusionRule::loglinear, others,
+                     std::size_t(index_));
       r.fused = 1;
     } catch (const rbe::NumericalError&) {
       r.fused = 0;  // the beliefs do not overlap: each keeps its own

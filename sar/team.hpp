@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,30 @@ struct TeamOptions {
 
 // Whether this build has the MPI runtime (DTFLOP_WITH_MPI).
 bool have_mpi();
+
+// A sweep over message sizes of the team's own exchange (the MPI transport the team's beliefs and
+// observations travel by), to fit the network term (L_net, B_net) from real team exchanges: at
+// each size every rank sends one message of that many bytes to every other and receives theirs,
+// `exchanges` times in a repetition, after a barrier; a repetition's time is the slowest rank's.
+struct ExchangeSweep {
+  std::vector<std::int64_t> bytes;  // payload of one message, each size in turn
+  int exchanges = 20;               // exchanges per repetition
+  int repetitions = 5;
+  int warmup = 1;                   // repetitions measured and dropped first
+  double peer_timeout = 60;
+};
+struct ExchangeSample {
+  std::int64_t bytes = 0;        // per message
+  int team = 0;                  // processes
+  int exchanges = 0;             // per repetition
+  std::vector<double> seconds;   // per repetition, the slowest rank's wall time
+};
+// Runs the sweep in this process's MPI job (initializes and finalizes MPI). On rank 0, `begin`
+// is called once before anything is measured (it may throw InputError: then every rank stops
+// with status 2) and `sink` with each size's sample as soon as it is measured. Returns the exit
+// status like run_team (2 for fewer than 2 processes).
+int run_exchange_sweep(const ExchangeSweep& sweep, const std::function<void(int team)>& begin,
+                       const std::function<void(const ExchangeSample&)>& sink);
 // Runs the team in this process's MPI job (initializes and finalizes MPI). Returns the exit
 // status: 0 done, 1 a rank was lost or a run failed, 2 bad input (the scenario against the
 // job: helicopters against processes, processes that disagree on the scenario). Prints one

@@ -27,6 +27,16 @@ extern "C" void on_stop(int) { g_stop.store(1); }
 
 double wall() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
+// Between polls of a pending message: the first kSpin seconds of an exchange give the core away
+// and come straight back (a message of a peer on this host arrives in microseconds: a sleep would
+// add its own tens of microseconds to every exchange, which the network term would then price),
+// then sleep 20 us at a time (a peer that computes does not compete with a spinning waiter).
+constexpr double kSpin = 2e-3;
+void pause(double start) {
+  if (wall() - start < kSpin) std::this_thread::yield();
+  else std::this_thread::sleep_for(std::chrono::microseconds(20));
+}
+
 class MpiTransport final : public Transport {
  public:
   explicit MpiTransport(double timeout) : timeout_(timeout) {
@@ -50,7 +60,7 @@ class MpiTransport final : public Transport {
       if (p == rank_) continue;
       MPI_Isend(mine.data(), count, MPI_BYTE, p, tag, MPI_COMM_WORLD, &send[std::size_t(p)]);
     }
-    const double deadline = wall() + timeout_;
+    const double start = wall(), deadline = start + timeout_;
     std::vector<char> done(std::size_t(n), 0);
     done[std::size_t(rank_)] = 1;
     int left = n - 1;
@@ -88,7 +98,7 @@ class MpiTransport final : public Transport {
                                              one ? "" : "s", missing)
                                : fmt::format("no message from rank{} {} in {} s", one ? "" : "s", missing, timeout_));
       }
-      std::this_thread::sleep_for(std::chrono::microseconds(20));
+      pause(start);
     }
     // Our sends complete once their receivers took them (every receiver is past its receive).
     const double send_deadline = wall() + timeout_;
@@ -100,7 +110,7 @@ class MpiTransport final : public Transport {
         if (flag) break;
         if (g_stop.load() != 0 || wall() > send_deadline)
           throw RankLost(p, step, fmt::format("rank {} did not take this rank's message", p));
-        std::this_thread::sleep_for(std::chrono::microseconds(20));
+        pause(start);
       }
     }
     got[std::size_t(rank_)].assign(mine.begin(), mine.end());
@@ -363,6 +373,68 @@ int run_team(const Scenario& scenario, const TeamOptions& o) {
       std::fflush(nullptr);
       MPI_Abort(MPI_COMM_WORLD, 1);
     }
+  }
+  return finish(0);
+}
+
+int run_exchange_sweep(const ExchangeSweep& sweep, const std::function<void(int team)>& begin,
+                       const std::function<void(const ExchangeSample&)>& sink) {
+  int provided = 0;
+  MPI_Init_thread(nullptr, nullptr, MPI_THREAD_SINGLE, &provided);
+  MPI_Comm_set_errhandler(MPI_COMM_WORLD, MPI_ERRORS_RETURN);
+  std::signal(SIGTERM, on_stop);
+  std::signal(SIGINT, on_stop);
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  if (size < 2) {
+    fmt::print(stderr, "dtflop: error: an exchange sweep needs a team: run it under `mpirun -n N dtflop sar ...` with "
+                       "N >= 2\n");
+    return finish(2);
+  }
+  // Rank 0 opens what it writes to before anything is measured; the others wait for its word.
+  int ok = 1;
+  if (rank == 0) {
+    try {
+      begin(size);
+    } catch (const InputError& e) {
+      fmt::print(stderr, "dtflop: error: {}\n", e.what());
+      ok = 0;
+    }
+  }
+  MPI_Bcast(&ok, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  if (!ok) return finish(2);
+  MpiTransport transport(sweep.peer_timeout);
+  std::int64_t tag = 0;
+  try {
+    for (const std::int64_t bytes : sweep.bytes) {
+      std::vector<std::byte> mine(static_cast<std::size_t>(bytes), std::byte{0x5a});
+      ExchangeSample sample;
+      sample.bytes = bytes;
+      sample.team = size;
+      sample.exchanges = sweep.exchanges;
+      for (int r = -sweep.warmup; r < sweep.repetitions; ++r) {
+        MPI_Barrier(MPI_COMM_WORLD);
+        const double t0 = wall();
+        for (int e = 0; e < sweep.exchanges; ++e) (void)transport.exchange(mine, ++tag);
+        double t = wall() - t0, slowest = 0;
+        MPI_Reduce(&t, &slowest, 1, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
+        if (r >= 0) sample.seconds.push_back(slowest);
+      }
+      if (rank == 0) sink(sample);
+    }
+  } catch (const RankLost& e) {
+    fmt::print(stderr, "dtflop: failed: the exchange sweep lost a process: {}; rank {} stops here\n", e.what(), rank);
+    std::fflush(nullptr);
+    std::_Exit(1);
+  } catch (const InputError& e) {
+    fmt::print(stderr, "dtflop: error: rank {}: {}\n", rank, e.what());
+    std::fflush(nullptr);
+    MPI_Abort(MPI_COMM_WORLD, 2);
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "dtflop: failed: rank {}: {}\n", rank, e.what());
+    std::fflush(nullptr);
+    MPI_Abort(MPI_COMM_WORLD, 1);
   }
   return finish(0);
 }

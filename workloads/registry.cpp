@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "model/errors.hpp"
+#include "sar/workload.hpp"
 #include "workloads/dct/workload.hpp"
 #include "workloads/rbe/workload.hpp"
 #include "workloads/workload.hpp"
@@ -13,6 +14,7 @@ const std::vector<const Workload*>& all() {
   static const std::vector<const Workload*> list = {
       &rbe::workload(),
       &dct::workload(),
+      &sar::net_workload(),
   };
   return list;
 }

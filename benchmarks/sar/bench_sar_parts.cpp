@@ -2,11 +2,14 @@
 // the belief fusion of a step, per backend, against the kernel size (Test 1) and the grid size
 // (Test 2, kernel 25). The speedup of a backend is cpu-seq's time (the conventional sequential
 // RBE) over its own (benchmarks/sar/summarize_parts.py). One CSV row per backend and size:
-//   test,backend,nx,ny,Ix,Iy,steps,predict_s,correct_s,step_s,fusion_s,loglinear_s
+//   test,backend,nx,ny,Ix,Iy,steps,predict_s,correct_s,step_s,fusion_s,loglinear_s,wire_s
 // predict_s and correct_s are the medians of the backend's host-timed parts (0 where the backend
 // fuses them into one device step: cuda-resident); step_s the median total; fusion_s and
-// loglinear_s the belief fusion of 3 platforms' beliefs on the host (float64, one thread: the
-// same code for every backend, so measured once per size, on the cpu-seq row).
+// loglinear_s the backend's own belief fusion of 3 platforms (Backend::fuse: the product and the
+// log-linear pool of its belief and 2 others' wire beliefs, as they arrive, from the call to its
+// return: the others' copies to a device included), wire_s its wire belief (Backend::
+// wire_belief: what is sent); medians over --steps fusions, each of the problem's prior (the
+// belief is restored, untimed, between them).
 //
 //   bench_sar_parts --test 1 --grid 500 --kernels 1:101:10 --backends cpu-seq,cpu-par -o test1.csv
 //   bench_sar_parts --test 2 --kernel 25 --grids 100:1000:100 --backends cpu-seq,cpu-par -o test2.csv
@@ -14,6 +17,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <span>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -22,7 +26,6 @@
 #include <fmt/format.h>
 
 #include "model/errors.hpp"
-#include "sar/fusion.hpp"
 #include "workloads/rbe/backend.hpp"
 #include "workloads/rbe/likelihood.hpp"
 
@@ -47,22 +50,11 @@ std::vector<std::int64_t> range(const std::string& spec) {  // A:B:S
   return out;
 }
 
-double seconds_of(auto&& fn, int reps) {
-  std::vector<double> t;
-  for (int r = -1; r < reps; ++r) {
-    const auto t0 = std::chrono::steady_clock::now();
-    fn();
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (r >= 0) t.push_back(s);
-  }
-  return median(t);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"Tests 1-2 of the seed: prediction, correction and belief fusion time per backend (CSV)"};
-  int test = 1, steps = 5;
+  int test = 1, steps = 5, threads = 0;
   std::int64_t grid = 500, kernel = 25;
   std::string kernels = "1:101:10", grids = "100:1000:100", backends = "cpu-seq,cpu-par", out;
   app.add_option("--test", test, "1: kernel sizes on one grid; 2: grid sizes with one kernel")->check(CLI::IsMember({1, 2}));
@@ -71,7 +63,8 @@ int main(int argc, char** argv) {
   app.add_option("--kernel", kernel, "Test 2: the kernel size")->check(CLI::Range(1, 4096))->capture_default_str();
   app.add_option("--grids", grids, "Test 2: grid sizes FIRST:LAST:STEP")->capture_default_str();
   app.add_option("--backends", backends, "Backends, comma-separated")->capture_default_str();
-  app.add_option("--steps", steps, "Timed steps per size")->check(CLI::Range(1, 10000))->capture_default_str();
+  app.add_option("--steps", steps, "Timed steps (and fusions) per size")->check(CLI::Range(1, 10000))->capture_default_str();
+  app.add_option("--threads", threads, "cpu-par's threads (0: every hardware thread)")->check(CLI::Range(0, 4096))->capture_default_str();
   app.add_option("-o,--out", out, "CSV file (default: stdout)");
   CLI11_PARSE(app, argc, argv);
   try {
@@ -85,22 +78,21 @@ int main(int argc, char** argv) {
       for (auto k : range(kernels)) shapes.push_back({grid, grid, std::min(k, grid), std::min(k, grid)});
     else
       for (auto n : range(grids)) shapes.push_back({n, n, std::min(kernel, n), std::min(kernel, n)});
-    std::string csv = "test,backend,nx,ny,Ix,Iy,steps,predict_s,correct_s,step_s,fusion_s,loglinear_s\n";
+    std::string csv = "test,backend,nx,ny,Ix,Iy,steps,predict_s,correct_s,step_s,fusion_s,loglinear_s,wire_s\n";
     for (const auto& shape : shapes) {
       const rbe::Problem p = rbe::synthetic_problem(shape, 20261124);
-      double fusion = 0, pool = 0;
-      {
-        std::vector<std::vector<double>> beliefs(3, p.prior);
-        double z = 0;
-        for (double v : p.prior) z += v * p.grid.cell_area();
-        for (auto& b : beliefs)
-          for (double& v : b) v /= z;
-        const int reps = std::max(3, steps);
-        fusion = seconds_of([&] { (void)rbe::fuse_beliefs(p.grid, beliefs); }, reps);
-        pool = seconds_of([&] { (void)sar::loglinear_pool(p.grid, beliefs); }, reps);
+      // Two other platforms' wire beliefs (other priors), as they arrive over the link.
+      std::vector<std::vector<float>> wires;
+      for (std::uint64_t seed : {20261125u, 20261126u}) {
+        auto other = rbe::make_backend("cpu-seq");
+        other->init(rbe::synthetic_problem(shape, seed));
+        wires.push_back(other->wire_belief());
       }
+      const std::vector<std::span<const float>> others(wires.begin(), wires.end());
       for (const auto& name : names) {
-        auto b = rbe::make_backend(name);
+        rbe::BackendOptions options;
+        options.threads = threads;
+        auto b = rbe::make_backend(name, options);
         const std::string why = b->needs_gpu() ? rbe::cuda_unavailable_reason() : std::string();
         if (!why.empty()) {
           std::fprintf(stderr, "bench_sar_parts: %s skipped: %s\n", name.c_str(), why.c_str());
@@ -115,13 +107,26 @@ int main(int argc, char** argv) {
           co.push_back(s.part(rbe::StepPart::correct) + s.part(rbe::StepPart::normalize) + s.part(rbe::StepPart::host_sum));
           to.push_back(s.total);
         }
-        const bool first = name == names.front();
-        csv += fmt::format("{},{},{},{},{},{},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", test, name, shape.nx, shape.ny,
-                           shape.Ix, shape.Iy, steps, median(pr), median(co), median(to), first ? fusion : 0.0,
-                           first ? pool : 0.0);
-        std::fprintf(stderr, "bench_sar_parts: test %d %s %lldx%lld k%lld: step %.3g s\n", test, name.c_str(),
-                     static_cast<long long>(shape.nx), static_cast<long long>(shape.ny),
-                     static_cast<long long>(shape.Ix), median(to));
+        // Fusion: each timed call on the prior (init() untimed before it), the first discarded.
+        auto fusion_time = [&](auto&& fn) {
+          std::vector<double> t;
+          for (int rep = -1; rep < steps; ++rep) {
+            b->init(p);
+            const auto t0 = std::chrono::steady_clock::now();
+            fn();
+            const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            if (rep >= 0) t.push_back(sec);
+          }
+          return median(t);
+        };
+        const double fusion = fusion_time([&] { b->fuse(rbe::FusionRule::product, others, 0); });
+        const double pool = fusion_time([&] { b->fuse(rbe::FusionRule::loglinear, others, 0); });
+        const double wire = fusion_time([&] { (void)b->wire_belief(); });
+        csv += fmt::format("{},{},{},{},{},{},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", test, name, shape.nx,
+                           shape.ny, shape.Ix, shape.Iy, steps, median(pr), median(co), median(to), fusion, pool, wire);
+        std::fprintf(stderr, "bench_sar_parts: test %d %s %lldx%lld k%lld: step %.3g s, fusion %.3g s\n", test,
+                     name.c_str(), static_cast<long long>(shape.nx), static_cast<long long>(shape.ny),
+                     static_cast<long long>(shape.Ix), median(to), fusion);
       }
     }
     if (out.empty()) {

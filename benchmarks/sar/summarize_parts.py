@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Speedups of Tests 1-2 (bench_sar_parts CSVs in FOLDER): per backend and size, cpu-seq's
-prediction, correction and step time over the backend's. Writes FOLDER/speedup.md and
-FOLDER/speedup-test1.svg, FOLDER/speedup-test2.svg (prediction speedup). Standard library only.
+prediction, correction, step and belief fusion time over the backend's. Writes FOLDER/speedup.md,
+FOLDER/speedup-test1.svg, FOLDER/speedup-test2.svg (step speedup) and FOLDER/fusion-test2.svg
+(belief fusion speedup against the grid). Standard library only.
 
     python3 benchmarks/sar/summarize_parts.py results/sar/test12-cpu"""
 import csv
@@ -25,7 +26,7 @@ def svg(path, title, xlabel, curves):
     x1, y1 = max(xs), max(ys) * 1.1
     sx = lambda x: left + x / x1 * (w - left - right)
     sy = lambda y: h - bottom - y / y1 * (h - bottom - top)
-    colours = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd"]
+    colours = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"]
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">',
            f'<rect width="{w}" height="{h}" fill="white"/>', f'<text x="{left}" y="22" font-size="14">{title}</text>',
            f'<line x1="{left}" y1="{h - bottom}" x2="{w - right}" y2="{h - bottom}" stroke="black"/>',
@@ -50,28 +51,36 @@ def main():
         sys.exit(f"summarize_parts: no test*.csv in {folder}")
     base = {(r["test"], r["nx"], r["Ix"]): r for r in rows if r["backend"] == "cpu-seq"}
     md = ["| test | backend | grid | kernel | predict | correct | step | speedup predict | speedup correct | "
-          "speedup step | belief fusion (3, host) |", "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
-    curves = {}
+          "speedup step | fusion (3, product) | log-linear | wire | speedup fusion | speedup log-linear |",
+          "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    curves, fusion_curves = {}, {}
     for r in rows:
         b = base.get((r["test"], r["nx"], r["Ix"]))
         if not b:
             continue
         def ratio(key):
-            v = float(r[key])
-            return float(b[key]) / v if v > 0 else float("nan")
-        fusion = float(b["fusion_s"])
-        md.append(f"| {r['test']} | {r['backend']} | {r['nx']}x{r['ny']} | {r['Ix']} | {float(r['predict_s']) * 1e3:.3f} ms | "
-                  f"{float(r['correct_s']) * 1e3:.3f} ms | {float(r['step_s']) * 1e3:.3f} ms | {ratio('predict_s'):.1f}x | "
-                  f"{ratio('correct_s'):.1f}x | {ratio('step_s'):.1f}x | {fusion * 1e3:.3f} ms |")
+            v = float(r.get(key) or 0)
+            return float(b.get(key) or 0) / v if v > 0 else float("nan")
+        ms = lambda key: f"{float(r.get(key) or 0) * 1e3:.3f} ms"
+        md.append(f"| {r['test']} | {r['backend']} | {r['nx']}x{r['ny']} | {r['Ix']} | {ms('predict_s')} | "
+                  f"{ms('correct_s')} | {ms('step_s')} | {ratio('predict_s'):.1f}x | "
+                  f"{ratio('correct_s'):.1f}x | {ratio('step_s'):.1f}x | {ms('fusion_s')} | {ms('loglinear_s')} | "
+                  f"{ms('wire_s')} | {ratio('fusion_s'):.1f}x | {ratio('loglinear_s'):.1f}x |")
         if r["backend"] != "cpu-seq":
             x = float(r["Ix"]) if r["test"] == "1" else float(r["nx"])
             curves.setdefault((r["test"], r["backend"]), []).append((x, ratio("step_s")))
+            if r["test"] == "2" and ratio("fusion_s") == ratio("fusion_s"):
+                fusion_curves.setdefault(r["backend"] + " product", []).append((x, ratio("fusion_s")))
+                fusion_curves.setdefault(r["backend"] + " log-linear", []).append((x, ratio("loglinear_s")))
     open(os.path.join(folder, "speedup.md"), "w").write("\n".join(md) + "\n")
     for test, xlabel in (("1", "kernel size I"), ("2", "grid n (n x n)")):
         c = [(b, sorted(pts)) for (t, b), pts in curves.items() if t == test]
         if c:
             svg(os.path.join(folder, f"speedup-test{test}.svg"), f"Test {test}: speedup of a step over cpu-seq",
                 xlabel, c)
+    if fusion_curves:
+        svg(os.path.join(folder, "fusion-test2.svg"), "Test 2: speedup of belief fusion (3 platforms) over cpu-seq",
+            "grid n (n x n)", [(b, sorted(pts)) for b, pts in fusion_curves.items()])
     print("\n".join(md))
 
 

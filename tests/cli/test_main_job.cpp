@@ -47,7 +47,9 @@ TEST(MainJob, CharacterizeQuickWritesTheReportsAndResumes) {
   for (const workload::Workload* w : workload::all()) {
     for (const auto& b : w->backends()) {
       const fs::path d = out / fmt::format("{}-{}", w->name(), b->name());
-      if (b->needs_gpu() && !gpu) {
+      // Not characterized: GPU backends without a GPU, and a backend the in-process protocol cannot
+      // run (sar-net's mpi: an MPI team measures it).
+      if ((b->needs_gpu() && !gpu) || (!b->needs_gpu() && !b->unavailable().empty())) {
         EXPECT_FALSE(fs::exists(d)) << d;
         continue;
       }
@@ -64,7 +66,7 @@ TEST(MainJob, CharacterizeQuickWritesTheReportsAndResumes) {
       EXPECT_GT(test::count_lines(test::slurp(d / "held.jsonl")), 0) << d;
     }
   }
-  EXPECT_GE(jobs, 2 * static_cast<int>(workload::all().size()));  // two CPU backends of each at least
+  EXPECT_GE(jobs, 2 * static_cast<int>(workload::all().size() - 1));  // two CPU backends of rbe and dct at least
 
   // Rerun: every store is complete, so nothing is measured again, and every done step is kept.
   std::vector<std::pair<fs::path, std::uintmax_t>> stores;

@@ -78,7 +78,9 @@ TEST(SarModel, ATeamStepCountsItsMessagesPerFusionPeriod) {
   EXPECT_EQ(t.steps, 4);
   EXPECT_EQ(t.net.net_messages, 2);              // one fusion per period, to 2 others
   EXPECT_EQ(t.net.net_bytes, 2 * 50 * 40 * 4);   // float32 beliefs
-  EXPECT_EQ(t.rbe.N_C, rbe::step_counts("cpu-seq", t.shape).scaled(4).N_C);
+  // Four steps and, once a period, the backend's own fusion of 3 beliefs of 2000 cells: 2
+  // multiplications and an addition per cell, A_c x sum, a division per cell (fusion_counts.hpp).
+  EXPECT_EQ(t.rbe.N_C, rbe::step_counts("cpu-seq", t.shape).scaled(4).N_C + 4 * 2000 + 1);
   s.rule = Rule::observation;
   t = team_counts(s, 3);
   EXPECT_EQ(t.steps, 1);

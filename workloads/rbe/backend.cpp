@@ -132,6 +132,8 @@ Problem synthetic_problem(const Shape& s, std::uint64_t seed) {
 
 // ---- Timing -------------------------------------------------------------------------------
 
+std::string_view to_string(FusionRule r) { return r == FusionRule::product ? "product" : "loglinear"; }
+
 std::string_view to_string(StepPart c) {
   switch (c) {
     case StepPart::to_device: return "to_device";
@@ -275,6 +277,25 @@ void check_sum(double sum, std::int64_t step, std::string_view backend) {
                         "invalid until init() is called again.",
                         backend, step, std::isfinite(sum) ? "zero" : "not finite",
                         std::isfinite(sum) ? "" : "; or a value overflowed"));
+}
+
+void check_others(std::span<const std::span<const float>> others, std::size_t position, std::int64_t cells,
+                  std::string_view backend) {
+  if (others.empty()) throw InputError(fmt::format("{}: belief fusion needs at least one other belief", backend));
+  if (position > others.size())
+    throw InputError(fmt::format("{}: belief fusion: the own belief's position {} is past the {} beliefs", backend,
+                                 position, others.size() + 1));
+  for (std::size_t p = 0; p < others.size(); ++p)
+    if (static_cast<std::int64_t>(others[p].size()) != cells)
+      throw InputError(fmt::format("{}: belief fusion: other belief {} has {} cells, the grid {}", backend, p,
+                                   others[p].size(), cells));
+}
+
+void check_fusion_sum(double sum, std::size_t platforms, FusionRule rule, std::string_view backend) {
+  if (sum > 0 && std::isfinite(sum)) return;
+  throw NumericalError(0, fmt::format("{}: {} fusion of {} beliefs is {} everywhere (their beliefs do not overlap); "
+                                      "the belief is kept as it was: fuse fewer platforms or fuse more often",
+                                      backend, to_string(rule), platforms, std::isfinite(sum) ? "zero" : "not finite"));
 }
 
 void throw_not_ready(std::string_view backend, bool failed) {

@@ -172,6 +172,13 @@ struct RunResult {
   std::vector<StepPart> components() const;
 };
 
+// ---- Belief fusion -------------------------------------------------------------------------
+
+// How the beliefs of several platforms are fused: the normalized product (seed 5.8-5.9) or the
+// log-linear pool prod_i b_i^(1/n), normalized (counts nothing twice; sar/fusion.hpp).
+enum class FusionRule { product, loglinear };
+std::string_view to_string(FusionRule r);
+
 // ---- Backend ----------------------------------------------------------------------------
 
 class Backend {
@@ -208,6 +215,24 @@ class Backend {
   virtual std::vector<double> belief() = 0;
   // The options the backend was made with.
   virtual const BackendOptions& options() const = 0;
+
+  // Belief fusion (seed 5.8-5.9, and the log-linear pool) on the backend's own hardware, where
+  // its belief lives (fusion_counts.hpp declares the exact counts of both, docs/sar.md):
+  // The belief as it travels to the other platforms: float32, normalized (sum x A_c = 1), n_g
+  // values, made where the belief lives (cuda-resident: on the device, then one copy back).
+  virtual std::vector<float> wire_belief() = 0;
+  // Replaces the belief by its fusion with `others` (the other platforms' wire beliefs, n_g
+  // values each) by `rule`. The own belief enters as its wire belief would (the same float32
+  // values, made on the fly) at `position` of the m = others + 1 beliefs, the others in their
+  // order around it: every platform that fuses the same beliefs in the same order on the same
+  // backend computes the same fused belief. Throws NumericalError when the fusion is zero or
+  // not finite everywhere (the beliefs do not overlap): the belief is then left as it was;
+  // InputError for a wrong size or position.
+  virtual void fuse(FusionRule rule, std::span<const std::span<const float>> others, std::size_t position) = 0;
+  // Exact counts of fuse() with `platforms` - 1 others and of wire_belief(), on `shape`'s grid.
+  virtual CostCounts fusion_counts(const Shape& shape, FusionRule rule, std::int64_t platforms,
+                                   const BackendOptions& options) const = 0;
+  virtual CostCounts wire_counts(const Shape& shape, const BackendOptions& options) const = 0;
 };
 
 // ---- Registry ---------------------------------------------------------------------------

@@ -7,12 +7,14 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <thread>
 
 #include <fmt/format.h>
 
 #include "workloads/rbe/backend_counts.hpp"
+#include "workloads/rbe/fusion_counts.hpp"
 #include "workloads/rbe/detail.hpp"
 
 namespace dtflop::rbe::detail {
@@ -193,6 +195,51 @@ double correct_range(const float* __restrict l, const float* __restrict pred, fl
   return total;
 }
 
+// Belief fusion over cells [0, n) of one thread's range, in blocks that stay in the L1 cache.
+// The m beliefs in order: `beliefs[j]` for j != position, the own q x s (its wire values) at
+// `position`; out = b_0 x b_1 x ... (product) or exp(w (log b_0 + log b_1 + ...)) (log-linear; log
+// 0 = -inf and exp(-inf) = 0, so a zero stays zero at the same cost). Returns the sum of out, one
+// addition per value (in 16 lanes that the compiler vectorizes).
+constexpr std::int64_t kFuseBlock = 1024;
+constexpr int kFuseLanes = 16;
+
+DTFLOP_INLINE double lane_sum(const float* __restrict v, std::int64_t n) {
+  float acc[kFuseLanes] = {};
+  std::int64_t i = 0;
+  for (; i + kFuseLanes <= n; i += kFuseLanes)
+    for (int j = 0; j < kFuseLanes; ++j) acc[j] += v[i + j];
+  for (; i < n; ++i) acc[0] += v[i];
+  double s = 0;
+  for (float a : acc) s += a;
+  return s;
+}
+
+DTFLOP_VECTOR_CLONES
+double fuse_range(FusionRule rule, const float* __restrict q, float s, const float* const* beliefs, std::size_t m,
+                  std::size_t position, std::int64_t offset, float w, float* __restrict out, float* __restrict own,
+                  std::int64_t n) {
+  double total = 0;
+  for (std::int64_t b = 0; b < n; b += kFuseBlock) {
+    const std::int64_t len = std::min(kFuseBlock, n - b);
+    float* __restrict o = out + b;
+    for (std::int64_t i = 0; i < len; ++i) own[i] = q[b + i] * s;  // the wire's values
+    for (std::size_t j = 0; j < m; ++j) {
+      const float* __restrict x = j == position ? own : beliefs[j] + offset + b;
+      if (rule == FusionRule::product) {
+        if (j == 0) for (std::int64_t i = 0; i < len; ++i) o[i] = x[i];
+        else for (std::int64_t i = 0; i < len; ++i) o[i] *= x[i];
+      } else {
+        if (j == 0) for (std::int64_t i = 0; i < len; ++i) o[i] = std::log(x[i]);
+        else for (std::int64_t i = 0; i < len; ++i) o[i] += std::log(x[i]);
+      }
+    }
+    if (rule == FusionRule::loglinear)
+      for (std::int64_t i = 0; i < len; ++i) o[i] = std::exp(w * o[i]);
+    total += lane_sum(o, len);
+  }
+  return total;
+}
+
 class CpuPar final : public Backend {
  public:
   explicit CpuPar(const BackendOptions& o) : options_(o) {
@@ -270,6 +317,55 @@ class CpuPar final : public Backend {
     std::vector<double> p(q_.size());
     for (std::size_t i = 0; i < p.size(); ++i) p[i] = double(q_[i]) * scale_;
     return p;
+  }
+
+  // Belief fusion on every thread, float32; the normalization is folded into the next step like a
+  // step's. Counts: cpu_par_fusion_counts(), cpu_par_wire_counts().
+  CostCounts fusion_counts(const Shape& s, FusionRule rule, std::int64_t platforms,
+                           const BackendOptions&) const override {
+    return cpu_par_fusion_counts(s.cells(), rule, platforms, threads_);
+  }
+  CostCounts wire_counts(const Shape& s, const BackendOptions&) const override {
+    return cpu_par_wire_counts(s.cells(), threads_);
+  }
+
+  std::vector<float> wire_belief() override {
+    if (!ready_ || failed_) throw_not_ready(name(), failed_);
+    const std::int64_t n = grid_.cells();
+    std::vector<float> w(static_cast<std::size_t>(n));
+    const float s = static_cast<float>(scale_);
+    const float* q = q_.data();
+    float* out = w.data();
+#pragma omp parallel for num_threads(threads_) schedule(static)
+    for (std::int64_t i = 0; i < n; ++i) out[i] = q[i] * s;
+    return w;
+  }
+
+  void fuse(FusionRule rule, std::span<const std::span<const float>> others, std::size_t position) override {
+    if (!ready_ || failed_) throw_not_ready(name(), failed_);
+    const std::int64_t n = grid_.cells();
+    check_others(others, position, n, name());
+    Range range("rbe/fuse");
+    const std::size_t m = others.size() + 1;
+    std::vector<const float*> ptrs(m, nullptr);
+    for (std::size_t j = 0; j < m; ++j)
+      if (j != position) ptrs[j] = others[j < position ? j : j - 1].data();
+    const float w = 1.0f / static_cast<float>(m);
+    const float s = static_cast<float>(scale_);
+    // The fused grid goes to pred_ (the next prediction overwrites it whole), so a fusion that
+    // fails leaves q_ as it was; each thread scales a block of the own belief into own_.
+    own_.resize(static_cast<std::size_t>(threads_ * kFuseBlock));
+    double total = 0;
+#pragma omp parallel num_threads(threads_) reduction(+ : total)
+    {
+      const int id = omp_get_thread_num(), nt = omp_get_num_threads();
+      const std::int64_t i0 = n * id / nt, i1 = n * (id + 1) / nt;
+      total += fuse_range(rule, q_.data() + i0, s, ptrs.data(), m, position, i0, w, pred_.data() + i0,
+                          own_.data() + id * kFuseBlock, i1 - i0);
+    }
+    check_fusion_sum(total, m, rule, name());
+    std::swap(q_, pred_);
+    scale_ = 1.0 / (grid_.cell_area() * total);  // folded into the next step's correction
   }
 
   // The prediction alone, on the current belief (for the benchmark against cv::sepFilter2D).
@@ -368,6 +464,7 @@ class CpuPar final : public Backend {
   Convolution prediction_ = Convolution::separable;
   std::int64_t nx_ = 0, ny_ = 0, Ix_ = 0, Iy_ = 0, hx_ = 0, hy_ = 0;
   std::vector<float> q_, l_, pred_, kx_, ky_, kfull_, upad_, rows_, spill_, ppad_;
+  std::vector<float> own_;  // fusion: each thread's block of the own belief as the wire carries it
   YPieces pieces_;  // the y-pass's strips of u and the pieces the threads take
   double scale_ = 1;
   std::int64_t steps_ = 0;

@@ -1,11 +1,13 @@
 // cpu-seq: the float64 reference backend, one thread, written for clarity: the separable
 // prediction (5.3-5.4) or the conventional 2D convolution (4.10), then the correction in the
 // seed's three steps (5.7, sum, 5.6). Its counts: cpu_seq_counts() (backend_counts.cpp).
+#include <cmath>
 #include <limits>
 
 #include <fmt/format.h>
 
 #include "workloads/rbe/backend_counts.hpp"
+#include "workloads/rbe/fusion_counts.hpp"
 #include "workloads/rbe/detail.hpp"
 #include "workloads/rbe/reference.hpp"
 
@@ -61,6 +63,51 @@ class CpuSeq final : public Backend {
   std::vector<double> belief() override {
     if (!ready_ || failed_) throw_not_ready(name(), failed_);
     return p_;
+  }
+
+  // Belief fusion, float64 on one thread: the conventional sequential fusion the parallel ones
+  // are measured against. Counts: cpu_seq_fusion_counts(), cpu_seq_wire_counts().
+  CostCounts fusion_counts(const Shape& s, FusionRule rule, std::int64_t platforms,
+                           const BackendOptions&) const override {
+    return cpu_seq_fusion_counts(s.cells(), rule, platforms);
+  }
+  CostCounts wire_counts(const Shape& s, const BackendOptions&) const override { return cpu_seq_wire_counts(s.cells()); }
+
+  std::vector<float> wire_belief() override {
+    if (!ready_ || failed_) throw_not_ready(name(), failed_);
+    return std::vector<float>(p_.begin(), p_.end());
+  }
+
+  void fuse(FusionRule rule, std::span<const std::span<const float>> others, std::size_t position) override {
+    if (!ready_ || failed_) throw_not_ready(name(), failed_);
+    check_others(others, position, grid_.cells(), name());
+    Range range("rbe/fuse");
+    const std::size_t n = p_.size(), m = others.size() + 1;
+    // Platform j's value of cell i: the own belief as the wire carries it (float32) at `position`.
+    auto value = [&](std::size_t j, std::size_t i) {
+      return j == position ? double(float(p_[i])) : double(others[j < position ? j : j - 1][i]);
+    };
+    double sum = 0;
+    if (rule == FusionRule::product) {
+      for (std::size_t i = 0; i < n; ++i) {
+        double v = value(0, i);
+        for (std::size_t j = 1; j < m; ++j) v *= value(j, i);
+        q_[i] = v;
+        sum += v;
+      }
+    } else {
+      const double w = 1.0 / double(m);
+      for (std::size_t i = 0; i < n; ++i) {
+        double lg = std::log(value(0, i));  // log 0 = -inf, exp(-inf) = 0: a zero stays zero
+        for (std::size_t j = 1; j < m; ++j) lg += std::log(value(j, i));
+        const double v = std::exp(w * lg);
+        q_[i] = v;
+        sum += v;
+      }
+    }
+    check_fusion_sum(sum, m, rule, name());
+    const double z = sum * grid_.cell_area();
+    for (std::size_t i = 0; i < n; ++i) p_[i] = q_[i] / z;
   }
 
  private:

@@ -29,7 +29,9 @@
 #include <optional>
 
 #include "workloads/rbe/backend_counts.hpp"
+#include "workloads/rbe/cuda_fusion.hpp"
 #include "workloads/rbe/cuda_memory.hpp"
+#include "workloads/rbe/fusion_counts.hpp"
 #include "workloads/rbe/detail.hpp"
 #include "workloads/rbe/resident_geometry.hpp"
 
@@ -771,6 +773,42 @@ class CudaResident final : public Backend {
     return p;
   }
 
+  // Belief fusion where the belief lives: the others go up, one kernel fuses them with q into the
+  // other q buffer, which becomes the belief, and its sum becomes the pending normalization
+  // (last_) of the next step, as a step's would. Only the wire belief comes back (wire_belief).
+  // Counts: cuda_resident_fusion_counts(), cuda_resident_wire_counts().
+  CostCounts fusion_counts(const Shape& s, FusionRule rule, std::int64_t platforms,
+                           const BackendOptions& o) const override {
+    return cuda_resident_fusion_counts(s.cells(), rule, platforms, counted_gpu_sms(o));
+  }
+  CostCounts wire_counts(const Shape& s, const BackendOptions& o) const override {
+    return cuda_resident_wire_counts(s.cells(), counted_gpu_sms(o));
+  }
+
+  std::vector<float> wire_belief() override {
+    check_ready();
+    const cudaStream_t st = stream_->get();
+    const auto n = static_cast<std::size_t>(shape_.cells());
+    if (wire_.size() < n) wire_ = DeviceArray<float>(n);
+    launch_fusion_scale(q_[cur_].get(), shape_.nx, shape_.ny, std::int64_t(ld_), last_.get(), grid_.cell_area(), 0.f,
+                        wire_.get(), st);
+    std::vector<float> w(n);
+    DTFLOP_CUDA(cudaMemcpyAsync(w.data(), wire_.get(), n * sizeof(float), cudaMemcpyDeviceToHost, st));
+    stream_->sync();
+    return w;
+  }
+
+  void fuse(FusionRule rule, std::span<const std::span<const float>> others, std::size_t position) override {
+    check_ready();
+    check_others(others, position, shape_.cells(), name());
+    const cudaStream_t st = stream_->get();
+    const double S = fusion_.fuse(rule, q_[cur_].get(), last_.get(), grid_.cell_area(), position, q_[cur_ ^ 1].get(),
+                                  shape_.nx, shape_.ny, std::int64_t(ld_), others, st);
+    check_fusion_sum(S, others.size() + 1, rule, name());  // q_[cur_] is untouched
+    DTFLOP_CUDA(cudaMemcpyAsync(last_.get(), fusion_.sum(), sizeof(double), cudaMemcpyDeviceToDevice, st));
+    cur_ ^= 1;
+  }
+
  private:
   void check_ready() const {
     if (!ready_ || failed_) throw_not_ready(name(), failed_);
@@ -876,7 +914,8 @@ class CudaResident final : public Backend {
   // Tensor maps of the tiles: maps_[i] (fused) and xmaps_[i] (split x-pass) read q_[i]; umap_
   // (split y-pass) reads u_. Zeros when the kernel copies with cp.async.
   TileMaps maps_[2]{}, xmaps_[2]{}, umap_{};
-  DeviceArray<float> q_[2], l_, u_, kx_, ky_;
+  DeviceArray<float> q_[2], l_, u_, kx_, ky_, wire_;
+  DeviceFusion fusion_;
   DeviceArray<double> sums_, last_;
   HostArray<double> host_sums_;
   std::optional<Stream> stream_;

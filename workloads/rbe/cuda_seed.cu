@@ -10,7 +10,9 @@
 #include <optional>
 
 #include "workloads/rbe/backend_counts.hpp"
+#include "workloads/rbe/cuda_fusion.hpp"
 #include "workloads/rbe/cuda_memory.hpp"
+#include "workloads/rbe/fusion_counts.hpp"
 #include "workloads/rbe/detail.hpp"
 
 namespace dtflop::rbe::detail {
@@ -126,6 +128,34 @@ class CudaSeed final : public Backend {
     return p;
   }
 
+  // Belief fusion in the seed's manner: the belief lives on the host, so it goes to the device
+  // with the others, one kernel fuses, the host makes the scale from the sum, a second kernel
+  // normalizes and the belief comes back. Counts: cuda_seed_fusion_counts(), cuda_seed_wire_counts().
+  CostCounts fusion_counts(const Shape& s, FusionRule rule, std::int64_t platforms,
+                           const BackendOptions& o) const override {
+    return cuda_seed_fusion_counts(s.cells(), rule, platforms, counted_gpu_sms(o));
+  }
+  CostCounts wire_counts(const Shape& s, const BackendOptions&) const override { return cuda_seed_wire_counts(s.cells()); }
+
+  std::vector<float> wire_belief() override {
+    check_ready();
+    return std::vector<float>(h_p_.get(), h_p_.get() + h_p_.size());
+  }
+
+  void fuse(FusionRule rule, std::span<const std::span<const float>> others, std::size_t position) override {
+    check_ready();
+    check_others(others, position, shape_.cells(), name());
+    const cudaStream_t st = stream_->get();
+    to_device(d_p_, h_p_);
+    const double S = fusion_.fuse(rule, d_p_.get(), nullptr, 0.0, position, d_q_.get(), shape_.nx, shape_.ny,
+                                  shape_.nx, others, st);
+    check_fusion_sum(S, others.size() + 1, rule, name());  // h_p_ is untouched
+    const float scale = static_cast<float>(1.0 / (grid_.cell_area() * S));
+    launch_fusion_scale(d_q_.get(), shape_.nx, shape_.ny, shape_.nx, nullptr, 0.0, scale, d_p_.get(), st);
+    to_host(h_p_, d_p_);
+    stream_->sync();
+  }
+
  private:
   void check_ready() const {
     if (!ready_ || failed_) throw_not_ready(name(), failed_);
@@ -218,6 +248,7 @@ class CudaSeed final : public Backend {
   HostArray<float> h_p_, h_q_, h_l_, h_kx_, h_ky_, h_z_;
   DeviceArray<float> d_p_, d_u_, d_q_, d_l_, d_kx_, d_ky_, d_z_;
   std::optional<Stream> stream_;
+  DeviceFusion fusion_;
   std::int64_t steps_ = 0;
   bool ready_ = false;
   bool failed_ = false;

@@ -1,6 +1,7 @@
 // The CUDA backends in a build without CUDA: listed, with their exact counts, but init()
 // throws DeviceUnavailable saying dtflop was built without CUDA.
 #include "workloads/rbe/backend_counts.hpp"
+#include "workloads/rbe/fusion_counts.hpp"
 #include "workloads/rbe/detail.hpp"
 
 namespace dtflop::rbe::detail {
@@ -18,6 +19,16 @@ class CudaUnavailable final : public Backend {
   CostCounts step_counts(const Shape& s, const BackendOptions& o) const override {
     return resident_ ? cuda_resident_counts(s, o.layout, counted_gpu_sms(o)) : cuda_seed_counts(s, o.host_memory);
   }
+  CostCounts fusion_counts(const Shape& s, FusionRule rule, std::int64_t platforms,
+                           const BackendOptions& o) const override {
+    return resident_ ? cuda_resident_fusion_counts(s.cells(), rule, platforms, counted_gpu_sms(o))
+                     : cuda_seed_fusion_counts(s.cells(), rule, platforms, counted_gpu_sms(o));
+  }
+  CostCounts wire_counts(const Shape& s, const BackendOptions& o) const override {
+    return resident_ ? cuda_resident_wire_counts(s.cells(), counted_gpu_sms(o)) : cuda_seed_wire_counts(s.cells());
+  }
+  std::vector<float> wire_belief() override { fail(); }
+  void fuse(FusionRule, std::span<const std::span<const float>>, std::size_t) override { fail(); }
   void init(const Problem&) override { fail(); }
   RunResult run(std::int64_t) override { fail(); }
   StepTimes step(std::span<const double>) override { fail(); }

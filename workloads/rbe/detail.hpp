@@ -72,6 +72,12 @@ Convolution resolve_prediction(const BackendOptions& options, const MotionKernel
                               bool supports_full, std::string_view backend);
 // Throws NumericalError for a correction whose sum (of q, before A_c) is zero or not finite.
 void check_sum(double sum, std::int64_t step, std::string_view backend);
+// Throws InputError unless there is at least one other belief, each has `cells` values and the
+// own belief's position is at most the number of others.
+void check_others(std::span<const std::span<const float>> others, std::size_t position, std::int64_t cells,
+                  std::string_view backend);
+// Throws NumericalError for a fusion whose sum (before A_c) is zero or not finite.
+void check_fusion_sum(double sum, std::size_t platforms, FusionRule rule, std::string_view backend);
 // The belief was left invalid by a NumericalError, or init() was never called.
 [[noreturn]] void throw_not_ready(std::string_view backend, bool failed);
 
