@@ -28,6 +28,9 @@ class MpiBackend final : public workload::Backend {
     return k;
   }
   // The protocol of calibrate/measure.hpp runs in one process; an exchange needs the team.
+  // An exchange is messages and bytes: the latency variant prices both (the memory variant adds
+  // only host terms an exchange does not count).
+  Variant model_variant() const override { return Variant::latency; }
   std::string unavailable() const override { return std::string("backend mpi: ") + kHow; }
   std::unique_ptr<workload::Run> prepare(const Config&, std::int64_t) const override { throw InputError(kHow); }
 };
