@@ -236,6 +236,7 @@ void run_live_dct(const LiveArgs& a) {
                        {"reopened", rep.source.reopened},
                        {"disconnected", rep.source.disconnected},
                        {"stopped_because", rep.stopped_because}};
+  if (rep.reference_sequence) js["reference_sequence"] = *rep.reference_sequence;
   if (stereo)
     js["stereo"] = {{"calibration", c.calibration},
                     {"reference_matching", rep.stereo_reference},

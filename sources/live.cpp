@@ -280,6 +280,7 @@ LiveReport run_live(const LiveConfig& config, sources::FrameSource& source, dct:
                                    rep.source.last_error.empty() ? "" : " (" + rep.source.last_error + ")"));
     }
     backend.set_reference(frame.image);
+    rep.reference_sequence = frame.sequence;
   }
   rep.reference_dots = static_cast<int>(backend.reference_dots().size());
   // frames.csv: one row per measured frame, flushed as it is written (kept if the run stops).
@@ -437,6 +438,7 @@ LiveReport run_live_stereo(const LiveConfig& config, sources::FrameSource& left,
                                      : " (" + rep.source.last_error + rep.source2.last_error + ")"));
   }
   pipeline.set_reference(fl.image, fr.image);
+  rep.reference_sequence = fl.sequence;
   rep.reference_dots = static_cast<int>(pipeline.left().reference_dots().size());
   rep.stereo_reference = pipeline.reference_matches().summary();
   std::ofstream log;

@@ -86,6 +86,8 @@ struct LiveReport {
   double wall_s = 0;            // from the first measured frame's arrival to the last one's end
   std::string stopped_because;  // empty: the stream ended (or max_frames); else why it stopped
   int reference_dots = 0;
+  // The reference frame's sequence number (the first source's), when it came from the stream.
+  std::optional<std::uint64_t> reference_sequence;
   // Stereo: the second source's counts, frames left unpaired (each source's), the reference match.
   sources::SourceStats source2;
   std::uint64_t unpaired_first = 0, unpaired_second = 0;
