@@ -175,7 +175,7 @@ void run_live_dct(const LiveArgs& a) {
       for (const auto& x : out.fields) v.push_back(x.status == dct::PointStatus::ok ? dct::field_value(x, shown) : std::nan(""));
       const nlohmann::json status = {
           {"frame", r.sequence},
-          {"fps", measured > 1 && now > first_time ? nlohmann::json((measured - 1) / (now - first_time)) : nlohmann::json()},
+          {"fps", measured > 1 && now > first_time ? nlohmann::json(static_cast<double>(measured - 1) / (now - first_time)) : nlohmann::json()},
           {"latency_s", r.latency_s},
           {"margin_s", period > 0 ? nlohmann::json(period - r.latency_s) : nlohmann::json()},
           {"dropped", source->stats().dropped},
@@ -268,13 +268,13 @@ void run_live_dct(const LiveArgs& a) {
     if (nominal > 0) {
       // Keeping up: every frame done within one frame period and none dropped; else the stage
       // that takes the largest part of the period is named.
-      const double period = 1.0 / nominal;
-      const bool keeps_up = live::percentile(latency, 99) <= period && rep.source.dropped == 0;
-      js["period_s"] = period;
+      const double frame_period = 1.0 / nominal;
+      const bool keeps_up = live::percentile(latency, 99) <= frame_period && rep.source.dropped == 0;
+      js["period_s"] = frame_period;
       js["keeps_up"] = keeps_up;
       if (keeps_up) {
         fmt::print("keeps up with {:.3g} frames/s: p99 latency {} within the {} frame period, no frame dropped\n",
-                   nominal, format_duration(live::percentile(latency, 99)), format_duration(period));
+                   nominal, format_duration(live::percentile(latency, 99)), format_duration(frame_period));
       } else {
         std::string slowest = "writing the CSV";
         double worst = live::percentile(write, 50);
@@ -285,9 +285,9 @@ void run_live_dct(const LiveArgs& a) {
           }
         fmt::print("does NOT keep up with {:.3g} frames/s (period {}): p99 latency {}, {} dropped; the slowest stage "
                    "is {} ({} median){}\n",
-                   nominal, format_duration(period), format_duration(live::percentile(latency, 99)),
+                   nominal, format_duration(frame_period), format_duration(live::percentile(latency, 99)),
                    rep.source.dropped, slowest, format_duration(worst),
-                   live::percentile(process, 50) > period ? "; the backend alone takes longer than a period" : "");
+                   live::percentile(process, 50) > frame_period ? "; the backend alone takes longer than a period" : "");
         js["slowest_stage"] = slowest;
       }
     }

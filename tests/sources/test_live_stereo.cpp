@@ -144,6 +144,40 @@ TEST(LiveStereoCli, TwoImageSequencesGiveUzOfTheRenderedBulge) {
   const auto nocal = test::run_dtflop(fmt::format("{} -o {}", base, (dir / "out3").string()));
   EXPECT_EQ(nocal.status, 2);
   EXPECT_NE(nocal.err.find("calibration"), std::string::npos) << nocal.err;
+
+  // `dtflop fields` on the same image files, the left camera's and the right one's: the same
+  // stereo pipeline, so the same columns and the same values as the live run's (the pattern
+  // starts at L_000, the reference, so live frame 3 is fields frame 4).
+  const std::string fields = fmt::format(
+      "fields --backend cpu-par --threads 1 --support 40dots --points 10x10 --no-overlays --reference {} --frames {} "
+      "--reference2 {} --frames2 {}",
+      (dir / "L_000.png").string(), (dir / "L_%03d.png").string(), (dir / "R_000.png").string(),
+      (dir / "R_%03d.png").string());
+  const auto f = test::run_dtflop(fmt::format("{} --calibration {} -o {}", fields, (dir / "rig.yaml").string(),
+                                              (dir / "fields").string()));
+  ASSERT_EQ(f.status, 0) << f.out << f.err;
+  EXPECT_NE(f.out.find("stereo reference:"), std::string::npos) << f.out;
+  EXPECT_EQ(test::slurp(dir / "fields" / "frame_0004.csv"), test::slurp(dir / "out" / "frame_000003.csv"));
+  EXPECT_EQ(test::slurp(dir / "fields" / "frame_0004_dots3d.csv"), test::slurp(dir / "out" / "frame_000003_dots3d.csv"));
+  EXPECT_TRUE(fs::exists(dir / "fields" / "frame_0004_dots.csv"));
+  // ... and its bad input, as live mode's: one line, exit 2.
+  const std::pair<std::string, std::string> bad_fields[] = {
+      {fmt::format("{} --calibration {}", fields, (dir / "rig_small.yaml").string()), "640x480"},
+      {fields, "calibration"},
+      {fmt::format("fields --reference {} --frames {} --reference2 {} --frames2 {} --calibration {}",
+                   (dir / "L_000.png").string(), (dir / "L_%03d.png").string(), (dir / "R_000.png").string(),
+                   (dir / "R_001.png").string(), (dir / "rig.yaml").string()),
+       "pairs"},
+      {fmt::format("fields --reference {} --frames {} --calibration {}", (dir / "L_000.png").string(),
+                   (dir / "L_001.png").string(), (dir / "rig.yaml").string()),
+       "no second camera"},
+  };
+  for (const auto& [args, says] : bad_fields) {
+    const auto b = test::run_dtflop(fmt::format("{} -o {}", args, (dir / "fields_bad").string()));
+    EXPECT_EQ(b.status, 2) << args;
+    EXPECT_NE(b.err.find(says), std::string::npos) << args << ": " << b.err;
+    EXPECT_EQ(test::count_lines(b.err), 1) << b.err;
+  }
 }
 
 TEST(LiveStereoCli, TunedJsonSetsTheBackendAndIsValidated) {

@@ -511,6 +511,7 @@ void write_stereo_fields_csv(const std::filesystem::path& path, const std::vecto
                              const std::vector<FieldValue<double>>& fields, const std::vector<UzValue>& uz) {
   if (points.size() != fields.size() || points.size() != uz.size())
     throw InputError("points, fields and u_z differ in length");
+  if (path.has_parent_path()) make_output_folder(path.parent_path(), fmt::format("'{}'", path.string()));
   std::string s = std::string(kStereoCsvHeader) + "\n";
   for (std::size_t i = 0; i < points.size(); ++i) {
     const auto& v = fields[i];
@@ -533,6 +534,7 @@ void write_stereo_dots_csv(const std::filesystem::path& path, const StereoPipeli
   const auto& rref = p.right().reference_positions();
   const auto& m = p.reference_matches();
   if (f.uz.size() != lref.size()) throw InputError("the stereo frame does not fit the reference dots");
+  if (path.has_parent_path()) make_output_folder(path.parent_path(), fmt::format("'{}'", path.string()));
   std::string s = std::string(kStereoDotsCsvHeader) + "\n";
   for (std::size_t i = 0; i < lref.size(); ++i) {
     const int j = m.left_to_right[i];
