@@ -521,12 +521,14 @@ void add_fields_command(CLI::App& root) {
                   "gradient join the fields (the in-plane fields are the left camera's, --reference's)");
   app->add_option("--frames2", o->frames2,
                   "Stereo: the right camera's deformed frames (a file or a printf pattern), one per --frames image");
-  app->add_option("--calibration", o->calibration,
-                  "Stereo: the pair's calibration (dtflop live stereo-calibrate writes it), of the images' size");
+  auto* calibration = app->add_option("--calibration", o->calibration,
+                                      "Stereo: the pair's calibration (dtflop live stereo-calibrate writes it), of the "
+                                      "images' size");
   app->add_option("--epipolar-tolerance", o->epipolar_tolerance,
                   "Stereo: px a dot's partner may lie off its rectified row")
       ->capture_default_str()
-      ->check(number_in(0.01, 100));
+      ->check(number_in(0.01, 100))
+      ->needs(calibration);
   app->callback([o] { run(*o); });
 }
 
