@@ -3,6 +3,7 @@
 // validity) and a colour-mapped PNG overlay of each field on the image, with a colour bar and
 // units; the overlays of a sequence share one colour range per field.
 #include <charconv>
+#include <functional>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -26,6 +27,8 @@
 #include "workloads/dct/backend.hpp"
 #include "workloads/dct/io.hpp"
 #include "workloads/dct/specimen.hpp"
+#include "workloads/dct/stereo.hpp"
+#include "workloads/dct/stereo_dots.hpp"
 #include "workloads/dct/support.hpp"
 #include "workloads/dct/tracking.hpp"
 #include "workloads/dct/uncertainty.hpp"
@@ -55,6 +58,11 @@ struct RunDctOptions {
   bool per_frame_range = false;
   std::string strain_range;        // LO:HI microstrain
   std::string displacement_range;  // LO:HI px
+  // Stereo: the second (right) camera's images and the pair's calibration.
+  std::string reference2;
+  std::string frames2;
+  std::string calibration;
+  double epipolar_tolerance = 1.5;
 };
 
 // Why no point of a frame has a value, in words and counts, and what to try.
@@ -159,11 +167,167 @@ void print_support_suggestion(const dct::Backend& b, const dct::FrameOutput& out
              s.dots, s.radius_px, 1e6 * s.noise, 1e6 * s.bias, sd, spacing, feature, now);
 }
 
+// One overlay kind: a field's values per frame (NaN where a point has none).
+struct OverlayLayer {
+  std::string name, unit;
+  bool strain = false, displacement_px = false;
+  std::vector<std::vector<double>> per_frame;
+};
+
+OverlayLayer in_plane_layer(dct::Field f, const std::vector<std::vector<dct::FieldValue<double>>>& frames) {
+  OverlayLayer l{dct::field_name(f), dct::field_unit(f), f == dct::Field::exx || f == dct::Field::eyy || f == dct::Field::exy,
+                 f == dct::Field::ux || f == dct::Field::uy, {}};
+  for (const auto& fields : frames) {
+    std::vector<double> v;
+    for (const auto& x : fields) v.push_back(x.status == dct::PointStatus::ok ? dct::field_value(x, f) : std::nan(""));
+    l.per_frame.push_back(std::move(v));
+  }
+  return l;
+}
+
+struct FixedRanges {
+  std::optional<dct::ColourRange> strain, displacement;
+};
+// --strain-range and --displacement-range, checked before any frame is measured.
+FixedRanges fixed_ranges(const RunDctOptions& o) {
+  FixedRanges r;
+  if (!o.strain_range.empty()) r.strain = dct::parse_colour_range(o.strain_range, "--strain-range");
+  if (!o.displacement_range.empty()) r.displacement = dct::parse_colour_range(o.displacement_range, "--displacement-range");
+  return r;
+}
+
+// Writes DIR/STEM_NAME.png for every layer and frame: one colour range per layer across the
+// whole sequence (so frames compare), unless --per-frame-range or a fixed range says otherwise.
+void write_overlays(const std::filesystem::path& dir, const RunDctOptions& o, const FixedRanges& fixed,
+                    const dct::PipelineOptions& p, const std::vector<dct::Vec2>& points, const std::vector<std::string>& stems,
+                    const std::function<cv::Mat(std::size_t)>& image, const std::vector<OverlayLayer>& layers) {
+  std::vector<dct::ColourRange> sequence;
+  for (const auto& l : layers) {
+    std::vector<double> every;
+    for (const auto& v : l.per_frame)
+      for (double x : v)
+        if (std::isfinite(x)) every.push_back(x);
+    sequence.push_back(dct::colour_range(every));
+  }
+  for (std::size_t k = 0; k < stems.size(); ++k) {
+    const cv::Mat frame = image(k);
+    for (std::size_t i = 0; i < layers.size(); ++i) {
+      const auto& l = layers[i];
+      std::optional<dct::ColourRange> range = l.strain ? fixed.strain : l.displacement_px ? fixed.displacement : std::nullopt;
+      if (!range && !o.per_frame_range) range = sequence[i];
+      dct::write_image(dir / fmt::format("{}_{}.png", stems[k], l.name),
+                       dct::overlay(frame, points, p.points_x, p.points_y, l.per_frame[k], l.name, l.unit, range));
+    }
+  }
+}
+
+// Stereo: the left camera's images (--reference, --frames) and the right one's (--reference2,
+// --frames2) measured pair by pair by the stereo pipeline (as `live dct --source2` does): the
+// in-plane fields are the left camera's, with u_z and its gradient beside them.
+void run_stereo(const RunDctOptions& o, const dct::PipelineOptions& p, const Size2& grid) {
+  using namespace dtflop::dct;
+  if (!o.specimen.empty())
+    throw InputError("--specimen renders one camera; a stereo run (--reference2, --frames2, --calibration) measures "
+                     "image files: give --reference and --frames for the left camera");
+  if (o.reference2.empty() && o.frames2.empty())
+    throw InputError("a stereo calibration is given but no second camera: give --reference2 and --frames2 (the right "
+                     "camera's images), or drop --calibration");
+  if (o.reference2.empty() || o.frames2.empty())
+    throw InputError("the second camera needs both --reference2 and --frames2 (its reference and deformed images, in "
+                     "the order of --reference and --frames)");
+  if (o.calibration.empty())
+    throw InputError("a second camera needs the pair's calibration: give --calibration rig.yaml (dtflop live "
+                     "stereo-calibrate writes one)");
+  if (o.reference.empty() || o.frames.empty())
+    throw InputError("a stereo run needs the left camera's --reference and --frames beside --reference2 and --frames2");
+  stereo::StereoMatchOptions so;
+  so.epipolar_tolerance = o.epipolar_tolerance;
+  stereo::validate(so);
+  const auto left_files = expand_frames(o.frames), right_files = expand_frames(o.frames2);
+  if (left_files.size() != right_files.size())
+    throw InputError(fmt::format("--frames names {} left images and --frames2 {} right images: give the frames as "
+                                 "pairs, one right image per left one",
+                                 left_files.size(), right_files.size()));
+  const FixedRanges fixed = fixed_ranges(o);
+  const stereo::Rig rig = stereo::read_rig(o.calibration);
+  const cv::Mat ref_left = read_grey(o.reference), ref_right = read_grey(o.reference2);
+  const std::filesystem::path dir(o.out);
+  {
+    std::error_code ec;
+    const auto st = std::filesystem::status(dir, ec);
+    if (std::filesystem::exists(st) && !std::filesystem::is_directory(st))
+      throw InputError(fmt::format("-o '{}' exists and is not a folder; name a new folder", o.out));
+  }
+  stereo::StereoPipeline pipeline(rig, o.backend, p, so);
+  pipeline.set_reference(ref_left, ref_right);  // the calibration's and the images' sizes checked here
+  fmt::print("backend {}: {} reference dots (left), {} points ({}x{}), {} {}, support {}\n", pipeline.left().name(),
+             pipeline.left().reference_dots().size(), pipeline.points().size(), grid.x, grid.y, to_string(p.interp),
+             p.interp == Interp::mls ? to_string(p.mls.weight) : "", p.mls.support.str());
+  fmt::print("stereo reference: {}\n", pipeline.reference_matches().summary());
+
+  Table t({"frame", "dots", "matched", "valid points", "mean e_xx [microstrain]", "mean e_yy [microstrain]",
+           "triangulated", "u_z points", "mean u_z [mm]", "time"});
+  std::vector<std::vector<FieldValue<double>>> all_fields;
+  std::vector<std::vector<double>> all_uz;
+  std::vector<std::string> stems;
+  for (std::size_t k = 0; k < left_files.size(); ++k) {
+    const cv::Mat left = read_grey(left_files[k]), right = read_grey(right_files[k]);
+    const std::string label = fmt::format("{}/{}", left_files[k].filename().string(), right_files[k].filename().string());
+    stereo::StereoFrame out;
+    try {
+      out = pipeline.process(left, right);
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("frame pair {}: {}", label, e.what()));
+    }
+    int valid = 0, uz_points = 0;
+    double mxx = 0, myy = 0, muz = 0;
+    for (std::size_t i = 0; i < out.left.fields.size(); ++i) {
+      const auto& f = out.left.fields[i];
+      if (f.status == PointStatus::ok) { ++valid; mxx += f.exx; myy += f.eyy; }
+      if (out.fields[i].status == PointStatus::ok) { ++uz_points; muz += out.fields[i].uz; }
+    }
+    if (valid == 0) throw InputError(fmt::format("frame pair {}: {}", label, no_valid_point(out.left.fields, o.support)));
+    if (uz_points == 0)
+      throw InputError(fmt::format("frame pair {}: no point has a valid u_z ({} dots triangulated); check that the "
+                                   "calibration is of this pair and that both cameras see the dots",
+                                   label, out.triangulated));
+    const std::string stem = fmt::format("frame_{:04d}", k + 1);
+    stereo::write_stereo_fields_csv(dir / (stem + ".csv"), pipeline.points(), out.left.fields, out.fields);
+    stereo::write_stereo_dots_csv(dir / (stem + "_dots3d.csv"), pipeline, out);
+    write_dots_csv(dir / (stem + "_dots.csv"), pipeline.left().reference_dots(), out.left.dots, out.left.matches, left,
+                   out.left.stats.threshold, p.analysis.polarity);
+    t.row({label, fmt::format("{}", out.left.dots.size()), fmt::format("{}", out.left.matches.matched),
+           fmt::format("{} of {}", valid, out.left.fields.size()), fmt::format("{:.1f}", 1e6 * mxx / valid),
+           fmt::format("{:.1f}", 1e6 * myy / valid), fmt::format("{}", out.triangulated),
+           fmt::format("{} of {}", uz_points, out.fields.size()), fmt::format("{:.4f}", muz / uz_points),
+           format_duration(out.left.seconds["total"] + out.right.seconds["total"] + out.seconds["stereo"])});
+    if (!o.no_overlays) {
+      std::vector<double> uz;
+      for (const auto& x : out.fields) uz.push_back(x.status == PointStatus::ok ? x.uz : std::nan(""));
+      all_uz.push_back(std::move(uz));
+      all_fields.push_back(std::move(out.left.fields));
+      stems.push_back(stem);
+    }
+  }
+  if (!o.no_overlays) {
+    std::vector<OverlayLayer> layers;
+    for (Field f : {Field::ux, Field::uy, Field::exx, Field::eyy, Field::exy}) layers.push_back(in_plane_layer(f, all_fields));
+    layers.push_back({"u_z", "mm", false, false, all_uz});
+    write_overlays(dir, o, fixed, p, pipeline.points(), stems, [&](std::size_t k) { return read_grey(left_files[k]); },
+                   layers);
+  }
+  fmt::print("{}", t.str());
+  fmt::print("wrote per frame pair: {0}/frame_NNNN.csv (with u_z_mm, du_z_dx, du_z_dy), {0}/frame_NNNN_dots3d.csv, "
+             "{0}/frame_NNNN_dots.csv{1}\n",
+             dir.string(), o.no_overlays ? "" : fmt::format(" and {}/frame_NNNN_{{u_x,u_y,e_xx,e_yy,e_xy,u_z}}.png", dir.string()));
+}
+
 void run(const RunDctOptions& o) {
   using namespace dtflop::dct;
-  if (o.specimen.empty() == o.reference.empty())
+  const bool stereo = !o.reference2.empty() || !o.frames2.empty() || !o.calibration.empty();
+  if (!stereo && o.specimen.empty() == o.reference.empty())
     throw InputError("give either --reference (with --frames) or --specimen, not both and not neither");
-  if (!o.reference.empty() && o.frames.empty())
+  if (!stereo && !o.reference.empty() && o.frames.empty())
     throw InputError("--reference needs --frames 'def_%04d.png' (the deformed images)");
   PipelineOptions p;
   p.interp = interp_from_string(o.interp);
@@ -192,6 +356,10 @@ void run(const RunDctOptions& o) {
     p.analysis.method = threshold_method_from_string(o.threshold);
   }
   if (!o.roi.empty()) p.analysis.roi = parse_roi(o.roi);
+  if (stereo) {
+    run_stereo(o, p, grid);
+    return;
+  }
 
   // Inputs: files, or a rendered specimen (whose truth is then compared).
   cv::Mat reference;
@@ -217,11 +385,7 @@ void run(const RunDctOptions& o) {
              backend->reference_dots().size(), backend->points().size(), grid.x, grid.y, to_string(p.interp),
              p.interp == Interp::mls ? to_string(p.mls.weight) : "", p.mls.support.str());
 
-  // Fixed colour ranges, if given, are checked before any frame is measured.
-  std::optional<ColourRange> strain_range, displacement_range;
-  if (!o.strain_range.empty()) strain_range = parse_colour_range(o.strain_range, "--strain-range");
-  if (!o.displacement_range.empty())
-    displacement_range = parse_colour_range(o.displacement_range, "--displacement-range");
+  const FixedRanges fixed = fixed_ranges(o);  // checked before any frame is measured
 
   Table t({"frame", "dots", "matched", "lost", "appeared", "valid points", "mean e_xx [microstrain]",
            "mean e_yy [microstrain]", "time"});
@@ -304,27 +468,10 @@ void run(const RunDctOptions& o) {
   // Overlays: one colour range per field across the whole sequence (so frames compare), unless
   // --per-frame-range or a fixed range says otherwise.
   if (!o.no_overlays) {
-    const std::vector<Field> kinds = {Field::ux, Field::uy, Field::exx, Field::eyy, Field::exy};
-    std::map<Field, ColourRange> sequence;
-    for (Field f : kinds) {
-      std::vector<double> every;
-      for (const auto& fields : all_fields)
-        for (const auto& x : fields)
-          if (x.status == PointStatus::ok) every.push_back(field_value(x, f));
-      sequence[f] = colour_range(every);
-    }
-    for (std::size_t k = 0; k < all_fields.size(); ++k) {
-      const cv::Mat frame = specimen ? specimen->deformed_image() : read_grey(frame_files[k]);
-      for (Field f : kinds) {
-        std::vector<double> v;
-        for (const auto& x : all_fields[k]) v.push_back(x.status == PointStatus::ok ? field_value(x, f) : std::nan(""));
-        const bool strain = f == Field::exx || f == Field::eyy || f == Field::exy;
-        std::optional<ColourRange> range = strain ? strain_range : displacement_range;
-        if (!range && !o.per_frame_range) range = sequence[f];
-        write_image(dir / fmt::format("{}_{}.png", stems[k], field_name(f)),
-                    overlay(frame, backend->points(), p.points_x, p.points_y, v, field_name(f), field_unit(f), range));
-      }
-    }
+    std::vector<OverlayLayer> layers;
+    for (Field f : {Field::ux, Field::uy, Field::exx, Field::eyy, Field::exy}) layers.push_back(in_plane_layer(f, all_fields));
+    write_overlays(dir, o, fixed, p, backend->points(), stems,
+                   [&](std::size_t k) { return specimen ? specimen->deformed_image() : read_grey(frame_files[k]); }, layers);
   }
   fmt::print("{}", t.str());
   fmt::print("wrote per frame: {0}/frame_NNNN.csv, {0}/frame_NNNN_dots.csv{1}\n", dir.string(),
@@ -337,7 +484,8 @@ void add_fields_command(CLI::App& root) {
   auto* app = root.add_subcommand(
       "fields",
       "Dot centroid tracking (the DCT workload on images): displacement and strain fields from a reference image and deformed frames "
-      "(or a rendered --specimen), by MLS (eqs. 7.2-7.6) or linear FE");
+      "(or a rendered --specimen), by MLS (eqs. 7.2-7.6) or linear FE; with a second camera's images (--reference2, "
+      "--frames2) and the pair's --calibration also the out-of-plane displacement u_z");
   auto o = std::make_shared<RunDctOptions>();
   app->add_option("--backend", o->backend, "DCT backend: " + workload::find("dct").backend_names())->capture_default_str();
   app->add_option("--reference", o->reference, "Reference (undeformed) image");
@@ -368,6 +516,19 @@ void add_fields_command(CLI::App& root) {
   app->add_option("--strain-range", o->strain_range, "Fixed colour range of the strain overlays, LO:HI microstrain");
   app->add_option("--displacement-range", o->displacement_range,
                   "Fixed colour range of the displacement overlays, LO:HI px");
+  app->add_option("--reference2", o->reference2,
+                  "Stereo: the second (right) camera's reference image; with --frames2 and --calibration, u_z and its "
+                  "gradient join the fields (the in-plane fields are the left camera's, --reference's)");
+  app->add_option("--frames2", o->frames2,
+                  "Stereo: the right camera's deformed frames (a file or a printf pattern), one per --frames image");
+  auto* calibration = app->add_option("--calibration", o->calibration,
+                                      "Stereo: the pair's calibration (dtflop live stereo-calibrate writes it), of the "
+                                      "images' size");
+  app->add_option("--epipolar-tolerance", o->epipolar_tolerance,
+                  "Stereo: px a dot's partner may lie off its rectified row")
+      ->capture_default_str()
+      ->check(number_in(0.01, 100))
+      ->needs(calibration);
   app->callback([o] { run(*o); });
 }
 

@@ -5,6 +5,7 @@
 // source dropped, where the time went per stage and, with --machine, the DTFLOP model's
 // prediction of a frame beside the measured time.
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -31,6 +32,9 @@
 #include <thread>
 #include "workloads/dct/backend.hpp"
 #include "workloads/dct/specimen.hpp"
+#include "workloads/dct/stereo_dots.hpp"
+#include "workloads/dct/workload.hpp"
+#include "workloads/workload.hpp"
 
 #include <opencv2/videoio.hpp>
 
@@ -39,6 +43,8 @@ namespace {
 
 struct LiveArgs {
   std::string source;
+  std::string source2;
+  std::string calibration;
   std::string config;
   std::string output;
   std::int64_t max_frames = -1;
@@ -58,9 +64,43 @@ dct::Field field_named(const std::string& name) {
   throw InputError(fmt::format("--serve-field '{}': give u_x, u_y, e_xx, e_yy or e_xy", name));
 }
 
+// The configuration `dtflop tune -o` chose (schema dtflop.tuned, workload dct), validated by the
+// DCT workload like `dtflop run --tuned`, applied to the live configuration.
+void apply_tuned_file(live::LiveConfig& c, const std::string& config_name) {
+  const std::string what = fmt::format("'tuned: {}' in {}", c.tuned, config_name);
+  const nlohmann::json t = parse_json_limited(read_file_limited(c.tuned, what, kMaxJsonFileBytes), what);
+  if (!t.is_object() || t.value("schema", "") != "dtflop.tuned" || !t.contains("workload") || !t.contains("backend") ||
+      !t.contains("config") || !t["config"].is_object() || !t["backend"].is_string())
+    throw InputError(fmt::format("{} is not a result of `dtflop tune -o` (schema dtflop.tuned with workload, backend and "
+                                 "config); give the file tune wrote",
+                                 what));
+  if (t["workload"] != "dct")
+    throw InputError(fmt::format("{} is a configuration of {}, not dct; tune the dct workload", what,
+                                 t["workload"].dump()));
+  const std::string backend = t["backend"].get<std::string>();
+  const workload::Workload& w = workload::find("dct");
+  workload::Config cfg;
+  try {
+    cfg = w.validate(t["config"], w.backend(backend));
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("{}: {}", what, e.what()));
+  }
+  live::apply_tuned(c, backend, dct::pipeline_options(cfg, backend));
+}
+
 void run_live_dct(const LiveArgs& a) {
   live::LiveConfig c = live::load_live_config(a.config);
   if (!a.source.empty()) c.source = a.source;
+  if (!a.source2.empty()) c.source2 = a.source2;
+  if (!a.calibration.empty()) c.calibration = a.calibration;
+  if (!c.source2.empty() && c.calibration.empty())
+    throw InputError(fmt::format("a second source needs the pair's calibration: give --calibration rig.yaml or "
+                                 "'calibration:' in {} (dtflop live stereo-calibrate writes one)",
+                                 a.config));
+  if (c.source2.empty() && !c.calibration.empty())
+    throw InputError("a stereo calibration is given but no second source: give --source2 (or 'source2:'), or drop the "
+                     "calibration");
+  if (!c.tuned.empty()) apply_tuned_file(c, a.config);
   if (!a.output.empty()) c.output = a.output;
   if (a.max_frames >= 0) c.max_frames = a.max_frames;
   if (c.source.empty())
@@ -88,9 +128,29 @@ void run_live_dct(const LiveArgs& a) {
 #else
   if (a.serve) throw InputError("--serve: this dtflop was built without cpp-httplib; install libcpp-httplib-dev and rebuild");
 #endif
-  auto backend = dct::make_backend(c.backend, c.pipeline);
+  const bool stereo = !c.source2.empty();
+  std::optional<sources::SourceSpec> spec2;
+  std::optional<dct::stereo::Rig> rig;
+  if (stereo) {
+    spec2 = sources::parse_source_spec(c.source2);
+    rig = dct::stereo::read_rig(c.calibration);
+  }
+  std::unique_ptr<dct::Backend> backend;
+  std::unique_ptr<dct::stereo::StereoPipeline> pipeline;
+  if (stereo) {
+    dct::stereo::StereoMatchOptions so;
+    so.epipolar_tolerance = c.epipolar_tolerance;
+    pipeline = std::make_unique<dct::stereo::StereoPipeline>(*rig, c.backend, c.pipeline, so);
+  } else {
+    backend = dct::make_backend(c.backend, c.pipeline);
+  }
+  const std::string backend_name = stereo ? pipeline->left().name() : backend->name();
   auto source = sources::open_source(spec);
-  fmt::print(stderr, "dtflop live dct: {} -> {} on backend {}\n", source->describe(), c.output, backend->name());
+  std::unique_ptr<sources::FrameSource> source2;
+  if (stereo) source2 = sources::open_source(*spec2);
+  const std::string described = stereo ? source->describe() + " + " + source2->describe() : source->describe();
+  fmt::print(stderr, "dtflop live dct: {} -> {} on backend {}{}\n", described, c.output, backend_name,
+             stereo ? " (stereo)" : "");
   const double period = source->frame_rate() > 0 ? 1.0 / source->frame_rate() : 0.0;
   double last_publish = -1, first_time = -1;
   std::int64_t measured = 0;
@@ -101,8 +161,9 @@ void run_live_dct(const LiveArgs& a) {
   std::vector<double> predicted;
   std::string fallback;
   std::optional<Judged> first_judged;
-  const live::LiveReport rep = live::run_live(c, *source, *backend, [&](const live::FrameRecord& r, const dct::FrameOutput& out,
-                                                                        const cv::Mat& image) {
+  auto on_frame = [&](const live::FrameRecord& r, const dct::FrameOutput& out, const cv::Mat& image) {
+    const std::vector<dct::Vec2>& points = stereo ? pipeline->points() : backend->points();
+    (void)points;
     ++measured;
     const double now = steady_now();
     if (first_time < 0) first_time = now;
@@ -114,12 +175,12 @@ void run_live_dct(const LiveArgs& a) {
       for (const auto& x : out.fields) v.push_back(x.status == dct::PointStatus::ok ? dct::field_value(x, shown) : std::nan(""));
       const nlohmann::json status = {
           {"frame", r.sequence},
-          {"fps", measured > 1 && now > first_time ? nlohmann::json((measured - 1) / (now - first_time)) : nlohmann::json()},
+          {"fps", measured > 1 && now > first_time ? nlohmann::json(static_cast<double>(measured - 1) / (now - first_time)) : nlohmann::json()},
           {"latency_s", r.latency_s},
           {"margin_s", period > 0 ? nlohmann::json(period - r.latency_s) : nlohmann::json()},
           {"dropped", source->stats().dropped},
           {"field", dct::field_name(shown) + " [" + dct::field_unit(shown) + "]"}};
-      viewer->publish(dct::overlay(image, backend->points(), c.pipeline.points_x, c.pipeline.points_y, v,
+      viewer->publish(dct::overlay(image, points, c.pipeline.points_x, c.pipeline.points_y, v,
                                    dct::field_name(shown), dct::field_unit(shown)),
                       status);
     }
@@ -139,7 +200,9 @@ void run_live_dct(const LiveArgs& a) {
       pp.profile = *profile;
       first_judged = judge(p, pp, out.counts, std::nullopt);
     }
-  });
+  };
+  const live::LiveReport rep = stereo ? live::run_live_stereo(c, *source, *source2, *pipeline, on_frame)
+                                      : live::run_live(c, *source, *backend, on_frame);
 
   std::vector<double> latency, process, write;
   for (const auto& r : rep.frames) {
@@ -157,8 +220,14 @@ void run_live_dct(const LiveArgs& a) {
              rep.reference_dots, n, rep.source.delivered, rep.source.dropped,
              rep.source.incomplete ? fmt::format(", {} of them damaged", rep.source.incomplete) : "",
              rep.source.reopened ? fmt::format(", reopened {} time(s)", rep.source.reopened) : "");
-  nlohmann::json js = {{"source", source->describe()},
-                       {"backend", backend->name()},
+  if (stereo) {
+    fmt::print("stereo: reference {}; second source: {} delivered, {} dropped; unpaired frames dropped: {} of the "
+               "first source, {} of the second\n",
+               rep.stereo_reference, rep.source2.delivered, rep.source2.dropped, rep.unpaired_first,
+               rep.unpaired_second);
+  }
+  nlohmann::json js = {{"source", described},
+                       {"backend", backend_name},
                        {"reference_dots", rep.reference_dots},
                        {"frames_measured", n},
                        {"frames_delivered", rep.source.delivered},
@@ -167,6 +236,15 @@ void run_live_dct(const LiveArgs& a) {
                        {"reopened", rep.source.reopened},
                        {"disconnected", rep.source.disconnected},
                        {"stopped_because", rep.stopped_because}};
+  if (rep.reference_sequence) js["reference_sequence"] = *rep.reference_sequence;
+  if (stereo)
+    js["stereo"] = {{"calibration", c.calibration},
+                    {"reference_matching", rep.stereo_reference},
+                    {"second_source_delivered", rep.source2.delivered},
+                    {"second_source_dropped", rep.source2.dropped},
+                    {"unpaired_dropped_first", rep.unpaired_first},
+                    {"unpaired_dropped_second", rep.unpaired_second}};
+  if (!c.tuned.empty()) js["tuned"] = c.tuned;
   if (n > 0) {
     fmt::print("latency per frame (arrival to fields written): p50 {}, p99 {}, max {}; throughput {:.2f} frames/s\n",
                format_duration(live::percentile(latency, 50)), format_duration(live::percentile(latency, 99)),
@@ -190,13 +268,13 @@ void run_live_dct(const LiveArgs& a) {
     if (nominal > 0) {
       // Keeping up: every frame done within one frame period and none dropped; else the stage
       // that takes the largest part of the period is named.
-      const double period = 1.0 / nominal;
-      const bool keeps_up = live::percentile(latency, 99) <= period && rep.source.dropped == 0;
-      js["period_s"] = period;
+      const double frame_period = 1.0 / nominal;
+      const bool keeps_up = live::percentile(latency, 99) <= frame_period && rep.source.dropped == 0;
+      js["period_s"] = frame_period;
       js["keeps_up"] = keeps_up;
       if (keeps_up) {
         fmt::print("keeps up with {:.3g} frames/s: p99 latency {} within the {} frame period, no frame dropped\n",
-                   nominal, format_duration(live::percentile(latency, 99)), format_duration(period));
+                   nominal, format_duration(live::percentile(latency, 99)), format_duration(frame_period));
       } else {
         std::string slowest = "writing the CSV";
         double worst = live::percentile(write, 50);
@@ -207,9 +285,9 @@ void run_live_dct(const LiveArgs& a) {
           }
         fmt::print("does NOT keep up with {:.3g} frames/s (period {}): p99 latency {}, {} dropped; the slowest stage "
                    "is {} ({} median){}\n",
-                   nominal, format_duration(period), format_duration(live::percentile(latency, 99)),
+                   nominal, format_duration(frame_period), format_duration(live::percentile(latency, 99)),
                    rep.source.dropped, slowest, format_duration(worst),
-                   live::percentile(process, 50) > period ? "; the backend alone takes longer than a period" : "");
+                   live::percentile(process, 50) > frame_period ? "; the backend alone takes longer than a period" : "");
         js["slowest_stage"] = slowest;
       }
     }
@@ -237,7 +315,7 @@ void run_live_dct(const LiveArgs& a) {
   }
 #endif
   if (!rep.stopped_because.empty()) {
-    if (rep.source.disconnected) {
+    if (rep.source.disconnected || rep.source2.disconnected) {
       fmt::print(stderr, "dtflop: failed: the run stopped: {}; the {} frames measured before are kept\n",
                  rep.stopped_because, n);
       set_exit_status(kExitFailure);
@@ -299,6 +377,70 @@ void write_specimen_video(const VideoArgs& a) {
              s.render.width, s.render.height, a.fps, s.deformation->describe());
 }
 
+struct CalibrateArgs {
+  std::vector<std::string> left, right;
+  std::string board = "checkerboard:9x6:30";
+  std::string output;
+};
+
+// "checkerboard:9x6:30" or "circles:4x11:30" (inner corners or circles, square or pitch in mm).
+dct::stereo::Board parse_board(const std::string& text) {
+  const auto bad = [&] {
+    return InputError(fmt::format("--board '{}': write checkerboard:COLSxROWS:SQUARE_MM (inner corners, e.g. "
+                                  "checkerboard:9x6:30) or circles:COLSxROWS:PITCH_MM (asymmetric grid, e.g. "
+                                  "circles:4x11:30)",
+                                  text));
+  };
+  const auto c1 = text.find(':'), c2 = text.rfind(':');
+  if (c1 == std::string::npos || c2 == c1) throw bad();
+  dct::stereo::Board b;
+  const std::string kind = text.substr(0, c1);
+  if (kind == "checkerboard") b.target = dct::stereo::Board::Target::checkerboard;
+  else if (kind == "circles") b.target = dct::stereo::Board::Target::circles;
+  else throw bad();
+  int w = 0, h = 0;
+  char x = 0, end = 0;
+  if (std::sscanf(text.substr(c1 + 1, c2 - c1 - 1).c_str(), "%d%c%d%c", &w, &x, &h, &end) != 3 || x != 'x' || w < 2 ||
+      h < 2 || w > 100 || h > 100)
+    throw bad();
+  char* e = nullptr;
+  const std::string sq = text.substr(c2 + 1);
+  const double square = std::strtod(sq.c_str(), &e);
+  if (sq.empty() || *e != '\0' || !std::isfinite(square) || square <= 0 || square > 10000) throw bad();
+  b.inner = {w, h};
+  b.square = square;
+  return b;
+}
+
+void stereo_calibrate(const CalibrateArgs& a) {
+  const dct::stereo::Board board = parse_board(a.board);
+  if (a.left.size() != a.right.size())
+    throw InputError(fmt::format("{} left and {} right views: give the views as pairs, in the same order",
+                                 a.left.size(), a.right.size()));
+  check_output(a.output, [&] {
+    std::vector<std::string> in = a.left;
+    in.insert(in.end(), a.right.begin(), a.right.end());
+    return in;
+  }());
+  std::vector<cv::Mat> L, R;
+  for (std::size_t i = 0; i < a.left.size(); ++i) {
+    cv::Mat l = dct::read_grey(a.left[i]), r = dct::read_grey(a.right[i]);
+    // calib3d's corner finders take 8-bit views.
+    if (l.depth() == CV_16U) l.convertTo(l, CV_8U, 1.0 / 257);
+    if (r.depth() == CV_16U) r.convertTo(r, CV_8U, 1.0 / 257);
+    L.push_back(l);
+    R.push_back(r);
+  }
+  const dct::stereo::Calibration c = dct::stereo::calibrate(L, R, board);
+  for (const auto& n : c.notes) fmt::print("{}\n", n);
+  fmt::print("focal lengths {:.2f} / {:.2f} px (left), {:.2f} / {:.2f} px (right); baseline {:.3f} mm\n", c.rig.left.K(0, 0),
+             c.rig.left.K(1, 1), c.rig.right.K(0, 0), c.rig.right.K(1, 1), c.rig.baseline());
+  const std::string tmp = a.output + ".part.yaml";
+  dct::stereo::write_rig(tmp, c);
+  std::filesystem::rename(tmp, a.output);
+  fmt::print("wrote {} (`dtflop live dct --source2 ... --calibration {}` uses it)\n", a.output, a.output);
+}
+
 }  // namespace
 
 void add_live_command(CLI::App& root) {
@@ -313,8 +455,15 @@ void add_live_command(CLI::App& root) {
   dct->add_option("--source", a->source,
                   "device:0, file:clip.mp4[?paced=1&fps=30], images:def_%04d.png, gst:'PIPELINE ! appsink', gphoto2:0, "
                   "aravis:CAMERA-ID[?exposure=US&gain=DB&fps=HZ&roi=X,Y,W,H&format=Mono16] (overrides the config's)");
+  dct->add_option("--source2", a->source2,
+                  "Stereo: the second (right) camera, in --source's forms (overrides the config's 'source2'; needs "
+                  "--calibration)");
+  dct->add_option("--calibration", a->calibration,
+                  "Stereo: the pair's calibration (dtflop live stereo-calibrate; overrides the config's)");
   dct->add_option("--config", a->config, "Run configuration (YAML: source, roi, threshold, polarity, area, backend, "
-                                         "interpolation, weight, support, points, threads, output, max_frames)")
+                                         "interpolation, weight, support, points, threads, output, max_frames, overlay_every, source2, "
+                                         "calibration, pair, pair_tolerance_ms, epipolar_tolerance, tuned; "
+                                         "docs/sources.md)")
       ->required();
   dct->add_option("-o,--output", a->output, "Output folder (overrides the config's 'output')");
   dct->add_option("--max-frames", a->max_frames, "Stop after this many measured frames (0: at the stream's end)")
@@ -339,6 +488,19 @@ void add_live_command(CLI::App& root) {
   vid->add_option("--frames", v->frames, "Frames")->check(number_in(1, 100000, true))->capture_default_str();
   vid->add_option("--fps", v->fps, "Frame rate written in the file")->check(number_in(0.1, 1000))->capture_default_str();
   vid->callback([v] { write_specimen_video(*v); });
+
+  auto* cal = app->add_subcommand(
+      "stereo-calibrate", "Calibrate a camera pair from views of a checkerboard or an asymmetric circle grid (OpenCV "
+                          "calib3d): both cameras and the pair, the reprojection and epipolar errors judged, written "
+                          "as YAML for `live dct --source2 ... --calibration`.");
+  auto ca = std::make_shared<CalibrateArgs>();
+  cal->add_option("--left", ca->left, "The left camera's views (image files)")->required();
+  cal->add_option("--right", ca->right, "The right camera's views, in the same order")->required();
+  cal->add_option("--board", ca->board,
+                  "checkerboard:COLSxROWS:SQUARE_MM (inner corners) or circles:COLSxROWS:PITCH_MM (asymmetric grid)")
+      ->capture_default_str();
+  cal->add_option("-o,--output", ca->output, "Calibration file (YAML)")->required();
+  cal->callback([ca] { stereo_calibrate(*ca); });
 }
 
 }  // namespace dtflop::cli

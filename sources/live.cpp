@@ -103,7 +103,8 @@ LiveConfig parse_live_config(const std::string& yaml, const std::string& name) {
   if (!root.IsMap()) throw InputError(fmt::format("{}: a run configuration is a YAML map of keys (source: ..., ...)", name));
   static const std::set<std::string> known = {"source", "reference", "roi", "threshold", "polarity", "area",
                                               "backend", "interpolation", "weight", "support", "points", "threads",
-                                              "search_radius", "output", "max_frames", "overlay_every"};
+                                              "search_radius", "output", "max_frames", "overlay_every", "source2",
+                                              "calibration", "pair", "pair_tolerance_ms", "epipolar_tolerance", "tuned"};
   for (const auto& kv : root) {
     const std::string key = kv.first.IsScalar() ? kv.first.as<std::string>() : "?";
     if (!known.count(key)) {
@@ -114,6 +115,7 @@ LiveConfig parse_live_config(const std::string& yaml, const std::string& name) {
   }
   const Reader r(root, name);
   LiveConfig c;
+  for (const auto& kv : root) c.given.insert(kv.first.as<std::string>());
   using namespace dtflop::dct;
   PipelineOptions& p = c.pipeline;
   if (auto s = r.text("source")) c.source = *s;
@@ -187,6 +189,18 @@ LiveConfig parse_live_config(const std::string& yaml, const std::string& name) {
   if (auto s = r.text("output")) c.output = *s;
   if (auto m = r.integer("max_frames", 0, 100'000'000)) c.max_frames = *m;
   if (auto m = r.integer("overlay_every", 0, 100'000'000)) c.overlay_every = *m;
+  if (auto s = r.text("source2")) c.source2 = *s;
+  if (auto s = r.text("calibration")) c.calibration = *s;
+  if (auto s = r.text("pair")) {
+    if (*s == "sequence") c.pair_by_timestamp = false;
+    else if (*s == "timestamp") c.pair_by_timestamp = true;
+    else r.fail("pair", fmt::format("is '{}': write sequence or timestamp", *s));
+  }
+  if (auto v = r.real("pair_tolerance_ms", 0, 10000)) c.pair_tolerance_s = *v / 1000;
+  if (auto v = r.real("epipolar_tolerance", 0.01, 100)) c.epipolar_tolerance = *v;
+  if (auto s = r.text("tuned")) c.tuned = *s;
+  if (!c.source2.empty() != !c.calibration.empty() && c.given.count("source2"))
+    r.fail("calibration", "is needed with source2: give the pair's calibration (dtflop live stereo-calibrate)");
   return c;
 }
 
@@ -201,6 +215,43 @@ LiveConfig load_live_config(const std::filesystem::path& path) {
   std::stringstream s;
   s << in.rdbuf();
   return parse_live_config(s.str(), path.string());
+}
+
+void apply_tuned(LiveConfig& c, const std::string& backend, const dct::PipelineOptions& tuned) {
+  const dct::PipelineOptions mine = c.pipeline;
+  dct::PipelineOptions p = tuned;
+  // What describes the images, not the computation, stays the configuration's.
+  p.analysis.roi = mine.analysis.roi;
+  p.analysis.polarity = mine.analysis.polarity;
+  p.analysis.min_area = mine.analysis.min_area;
+  p.analysis.max_area = mine.analysis.max_area;
+  p.points = mine.points;
+  // Keys the file named win over the tuned values.
+  auto given = [&](const char* k) { return c.given.count(k) > 0; };
+  if (given("threshold")) {
+    p.analysis.method = mine.analysis.method;
+    p.analysis.threshold = mine.analysis.threshold;
+  }
+  if (given("interpolation")) p.interp = mine.interp;
+  if (given("weight")) p.mls.weight = mine.mls.weight;
+  if (given("support")) {
+    p.mls.support = mine.mls.support;
+    p.mls.support_at_most_found = mine.mls.support_at_most_found;
+  } else {
+    c.support_text = p.mls.support.str();
+  }
+  if (given("points")) {
+    p.points_x = mine.points_x;
+    p.points_y = mine.points_y;
+  }
+  if (given("threads")) p.threads = mine.threads;
+  if (given("search_radius")) p.match.search_radius = mine.match.search_radius;
+  if (given("backend") && c.backend != backend)
+    throw InputError(fmt::format("the tuned configuration '{}' chose backend {} and the run configuration says {}: drop "
+                                 "one of them",
+                                 c.tuned, backend, c.backend));
+  c.pipeline = p;
+  c.backend = backend;
 }
 
 double percentile(std::vector<double> v, double p) {
@@ -229,6 +280,7 @@ LiveReport run_live(const LiveConfig& config, sources::FrameSource& source, dct:
                                    rep.source.last_error.empty() ? "" : " (" + rep.source.last_error + ")"));
     }
     backend.set_reference(frame.image);
+    rep.reference_sequence = frame.sequence;
   }
   rep.reference_dots = static_cast<int>(backend.reference_dots().size());
   // frames.csv: one row per measured frame, flushed as it is written (kept if the run stops).
@@ -315,6 +367,184 @@ LiveReport run_live(const LiveConfig& config, sources::FrameSource& source, dct:
     }
   }
   rep.source = source.stats();
+  rep.wall_s = first_arrival < 0 ? 0 : last_end - first_arrival;
+  return rep;
+}
+
+namespace {
+
+// Pairs frames of two sources: each frame's key (its sequence number or timestamp, counted from
+// the source's first frame) must match the partner's within the tolerance; the frame that is
+// behind is dropped (and counted) until they do.
+class Pairer {
+ public:
+  Pairer(sources::FrameSource& a, sources::FrameSource& b, bool by_time, double tol)
+      : a_(a), b_(b), by_time_(by_time), tol_(tol) {}
+  bool next(sources::Frame& fa, sources::Frame& fb) {
+    if (!a_.next(fa) || !b_.next(fb)) return false;
+    for (;;) {
+      const double ka = key(fa, first_a_), kb = key(fb, first_b_);
+      if (std::abs(ka - kb) <= (by_time_ ? tol_ : 0.5)) return true;
+      if (ka < kb) {
+        ++dropped_a;
+        if (!a_.next(fa)) return false;
+      } else {
+        ++dropped_b;
+        if (!b_.next(fb)) return false;
+      }
+    }
+  }
+  std::uint64_t dropped_a = 0, dropped_b = 0;
+
+ private:
+  double key(const sources::Frame& f, std::optional<double>& first) const {
+    const double k = by_time_ ? f.timestamp_s : static_cast<double>(f.sequence);
+    if (!first) first = k;
+    return k - *first;
+  }
+  sources::FrameSource& a_;
+  sources::FrameSource& b_;
+  bool by_time_;
+  double tol_;
+  std::optional<double> first_a_, first_b_;
+};
+
+}  // namespace
+
+LiveReport run_live_stereo(const LiveConfig& config, sources::FrameSource& left, sources::FrameSource& right,
+                           dct::stereo::StereoPipeline& pipeline,
+                           const std::function<void(const FrameRecord&, const dct::FrameOutput&, const cv::Mat&)>& on_frame) {
+  namespace fs = std::filesystem;
+  if (config.reference != "first")
+    throw InputError("a stereo run takes its reference from the first pair of frames; drop 'reference' (or set it to "
+                     "first)");
+  LiveReport rep;
+  const fs::path dir(config.output);
+  Pairer pairs(left, right, config.pair_by_timestamp, config.pair_tolerance_s);
+  sources::Frame fl, fr;
+  auto stats = [&] {
+    rep.source = left.stats();
+    rep.source2 = right.stats();
+    rep.unpaired_first = pairs.dropped_a;
+    rep.unpaired_second = pairs.dropped_b;
+  };
+  if (!pairs.next(fl, fr)) {
+    stats();
+    throw InputError(fmt::format("sources '{}' and '{}' gave no pair of frames to take the reference from{}; check "
+                                 "both sources",
+                                 left.spec().text, right.spec().text,
+                                 rep.source.last_error.empty() && rep.source2.last_error.empty()
+                                     ? ""
+                                     : " (" + rep.source.last_error + rep.source2.last_error + ")"));
+  }
+  pipeline.set_reference(fl.image, fr.image);
+  rep.reference_sequence = fl.sequence;
+  rep.reference_dots = static_cast<int>(pipeline.left().reference_dots().size());
+  rep.stereo_reference = pipeline.reference_matches().summary();
+  std::ofstream log;
+  if (!dir.empty()) {
+    fs::create_directories(dir);
+    log.open(dir / "frames.csv");
+    if (!log) throw InputError(fmt::format("cannot write {}; give an output folder you can write", (dir / "frames.csv").string()));
+    log << "frame,sequence,timestamp_s,sequence_right,timestamp_right_s,latency_ms,process_ms,write_ms,dots,matched,"
+           "valid_points,mean_e_xx_microstrain,mean_e_yy_microstrain,triangulated,mean_u_z_mm\n";
+  }
+  double first_arrival = -1, last_end = 0;
+  for (std::int64_t k = 0; config.max_frames == 0 || k < config.max_frames; ++k) {
+    const double w0 = now_s();
+    bool got = false;
+    try {
+      got = pairs.next(fl, fr);
+    } catch (const std::exception& e) {
+      rep.stopped_because = e.what();
+      break;
+    }
+    if (!got) {
+      if (left.stats().disconnected || right.stats().disconnected)
+        rep.stopped_because = fmt::format("a source went away: {}{}", left.stats().last_error, right.stats().last_error);
+      break;
+    }
+    rep.wait_seconds.push_back(now_s() - w0);
+    const double arrival = std::max(fl.arrival_s, fr.arrival_s);
+    if (first_arrival < 0) first_arrival = arrival;
+    FrameRecord r;
+    r.sequence = fl.sequence;
+    r.timestamp_s = fl.timestamp_s;
+    dct::stereo::StereoFrame out;
+    const double p0 = now_s();
+    try {
+      out = pipeline.process(fl.image, fr.image);
+    } catch (const std::exception& e) {
+      rep.stopped_because = fmt::format("frame pair {}/{}: {}", fl.sequence, fr.sequence, e.what());
+      break;
+    }
+    r.process_s = now_s() - p0;
+    int uz_points = 0;
+    for (std::size_t i = 0; i < out.left.fields.size(); ++i) {
+      const auto& f = out.left.fields[i];
+      if (f.status == dct::PointStatus::ok) {
+        ++r.valid_points;
+        r.mean_exx += f.exx;
+        r.mean_eyy += f.eyy;
+      }
+      if (out.fields[i].status == dct::PointStatus::ok) {
+        ++uz_points;
+        r.mean_uz += out.fields[i].uz;
+      }
+    }
+    if (r.valid_points) {
+      r.mean_exx /= r.valid_points;
+      r.mean_eyy /= r.valid_points;
+    }
+    if (uz_points) r.mean_uz /= uz_points;
+    r.dots = static_cast<int>(out.left.dots.size());
+    r.matched = out.left.matches.matched;
+    r.triangulated = out.triangulated;
+    const double c0 = now_s();
+    const std::size_t index = rep.frames.size() + 1;
+    if (!dir.empty()) {
+      dct::stereo::write_stereo_fields_csv(dir / fmt::format("frame_{:06d}.csv", index), pipeline.points(),
+                                           out.left.fields, out.fields);
+      dct::stereo::write_stereo_dots_csv(dir / fmt::format("frame_{:06d}_dots3d.csv", index), pipeline, out);
+      if (config.overlay_every > 0 && (index - 1) % static_cast<std::size_t>(config.overlay_every) == 0) {
+        for (dct::Field f : {dct::Field::ux, dct::Field::uy, dct::Field::exx, dct::Field::eyy, dct::Field::exy}) {
+          std::vector<double> v;
+          for (const auto& x : out.left.fields)
+            v.push_back(x.status == dct::PointStatus::ok ? dct::field_value(x, f) : std::nan(""));
+          dct::write_image(dir / fmt::format("frame_{:06d}_{}.png", index, dct::field_name(f)),
+                           dct::overlay(fl.image, pipeline.points(), config.pipeline.points_x,
+                                        config.pipeline.points_y, v, dct::field_name(f), dct::field_unit(f)));
+        }
+        std::vector<double> v;
+        for (const auto& x : out.fields) v.push_back(x.status == dct::PointStatus::ok ? x.uz : std::nan(""));
+        dct::write_image(dir / fmt::format("frame_{:06d}_u_z.png", index),
+                         dct::overlay(fl.image, pipeline.points(), config.pipeline.points_x, config.pipeline.points_y, v,
+                                      "u_z", "mm"));
+      }
+    }
+    const double end = now_s();
+    r.write_s = end - c0;
+    r.latency_s = end - arrival;
+    last_end = end;
+    for (const auto& [stage, sec] : out.seconds) rep.stage_seconds[stage].push_back(sec);
+    rep.frames.push_back(r);
+    if (log.is_open())
+      log << fmt::format("{},{},{:.6f},{},{:.6f},{:.3f},{:.3f},{:.3f},{},{},{},{:.2f},{:.2f},{},{:.6f}\n",
+                         rep.frames.size(), r.sequence, r.timestamp_s, fr.sequence, fr.timestamp_s, 1e3 * r.latency_s,
+                         1e3 * r.process_s, 1e3 * r.write_s, r.dots, r.matched, r.valid_points, 1e6 * r.mean_exx,
+                         1e6 * r.mean_eyy, r.triangulated, r.mean_uz)
+          << std::flush;
+    if (on_frame) on_frame(r, out.left, fl.image);
+    if (r.valid_points == 0 || uz_points == 0) {
+      rep.stopped_because = fmt::format("frame pair {}/{}: no point has a valid {} ({} dots found, {} matched, {} "
+                                        "triangulated); check the threshold, polarity and area limits against the "
+                                        "images, and that the calibration is of this pair",
+                                        fl.sequence, fr.sequence, r.valid_points == 0 ? "in-plane value" : "u_z",
+                                        r.dots, r.matched, r.triangulated);
+      break;
+    }
+  }
+  stats();
   rep.wall_s = first_arrival < 0 ? 0 : last_end - first_arrival;
   return rep;
 }

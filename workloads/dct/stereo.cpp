@@ -59,60 +59,97 @@ Pose in_right(const Rig& rig, const Pose& left) {
   return p;
 }
 
+namespace {
+
+// Paints `level` over `img` (CV_64F) inside the polygon `poly` (image pixels; pixel c covers
+// [c - 1/2, c + 1/2]), each pixel mixed by the area of it the polygon covers: exactly across
+// each of kLines sample lines per pixel row (the spans between the outline's crossings, clipped
+// to each pixel), the lines averaged. Even-odd rule.
+void paint(cv::Mat& img, const std::vector<cv::Point2d>& poly, double level) {
+  constexpr int kLines = 32;
+  double y_lo = poly[0].y, y_hi = poly[0].y;
+  for (const auto& p : poly) {
+    y_lo = std::min(y_lo, p.y);
+    y_hi = std::max(y_hi, p.y);
+  }
+  if (!(y_hi > -0.5 && y_lo < img.rows - 0.5)) return;  // off the image (or not finite)
+  const int r0 = std::max(0, static_cast<int>(std::floor(y_lo + 0.5)));
+  const int r1 = std::min(img.rows - 1, static_cast<int>(std::floor(y_hi + 0.5)));
+  std::vector<double> cov(static_cast<std::size_t>(img.cols)), xs;
+  for (int r = r0; r <= r1; ++r) {
+    int c_lo = img.cols, c_hi = -1;
+    for (int line = 0; line < kLines; ++line) {
+      const double y = r - 0.5 + (line + 0.5) / kLines;
+      xs.clear();
+      for (std::size_t i = 0; i < poly.size(); ++i) {
+        const cv::Point2d a = poly[i], b = poly[(i + 1) % poly.size()];
+        if ((a.y <= y) != (b.y <= y)) xs.push_back(a.x + (y - a.y) * (b.x - a.x) / (b.y - a.y));
+      }
+      std::sort(xs.begin(), xs.end());
+      for (std::size_t i = 0; i + 1 < xs.size(); i += 2) {
+        const double xl = std::max(xs[i], -0.5), xr = std::min(xs[i + 1], img.cols - 0.5);
+        if (!(xr > xl)) continue;
+        const int cl = static_cast<int>(std::floor(xl + 0.5)), cr = std::min(img.cols - 1, static_cast<int>(std::floor(xr + 0.5)));
+        for (int c = cl; c <= cr; ++c) {
+          const double w = std::min(xr, c + 0.5) - std::max(xl, c - 0.5);
+          if (w > 0) cov[static_cast<std::size_t>(c)] += w / kLines;
+        }
+        c_lo = std::min(c_lo, cl);
+        c_hi = std::max(c_hi, cr);
+      }
+    }
+    auto* row = img.ptr<double>(r);
+    for (int c = c_lo; c <= c_hi; ++c) {
+      double& k = cov[static_cast<std::size_t>(c)];
+      row[c] += (level - row[c]) * std::min(k, 1.0);
+      k = 0;
+    }
+  }
+}
+
+}  // namespace
+
 cv::Mat render_board(const Camera& camera, const Board& b, const Pose& pose) {
-  constexpr int kSuper = 8, kShift = 8;
-  const cv::Size big(camera.size.width * kSuper, camera.size.height * kSuper);
-  cv::Mat img(big, CV_8UC1, cv::Scalar(110));
-  // One polygon in board units (square corners x0..x1, y0..y1), edges cut every 1/8 side.
-  auto polygon = [&](double x0, double y0, double x1, double y1) {
-    std::vector<cv::Point3f> edge;
-    constexpr int n = 8;
-    for (int i = 0; i < n; ++i) edge.emplace_back(static_cast<float>(x0 + (x1 - x0) * i / n), static_cast<float>(y0), 0.f);
-    for (int i = 0; i < n; ++i) edge.emplace_back(static_cast<float>(x1), static_cast<float>(y0 + (y1 - y0) * i / n), 0.f);
-    for (int i = 0; i < n; ++i) edge.emplace_back(static_cast<float>(x1 - (x1 - x0) * i / n), static_cast<float>(y1), 0.f);
-    for (int i = 0; i < n; ++i) edge.emplace_back(static_cast<float>(x0), static_cast<float>(y1 - (y1 - y0) * i / n), 0.f);
-    for (auto& p : edge) p *= static_cast<float>(b.square);
-    std::vector<cv::Point2f> img_pts;
-    cv::projectPoints(edge, pose.rvec, pose.tvec, camera.K, camera.dist, img_pts);
-    std::vector<cv::Point> poly;
-    for (const auto& q : img_pts)  // pixel u covers supersampled pixels kSuper u .. kSuper u + kSuper - 1
-      poly.emplace_back(cvRound((kSuper * q.x + (kSuper - 1) / 2.0) * (1 << kShift)),
-                        cvRound((kSuper * q.y + (kSuper - 1) / 2.0) * (1 << kShift)));
-    return poly;
+  cv::Mat img(camera.size, CV_64F, cv::Scalar(110));
+  auto project = [&](const std::vector<cv::Point3d>& outline) {
+    std::vector<cv::Point2d> q;
+    cv::projectPoints(outline, pose.rvec, pose.tvec, camera.K, camera.dist, q);
+    return q;
   };
-  std::vector<std::vector<cv::Point>> black;
+  // One square (board units, corners x0..x1, y0..y1), edges cut every 1/8 side so that the lens
+  // distortion bends them.
+  auto square = [&](double x0, double y0, double x1, double y1) {
+    std::vector<cv::Point3d> edge;
+    constexpr int n = 8;
+    for (int i = 0; i < n; ++i) edge.emplace_back(x0 + (x1 - x0) * i / n, y0, 0.0);
+    for (int i = 0; i < n; ++i) edge.emplace_back(x1, y0 + (y1 - y0) * i / n, 0.0);
+    for (int i = 0; i < n; ++i) edge.emplace_back(x1 - (x1 - x0) * i / n, y1, 0.0);
+    for (int i = 0; i < n; ++i) edge.emplace_back(x0, y1 - (y1 - y0) * i / n, 0.0);
+    for (auto& p : edge) p *= b.square;
+    return project(edge);
+  };
   if (b.target == Board::Target::circles) {
     // The white board: the circles' grid and a margin of one pitch; dark discs of radius square / 5.
     const double w = (2 * b.inner.width) * 0.5, h = (b.inner.height - 1) * 0.5;  // extent, in squares
-    std::vector<std::vector<cv::Point>> white = {polygon(-1, -1, w + 0.5, h + 1)};
-    cv::fillPoly(img, white, cv::Scalar(215), cv::LINE_8, kShift);
+    paint(img, square(-1, -1, w + 0.5, h + 1), 215);
     for (const cv::Point3f& c : board_corners(b)) {
-      std::vector<cv::Point3f> ring;
-      for (int k = 0; k < 64; ++k) {
-        const double a = 2 * CV_PI * k / 64;
-        ring.emplace_back(static_cast<float>(c.x + 0.2 * b.square * std::cos(a)),
-                          static_cast<float>(c.y + 0.2 * b.square * std::sin(a)), 0.f);
+      std::vector<cv::Point3d> ring;
+      for (int k = 0; k < 128; ++k) {
+        const double a = 2 * CV_PI * k / 128;
+        ring.emplace_back(c.x + 0.2 * b.square * std::cos(a), c.y + 0.2 * b.square * std::sin(a), 0.0);
       }
-      std::vector<cv::Point2f> q;
-      cv::projectPoints(ring, pose.rvec, pose.tvec, camera.K, camera.dist, q);
-      std::vector<cv::Point> poly;
-      for (const auto& p : q)
-        poly.emplace_back(cvRound((kSuper * p.x + (kSuper - 1) / 2.0) * (1 << kShift)),
-                          cvRound((kSuper * p.y + (kSuper - 1) / 2.0) * (1 << kShift)));
-      black.push_back(std::move(poly));
+      paint(img, project(ring), 40);
     }
   } else {
     const int cols = b.inner.width + 1, rows = b.inner.height + 1;  // squares
     // The white board: the squares and a margin of one square.
-    std::vector<std::vector<cv::Point>> white = {polygon(-2, -2, cols, rows)};
-    cv::fillPoly(img, white, cv::Scalar(215), cv::LINE_8, kShift);
+    paint(img, square(-2, -2, cols, rows), 215);
     for (int y = 0; y < rows; ++y)
       for (int x = 0; x < cols; ++x)
-        if ((x + y) % 2 == 0) black.push_back(polygon(x - 1, y - 1, x, y));
+        if ((x + y) % 2 == 0) paint(img, square(x - 1, y - 1, x, y), 40);
   }
-  cv::fillPoly(img, black, cv::Scalar(40), cv::LINE_8, kShift);
   cv::Mat out;
-  cv::resize(img, out, camera.size, 0, 0, cv::INTER_AREA);
+  img.convertTo(out, CV_8U);  // rounded
   return out;
 }
 

@@ -52,8 +52,10 @@ struct Pose {
 };
 
 // Renders `camera`'s image of the board at `pose` (8-bit, white margin of one square around
-// the squares or circles, grey 40/215, 8x8 supersampled; square edges are projected with
-// cv::projectPoints every 1/8 side and circles as 64-gons, so the lens distortion bends them).
+// the squares or circles, grey 40/215 on 110; square edges are projected with cv::projectPoints
+// every 1/8 side and circles as 128-gons, so the lens distortion bends them). Each pixel (pixel c
+// covering [c - 1/2, c + 1/2]) is mixed by the area the outlines cover: exact along 32 lines
+// per pixel row.
 cv::Mat render_board(const Camera& camera, const Board& b, const Pose& pose_in_camera);
 
 // A pose seen from the right camera of `rig`, given the pose in the left camera's frame.
