@@ -153,8 +153,9 @@ MissingParameter missing_parameters(const std::vector<Param>& missing, Variant v
 
 }  // namespace
 
-std::vector<Param> required_params(const CostCounts& c, Variant variant, std::int64_t profile_llc, bool staged) {
-  return required_params(c, variant, Pricing{profile_llc, staged});
+std::vector<Param> required_params(const CostCounts& c, Variant variant, std::int64_t profile_llc, bool staged,
+                                   bool serial) {
+  return required_params(c, variant, Pricing{profile_llc, staged, serial});
 }
 
 Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant) {

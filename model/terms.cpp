@@ -48,7 +48,7 @@ std::string Variants::str() const {
   return every ? std::string("every variant") : out;
 }
 
-Pricing Pricing::of(const MachineProfile& m) { return {m.identity.cpu_llc_bytes, has_staging(m)}; }
+Pricing Pricing::of(const MachineProfile& m) { return {m.identity.cpu_llc_bytes, has_staging(m), m.has(Param::V_CS)}; }
 
 namespace {
 
@@ -139,18 +139,23 @@ double g_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const 
 // addition waits for the one before: docs/model.md 2.4).
 bool sliding_window(const CostCounts& c, Variant v) { return kHostMemoryVariants.contains(v) && c.N_CW > 0; }
 bool chained_window(const CostCounts& c, Variant v) { return kHostMemoryVariants.contains(v) && c.N_CD > 0; }
-// latency+: a serial chain (N_CS) runs at its own rate V_CS, on one thread whatever cpu_threads is.
-bool serial_chain(const CostCounts& c, Variant v) { return kLatencyVariants.contains(v) && c.N_CS > 0; }
-std::vector<Param> c_needs(const CostCounts& c, Variant v, const Pricing&) {
+// latency+: a serial chain (N_CS) runs at its own rate V_CS, on one thread whatever cpu_threads is,
+// where the profile has V_CS (or a fit is to find it); a profile made before the probe measured it
+// prices the chain at the CPU rate, as it was fitted to (like the staging figures, docs/model.md 2.4).
+bool serial_chain(const CostCounts& c, Variant v, const Pricing& x) {
+  return x.serial && kLatencyVariants.contains(v) && c.N_CS > 0;
+}
+std::vector<Param> c_needs(const CostCounts& c, Variant v, const Pricing& x) {
+  const bool serial = serial_chain(c, v, x);
   std::vector<Param> out;
-  if (c.N_C > (serial_chain(c, v) ? c.N_CS : 0)) out = cpu_params(v_c1(c), v_c(c), c.cpu_threads);
+  if (c.N_C > (serial ? c.N_CS : 0)) out = cpu_params(v_c1(c), v_c(c), c.cpu_threads);
   if (sliding_window(c, v)) out.push_back(Param::K_CW);
   if (chained_window(c, v)) out.push_back(Param::K_CD);
-  if (serial_chain(c, v)) out.push_back(Param::V_CS);
+  if (serial) out.push_back(Param::V_CS);
   return out;
 }
-double c_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing&) {
-  const bool serial = serial_chain(c, v);
+double c_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing& x) {
+  const bool serial = serial_chain(c, v, x);
   const double flops = priced_flops(c.N_C - (serial ? c.N_CS : 0), c.N_CW,
                                     sliding_window(c, v) ? m.get(Param::K_CW).value : 1.0) +
                        (chained_window(c, v) ? m.get(Param::K_CD).value - 1 : 0.0) * static_cast<double>(c.N_CD);
