@@ -300,7 +300,7 @@ class DctWorkload final : public wl::Workload {
         {"threshold-level", Kind::real, "grey level of --threshold fixed, 8-bit scale (x257 on 16-bit frames)",
          kDefaultLevel, 1, 254, {}, {}, ""},
         {"support-radius", Kind::real,
-         "support domain by radius instead of --support dots (0: by dots); the dots per support then follow the "
+         "support domain radius in px, instead of --support dots (0: by dots); the dots per support then follow the "
          "dot density (about dots x pi r^2 / pattern area)",
          0, 0, 16384, {}, {}, "px"},
         {"bits", Kind::choice, "bits per pixel of the frames", "8", 0, 0, {"8", "16"}, {}, ""},
