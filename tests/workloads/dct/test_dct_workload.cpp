@@ -189,6 +189,36 @@ TEST(DctWorkload, AddedParametersKeepOldKeysAndAreCheckedWithMessages) {
   EXPECT_EQ(rejection({{"dots", 20}, {"support-radius", 300}}), "");
 }
 
+// A store measured before the parameters were added (the H100's tuning of the open-hole plate,
+// cpu-seq, cpu-par and cuda): every sample's parameters validate to a configuration whose key
+// is the sample's key, and whose counts are the sample's (the defaults priced as before).
+TEST(DctWorkload, AStoreMeasuredBeforeTheAddedParametersKeepsItsKeysAndCounts) {
+  const auto path = std::filesystem::path(DTFLOP_SOURCE_DIR) / "results/tuning/h100-2026-11-24/dct/store.jsonl";
+  std::ifstream in(path);
+  ASSERT_TRUE(in) << path;
+  std::string line;
+  int samples = 0;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    const json j = json::parse(line);
+    const wl::Backend& b = W().backend(j.at("backend").get<std::string>());
+    for (const char* added : {"weight", "threshold", "threshold-level", "support-radius", "block-pixels"})
+      EXPECT_FALSE(j.at("parameters").contains(added));
+    const wl::Config c = W().validate(j.at("parameters"), b);
+    EXPECT_EQ(W().key(b, c), j.at("key").get<std::string>());
+    // The frame's counts as the sample declared them, repetitions of `steps` frames (cuda's
+    // multiprocessor-free counts; the pixel classes are the rendered frame's, so compare the
+    // terms the configuration alone fixes: the fields' FLOPs through N_C or N_G's difference).
+    const CostCounts est = b.counts(c, nullptr);
+    const json& k = j.at("counts");
+    const std::int64_t steps = j.at("steps").get<std::int64_t>();
+    EXPECT_EQ(est.launches * steps, k.at("launches").get<std::int64_t>()) << j.at("key");
+    EXPECT_EQ(est.transfers_GC * steps, k.at("transfers_GC").get<std::int64_t>()) << j.at("key");
+    ++samples;
+  }
+  EXPECT_EQ(samples, 30);
+}
+
 // The pipeline a configuration makes does what its parameters say (a parameter ignored on the
 // way would fail here): the weight changes the fields as the library's own weight does, the
 // threshold is the one asked for, the support is the radius, on both CPU backends.
