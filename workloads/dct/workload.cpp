@@ -328,7 +328,7 @@ class DctWorkload final : public wl::Workload {
         p.keyed_at_default = false;
     // The weight functions run the same code; the counts price their FLOPs.
     for (auto& p : params_)
-      if (p.name == "weight") p.priced = true;
+      if (p.name == "weight" || p.name == "threshold") p.priced = true;
     for (const auto& k : backend_kinds()) backends_.push_back(std::make_unique<ContractBackend>(k));
   }
 
