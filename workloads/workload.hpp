@@ -64,10 +64,10 @@ struct ParamSpec {
   // added after stores were measured whose default is what those stores' configurations did:
   // their samples (whose parameters lack it; validate() fills the default) keep their keys.
   bool keyed_at_default = true;
-  // A choice whose values run the same code, with the difference between them priced in full by
-  // the counts (e.g. a weight function's FLOPs): predictions of all its values share one bias, so
-  // the tuner does not split its groups by it (docs/tune.md). Choice and flag parameters that are
-  // not priced split them.
+  // A choice whose values the counts tell apart (e.g. a weight function's FLOPs, a threshold
+  // method's bytes per pixel): predictions of all its values share one bias, so the tuner does
+  // not split its groups by it (docs/tune.md). Choice and flag parameters that are not priced
+  // split them.
   bool priced = false;
   bool applies_to(std::string_view backend) const;
 };

@@ -235,7 +235,7 @@ accuracy: {area: [2, 2], time-step: 1, likelihood-sigma: 0.03}
   }
 }
 
-TEST(Constrain, DctGroupsByThresholdAndInterpolationNotByThePricedWeight) {
+TEST(Constrain, DctGroupsByInterpolationNotByThePricedWeightAndThreshold) {
   const auto& w = workload::find("dct");
   Scenario s = parse_scenario(R"(
 name: g
@@ -263,8 +263,9 @@ fixed: {size: 320x240, dots: 40, radius: 5, support: 20}
   for (const auto& c : sp.valid) {
     groups.insert(c.group);
     EXPECT_EQ(c.group.find("weight"), std::string::npos) << c.group;
+    EXPECT_EQ(c.group.find("threshold"), std::string::npos) << c.group;
   }
-  EXPECT_EQ(groups.size(), 4u);  // interp x threshold
+  EXPECT_EQ(groups, (std::set<std::string>{"cpu-seq interp=\"fe\" bits=\"8\"", "cpu-seq interp=\"mls\" bits=\"8\""}));
 }
 
 TEST(Constrain, AnUnknownParameterIsNamed) {

@@ -326,7 +326,9 @@ class DctWorkload final : public wl::Workload {
       if (p.name == "weight" || p.name == "threshold" || p.name == "threshold-level" || p.name == "support-radius" ||
           p.name.rfind("block-", 0) == 0)
         p.keyed_at_default = false;
-    // The weight functions run the same code; the counts price their FLOPs.
+    // The counts price what tells their values apart (a weight function's FLOPs per support dot,
+    // a threshold method's bytes and operations per pixel): one bias serves all values, and the
+    // tuner does not split its groups by them (docs/tune.md).
     for (auto& p : params_)
       if (p.name == "weight" || p.name == "threshold") p.priced = true;
     for (const auto& k : backend_kinds()) backends_.push_back(std::make_unique<ContractBackend>(k));
