@@ -1,7 +1,8 @@
 // DCT accuracy: what the dots of a configuration deliver, measured on the workload's own
 // specimen of that configuration (its size, dots, radius, bits and seed; a grey level of sensor
 // noise; uniform strain with a closed form, workloads/dct/workload.hpp), by the workload's CPU
-// pipeline with the configuration's support, points and interpolation. The error-against-
+// pipeline with the configuration's support (dots or radius), points, interpolation, weight
+// function and threshold. The error-against-
 // density table the tuner judges by is this measurement, made for each configuration of the
 // space (cached by everything it depends on), not a constant. A configuration is accurate
 // enough when
@@ -56,10 +57,12 @@ class DctAccuracy final : public AccuracyModel {
             {"min_valid_points", min_valid_}};
   }
   AccuracyJudgement judge(const workload::Backend&, const workload::Config& c) override {
-    // What the fields depend on: everything but how the work is spread (threads, host memory).
+    // What the fields depend on: everything but how the work is spread (threads, host memory,
+    // the cuda block layout). The weight, the threshold and the support (dots or radius) change
+    // the fields, and so the measured error.
     nlohmann::json key = c;
-    key.erase("threads");
-    key.erase("host-memory");
+    for (const char* spread : {"threads", "host-memory", "block-pixels", "block-points", "block-dots"})
+      key.erase(spread);
     const std::string k = key.dump();
     auto it = cache_.find(k);
     if (it == cache_.end()) it = cache_.emplace(k, measure(c)).first;

@@ -90,7 +90,8 @@ Space constrain(const Scenario& s, const workload::Workload& w, AccuracyModel& a
       c.label = label;
       c.group = b->name();
       for (const auto& p : w.params())
-        if ((p.kind == workload::Kind::choice || p.kind == workload::Kind::flag) && c.config.contains(p.name))
+        if ((p.kind == workload::Kind::choice || p.kind == workload::Kind::flag) && !p.priced &&
+            c.config.contains(p.name))
           c.group += fmt::format(" {}={}", p.name, c.config[p.name].dump());
       c.accuracy = accuracy.judge(*b, c.config);
       if (!c.accuracy.ok) {

@@ -45,7 +45,8 @@ struct Candidate {
   std::string key;     // the store key (Workload::key)
   std::string label;   // backend and the parameters the space varies, for tables
   // The backend and its choice and flag parameters (host memory, convolution, interpolation,
-  // graph): configurations whose predictions share a bias, corrected together by `model`.
+  // graph; not those the counts price, ParamSpec::priced): configurations whose predictions
+  // share a bias, corrected together by `model`.
   std::string group;
   AccuracyJudgement accuracy;
   Predicted predicted;

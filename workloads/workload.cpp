@@ -216,6 +216,7 @@ std::string Workload::key(const Backend& b, const Config& c) const {
   for (const auto& p : params()) {
     auto it = c.find(p.name);
     if (it == c.end()) continue;
+    if (!p.keyed_at_default && !p.fallback.is_null() && *it == value_of(p.fallback, p, name())) continue;
     if (p.kind == Kind::size2)
       k += fmt::format("/{}={}x{}", p.name, (*it)[0].get<std::int64_t>(), (*it)[1].get<std::int64_t>());
     else if (p.kind == Kind::flag) k += fmt::format("/{}={}", p.name, it->get<bool>() ? 1 : 0);

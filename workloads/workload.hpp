@@ -61,6 +61,15 @@ struct ParamSpec {
   std::vector<std::string> choices;  // choice
   std::vector<std::string> backends; // the backends it applies to; empty: every backend
   std::string unit;    // printed after values ("px", "dots"); empty: none
+  // false: the store key leaves this parameter out while it holds its default. For a parameter
+  // added after stores were measured whose default is what those stores' configurations did:
+  // their samples (whose parameters lack it; validate() fills the default) keep their keys.
+  bool keyed_at_default = true;
+  // A choice whose values the counts tell apart (e.g. a weight function's FLOPs, a threshold
+  // method's bytes per pixel): predictions of all its values share one bias, so the tuner does
+  // not split its groups by it (docs/tune.md). Choice and flag parameters that are not priced
+  // split them.
+  bool priced = false;
   bool applies_to(std::string_view backend) const;
 };
 
@@ -174,7 +183,8 @@ class Workload {
   // parameter, one that does not apply to the backend, a value outside its domain, or a
   // combination the workload's constraints reject.
   Config validate(const nlohmann::json& given, const Backend& backend) const;
-  // The store key: workload, backend and every parameter of the configuration, in spec order.
+  // The store key: workload, backend and every parameter of the configuration, in spec order
+  // (a parameter that is not keyed_at_default is left out while it holds its default).
   std::string key(const Backend& backend, const Config& config) const;
   // A short text for progress lines and tables ("1000x1000 k33x33").
   virtual std::string label(const Config& config) const = 0;

@@ -7,6 +7,9 @@
 # e.g. on the lent H100 with a bundle (scripts/device-bundle.sh dtflop) in BUNDLE=.carry:
 #   bash benchmarks/tune/device.sh tune/scenarios/sar-drift-gpu.yaml docs/examples/h100.json $OUT/h100 \
 #        --calibration results/portability/calibrations/h100-cuda-resident.cal.json ...
+# the DCT space on a GPU (cuda alone: support, weight, threshold, 12 block layouts; ~470 valid):
+#   bash benchmarks/tune/device.sh tune/scenarios/open-hole-plate-gpu.yaml docs/examples/h100.json $OUT/h100-dct \
+#        --no-cupti --reps 5
 # PEER=0 leaves the peer out (run it later on the space.csv, e.g. in a call of its own);
 # and here, on the 2-core machine (BUNDLE=build, where build/dtflop is):
 #   BUNDLE=build bash benchmarks/tune/device.sh tune/scenarios/sar-drift-cpu.yaml docs/examples/vm-2vcpu.json out/cpu

@@ -141,6 +141,52 @@ TEST(DctAccuracy, MoreDotsPerSupportSmoothMoreAndFeOutsideTheTriangulationIsInva
   EXPECT_NE(a.reason.find("microstrain"), std::string::npos);
 }
 
+TEST(DctAccuracy, WeightThresholdAndSupportRadiusChangeTheMeasuredError) {
+  auto m = make_accuracy_model("dct", {{"min-valid-points", 0.9}});
+  const auto& w = workload::find("dct");
+  const auto& seq = w.backend("cpu-seq");
+  const auto& gpu = w.backend("cuda");
+  const nlohmann::json base = {{"size", "480x360"}, {"dots", 90}, {"radius", 6}, {"points", "8x8"}, {"support", 30}};
+  auto judge = [&](const workload::Backend& b, const nlohmann::json& extra) {
+    nlohmann::json g = base;
+    for (const auto& [k, v] : extra.items()) {
+      if (k == "support-radius") g.erase("support");
+      g[k] = v;
+    }
+    return m->judge(b, w.validate(g, b));
+  };
+  const auto cubic = judge(seq, nlohmann::json::object());
+  ASSERT_TRUE(cubic.ok) << cubic.reason;
+  // Each weight function weighs the same dots differently: another error.
+  for (const char* wf : {"quartic", "gaussian"}) {
+    const auto a = judge(seq, {{"weight", wf}});
+    ASSERT_TRUE(a.ok) << wf << ": " << a.reason;
+    EXPECT_NE(a.error, cubic.error) << wf;
+  }
+  // A fixed threshold finds the same dots (ground 200, ink 40), with regions a little other
+  // than Otsu's and so centroids weighed over other edge pixels: an error near Otsu's, not
+  // equal; likewise the adaptive threshold's.
+  const auto fixed = judge(seq, {{"threshold", "fixed"}});
+  ASSERT_TRUE(fixed.ok) << fixed.reason;
+  EXPECT_NE(fixed.error, cubic.error);
+  EXPECT_NEAR(fixed.error, cubic.error, 0.05 * cubic.error);
+  const auto adaptive = judge(seq, {{"threshold", "adaptive"}});
+  ASSERT_TRUE(adaptive.ok) << adaptive.reason;
+  EXPECT_GT(adaptive.error, 0);
+  // By radius: a support holding about 6 dots leaves points invalid (too few dots); a wider one
+  // averages more noise away than a narrower one.
+  const auto tiny = judge(seq, {{"support-radius", 30}});
+  EXPECT_FALSE(tiny.ok);
+  EXPECT_EQ(tiny.constraint, "valid-points");
+  const auto narrow = judge(seq, {{"support-radius", 110}}), wide = judge(seq, {{"support-radius", 200}});
+  ASSERT_TRUE(narrow.ok) << narrow.reason;
+  ASSERT_TRUE(wide.ok) << wide.reason;
+  EXPECT_GT(narrow.error, wide.error);
+  // How the device spreads the work changes no field: the cuda layouts share one measurement.
+  EXPECT_EQ(judge(gpu, {{"block-pixels", 64}, {"block-points", 512}}).error, judge(gpu, {}).error);
+  EXPECT_EQ(judge(gpu, {}).error, cubic.error);
+}
+
 TEST(AccuracyModels, AWorkloadWithoutAModelRefusesNeeds) {
   EXPECT_THROW(make_accuracy_model("other", {{"a", 1}}), InputError);
   EXPECT_NO_THROW(make_accuracy_model("other", nlohmann::json::object()));

@@ -96,7 +96,7 @@ TEST(Scenario, AFileIsReadWithinItsLimitAndAMissingOneIsNamed) {
 
 TEST(Scenario, ShippedScenariosRead) {
   for (const char* f : {"sar-raft.yaml", "sar-drift-cpu.yaml", "sar-drift-gpu.yaml", "open-hole-plate.yaml",
-                        "rail-1080p.yaml"}) {
+                        "rail-1080p.yaml", "open-hole-plate-gpu.yaml"}) {
     const Scenario s = load_scenario(std::string(DTFLOP_SOURCE_DIR) + "/tune/scenarios/" + f);
     EXPECT_FALSE(s.axes.empty()) << f;
     EXPECT_TRUE(s.deadline) << f;

@@ -235,6 +235,39 @@ accuracy: {area: [2, 2], time-step: 1, likelihood-sigma: 0.03}
   }
 }
 
+TEST(Constrain, DctGroupsByInterpolationNotByThePricedWeightAndThreshold) {
+  const auto& w = workload::find("dct");
+  Scenario s = parse_scenario(R"(
+name: g
+workload: dct
+space:
+  backend: [cpu-seq]
+  weight: [cubic, quartic, gaussian]
+  threshold: [otsu, adaptive]
+  interp: [mls, fe]
+fixed: {size: 320x240, dots: 40, radius: 5, support: 20}
+)",
+                              "", "g.yaml");
+  auto acc = make_accuracy_model("dct", s.accuracy);
+  const auto met = [](const workload::Backend&, const workload::Config&) {
+    Predicted p;
+    p.seconds = 1e-3;
+    p.lo = 5e-4;
+    p.hi = 2e-3;
+    p.verdict = "met";
+    return p;
+  };
+  const Space sp = constrain(s, w, *acc, nullptr, met, nullptr);
+  ASSERT_EQ(sp.valid.size(), 12u);
+  std::set<std::string> groups;
+  for (const auto& c : sp.valid) {
+    groups.insert(c.group);
+    EXPECT_EQ(c.group.find("weight"), std::string::npos) << c.group;
+    EXPECT_EQ(c.group.find("threshold"), std::string::npos) << c.group;
+  }
+  EXPECT_EQ(groups, (std::set<std::string>{"cpu-seq interp=\"fe\" bits=\"8\"", "cpu-seq interp=\"mls\" bits=\"8\""}));
+}
+
 TEST(Constrain, AnUnknownParameterIsNamed) {
   const auto& w = workload::find("rbe");
   Scenario s = parse_scenario("name: c\nworkload: rbe\nspace: {colour: [red]}\n", "", "c.yaml");

@@ -44,7 +44,9 @@ FrameShape PipelineState::frame_shape(const cv::Mat& frame, const AnalysisStats&
   s.support_entries = support_entries();
   s.tree_steps = tree_steps;
   s.interp = opt_.interp;
+  s.weight = opt_.mls.weight;
   s.otsu = opt_.analysis.method == ThresholdMethod::otsu;
+  s.adaptive = opt_.analysis.method == ThresholdMethod::adaptive;
   return s;
 }
 

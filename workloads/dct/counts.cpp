@@ -1,7 +1,9 @@
 #include "workloads/dct/counts.hpp"
 #include "workloads/dct/tracking.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 #include <numbers>
 
 #include <fmt/format.h>
@@ -42,6 +44,64 @@ FrameShape estimate_shape(std::int64_t width, std::int64_t height, int bytes_per
   return s;
 }
 
+double disc_area_inside(double cx, double cy, double r, double x0, double y0, double x1, double y1) {
+  // The integral over x of the chord's length inside [y0, y1]; the chord is smooth between the
+  // breakpoints (the rectangle's sides, where the circle crosses y0 or y1), so Gauss-Legendre on
+  // each piece is exact to rounding within a few pieces.
+  const double a = std::max(x0, cx - r), b = std::min(x1, cx + r);
+  if (!(b > a)) return 0;
+  std::vector<double> cuts = {a, b};
+  for (double y : {y0, y1}) {
+    const double dy = std::abs(y - cy);
+    if (dy < r) {
+      const double h = std::sqrt(r * r - dy * dy);
+      for (double x : {cx - h, cx + h})
+        if (x > a && x < b) cuts.push_back(x);
+    }
+  }
+  std::sort(cuts.begin(), cuts.end());
+  // 8-point Gauss-Legendre nodes and weights on [-1, 1].
+  static constexpr double node[4] = {0.1834346424956498, 0.5255324099163290, 0.7966664774136267,
+                                     0.9602898564975363};
+  static constexpr double weight[4] = {0.3626837833783620, 0.3137066458778873, 0.2223810344533745,
+                                       0.1012285362903763};
+  auto chord = [&](double x) {
+    const double d = r * r - (x - cx) * (x - cx);
+    if (d <= 0) return 0.0;
+    const double h = std::sqrt(d);
+    return std::max(0.0, std::min(cy + h, y1) - std::max(cy - h, y0));
+  };
+  double area = 0;
+  for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
+    const double m = 0.5 * (cuts[i] + cuts[i + 1]), half = 0.5 * (cuts[i + 1] - cuts[i]);
+    if (!(half > 0)) continue;
+    // Substitute x = m + half sin(t): the chord's square-root end points become smooth.
+    double piece = 0;
+    for (int k = 0; k < 4; ++k)
+      for (double sgn : {-1.0, 1.0}) {
+        const double t = sgn * node[k] * std::numbers::pi / 2;
+        piece += weight[k] * chord(m + half * std::sin(t)) * std::cos(t);
+      }
+    area += piece * half * std::numbers::pi / 2;
+  }
+  return area;
+}
+
+std::int64_t expected_entries_within(double radius, double x0, double y0, double x1, double y1, std::int64_t nx,
+                                     std::int64_t ny, std::int64_t dots) {
+  if (!(radius > 0) || !std::isfinite(radius) || !(x1 > x0) || !(y1 > y0) || nx < 1 || ny < 1 || dots < 0)
+    throw InputError("expected support entries need a positive radius, a non-empty rectangle and a grid of points");
+  const double density = static_cast<double>(dots) / ((x1 - x0) * (y1 - y0));
+  double sum = 0;
+  for (std::int64_t j = 0; j < ny; ++j)
+    for (std::int64_t i = 0; i < nx; ++i) {
+      const double x = nx == 1 ? 0.5 * (x0 + x1) : x0 + (x1 - x0) * static_cast<double>(i) / static_cast<double>(nx - 1);
+      const double y = ny == 1 ? 0.5 * (y0 + y1) : y0 + (y1 - y0) * static_cast<double>(j) / static_cast<double>(ny - 1);
+      sum += std::min(static_cast<double>(dots), density * disc_area_inside(x, y, radius, x0, y0, x1, y1));
+    }
+  return std::llround(sum);
+}
+
 std::int64_t analysis_flops(const FrameShape& s) {
   return kFlopsPerRingPixel * s.ring_pixels + kFlopsPerWeightedPixel * s.weighted_pixels +
          (kFlopsPerPlane + kFlopsPerCentroid) * s.dots;
@@ -50,7 +110,7 @@ std::int64_t analysis_flops(const FrameShape& s) {
 std::int64_t field_flops(const FrameShape& s) {
   const std::int64_t disp = 2 * s.dots;
   if (s.interp == Interp::fe) return disp + kFlopsPerFeEntry * s.support_entries + kFlopsPerFePoint * s.points;
-  return disp + kFlopsPerSupportDot * s.support_entries + kFlopsPerPoint * s.points;
+  return disp + flops_per_support_dot(s.weight) * s.support_entries + kFlopsPerPoint * s.points;
 }
 
 namespace {
@@ -67,15 +127,16 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
   CostCounts c;
   c.P = 8;
   c.precision = Precision::fp64;
-  c.N_C = analysis_flops(s) + field_flops(s);
   const std::int64_t b = s.bytes_per_pixel;
+  c.N_C = analysis_flops(s) + field_flops(s) + (s.adaptive ? (5 + (b == 2 ? 1 : 0)) * s.roi_pixels : 0);
   const std::int64_t scan = static_cast<std::int64_t>(2 * s.margin + 1) * (2 * s.margin + 1);
-  const std::int64_t threshold = b == 2 ? 2 * b + 3 : b + 1;
+  const std::int64_t threshold = s.adaptive ? 13 + (b == 2 ? 3 : 0) : b == 2 ? 2 * b + 3 : b + 1;
   const std::int64_t bytes = (s.otsu ? b : 0) * s.roi_pixels + threshold * s.roi_pixels + 13 * s.roi_pixels +
                              10 * s.window_pixels + 4 * scan * s.scanned_pixels +
                              b * (s.ring_pixels + s.weighted_pixels) + 8 * field_values(s);
   c.N_CC = (bytes + 7) / 8;
-  c.cpu_footprint = s.roi_pixels * (b + 1 + 4 + (b == 2 ? 2 : 0)) + 8 * field_values(s);
+  const std::int64_t extra = s.adaptive ? 1 + (b == 2 ? 1 : 0) : (b == 2 ? 2 : 0);
+  c.cpu_footprint = s.roi_pixels * (b + 1 + 4 + extra) + 8 * field_values(s);
   c.cpu_threads = threads < 1 ? 1 : threads;
   c.tree_steps = s.tree_steps;  // the matching, on one thread
   return c;

@@ -32,7 +32,9 @@ struct FrameShape {
   std::int64_t support_entries = 0;    // sum over points of their support dots (MLS) or recovery triangles (FE)
   std::int64_t tree_steps = 0;         // the matching's k-d tree work (tracking.hpp, match_tree_steps)
   Interp interp = Interp::mls;
-  bool otsu = true;                    // the threshold is computed from the frame
+  Weight weight = Weight::cubic_spline;  // MLS weight function (its FLOPs per support dot)
+  bool otsu = true;                    // the threshold is computed from the frame's histogram
+  bool adaptive = false;               // the threshold is the local mean (cv::adaptiveThreshold)
 };
 
 // Estimate for prediction: n_dots dots of radius r px in a w x h frame, n_points points with
@@ -41,23 +43,40 @@ FrameShape estimate_shape(std::int64_t width, std::int64_t height, int bytes_per
                           double dot_radius, std::int64_t n_points, std::int64_t dots_per_support, Interp interp,
                           int margin = 2);
 
+// Expected support entries of an MLS support of radius `radius` px, summed over an nx x ny grid
+// of points spread over [x0, x1] x [y0, y1] (fields.hpp, grid_points), for `dots` dots spread
+// uniformly over that rectangle: at each point the density times the area of the support disc
+// that lies inside the rectangle (a point near the pattern's edge has a one-sided support).
+// Rounded to a whole count. Throws InputError for a non-positive radius or an empty rectangle.
+std::int64_t expected_entries_within(double radius, double x0, double y0, double x1, double y1, std::int64_t nx,
+                                     std::int64_t ny, std::int64_t dots);
+// The area of the disc of radius r about (cx, cy) that lies inside [x0, x1] x [y0, y1].
+double disc_area_inside(double cx, double cy, double r, double x0, double y0, double x1, double y1);
+
 // FLOPs of centroids + displacements + fields (the same formulas on every backend).
 std::int64_t analysis_flops(const FrameShape& s);
 std::int64_t field_flops(const FrameShape& s);
 
 // cpu-seq (threads = 1) and cpu-par: float64 (P = 8), nothing on a device.
 //   N_C  = 14 ring + 11 weighted + 48 n_f (plane + centroid) + 2 n_f (displacements)
-//          + MLS: 341 sum(l_m) + 221 n_m (two passes over the support: kernels.hpp)
+//          + MLS: (321 + 2 W) sum(l_m) + 221 n_m (two passes over the support, each evaluating
+//            the weight function's W FLOPs: 10 cubic spline, 8 quartic or Gaussian; kernels.hpp)
 //          | FE: 29 sum(l_m) + 31 n_m (l_m: the recovery's triangles; kernels.hpp, FePoint)
+//          + adaptive threshold: 5 roi (the box filter's running row and column sums, an add
+//            and a subtract each, and its scale: integer arithmetic, counted with the FLOPs)
+//            [16-bit: + 1 roi, the scale of the conversion to 8 bits]
 //   N_CC = the bytes the stages read and write, / 8 (rounded up), b bytes per pixel:
 //          Otsu histogram b roi; threshold (b + 1) roi (16-bit: a 16-bit mask converted to
-//          8 bits, 2b + 3); labelling with statistics 13 roi (mask read, labels written,
+//          8 bits, 2b + 3) | adaptive 13 roi (box filter: image read, 4-byte row sums written
+//          and read, the mean written; then image and mean read, mask written) [16-bit: + 3 roi,
+//          the image converted to 8 bits first]; labelling with statistics 13 roi (mask read, labels written,
 //          read and written again); centroids 10 window (label read twice, class written
 //          and read) + 4 (2 margin + 1)^2 scanned + b (ring + weighted); fields 8 x (MLS:
 //          5 sum(l_m) + 8 n_m | FE: 12 n_m + 8 n_m) (5 per support entry: index, X, Y, U_x,
 //          U_y; 8 per point: 2 position, 1 radius, 5 outputs; FE: 3 indices + 9 coefficients)
-//   cpu_footprint = roi (b + 1 + 4) [+ 2 roi for the 16-bit mask] + the fields' bytes: the
-//          frame, the mask and the labels, the working set the model weighs against the cache
+//   cpu_footprint = roi (b + 1 + 4) [+ 2 roi for the 16-bit mask | adaptive: + 1 roi, the
+//          mean, + 1 roi for the 16-bit image's 8-bit copy] + the fields' bytes: the frame, the
+//          mask and the labels, the working set the model weighs against the cache
 CostCounts cpu_counts(const FrameShape& s, int threads);
 
 // Device buffers and launch layout of the cuda backend.
@@ -81,7 +100,10 @@ struct CudaLayout {
 //          + 2 window + 2 weighted (centroid: label and pixel, then pixel again)
 //          + 6 n_f (displacements: 2 doubles in, 2 floats out) + MLS: 5 sum(l_m) + 8 n_m
 //          | FE: 12 n_m + 8 n_m;  Otsu adds roi bytes / 4 (histogram read) + 256 + 256
-//   N_G  = the FLOPs above;  N_C = 0 (matching is comparisons, not FLOPs)
+//   N_G  = the FLOPs above (the weight function's included);  N_C = 0 (matching is
+//          comparisons, not FLOPs). The cuda backend has no adaptive threshold (refused).
+//          The launch layout (CudaLayout) changes no count: every kernel covers its pixels,
+//          points or dots with any block size.
 //   launches = 9 (+2 with Otsu): init, union, compress, ids, stats-init, stats, centroid,
 //              displacement, fields [+ histogram, otsu]
 //   host_waits = 3 (the count, the component records, the fields)

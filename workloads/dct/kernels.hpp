@@ -104,8 +104,10 @@ enum class Weight : int { cubic_spline = 0, quartic = 1, gaussian = 2 };
 // Width of the truncated Gaussian, in units of the support radius.
 constexpr double kGaussAlpha = 0.3;
 
-// W(s) and W'(s)/s for the normalized distance s = r / rho (0 for s >= 1). 10 FLOPs each
-// branch, counted as kFlopsWeight below (the Gaussian's exp counted as 1).
+// W(s) and W'(s)/s for the normalized distance s = r / rho (0 for s >= 1). FLOPs, as written
+// below (constants folded, a transcendental counted as 1), flops_weight(): the cubic spline 10
+// (its longer branch, s <= 1/2: W 7, W'/s 2, and the branch test 1), the quartic 8 (q 1, W 5,
+// W'/s 2), the Gaussian 8 (the exponent 3, exp 1, W 2, W'/s 2).
 template <class T>
 DTFLOP_HD void weight_fn(Weight kind, T s, T& w, T& dw_over_s) {
   using std::exp;
@@ -133,6 +135,8 @@ DTFLOP_HD void weight_fn(Weight kind, T s, T& w, T& dw_over_s) {
     dw_over_s = T(-2) / a2 * e / (T(1) - e1);
   }
 }
+
+constexpr std::int64_t flops_weight(Weight kind) { return kind == Weight::cubic_spline ? 10 : 8; }
 
 // Status of an interpolated point.
 enum class PointStatus : std::uint8_t {
@@ -319,9 +323,13 @@ struct MlsPoint {
     return f;
   }
 };
-// Per support dot: pass 1 (229) + pass 2 (100) + the caller's offsets, twice (xi, eta: 2
-// subtracts + 2 multiplies; U - U0: 2 subtracts; 6 each pass).
-constexpr std::int64_t kFlopsPerSupportDot = 229 + 100 + 2 * 6;
+// Per support dot: pass 1 (229 with the cubic spline) + pass 2 (100) + the caller's offsets,
+// twice (xi, eta: 2 subtracts + 2 multiplies; U - U0: 2 subtracts; 6 each pass). Each pass
+// evaluates the weight once: with another weight function both passes count its FLOPs instead.
+constexpr std::int64_t flops_per_support_dot(Weight kind) {
+  return 229 + 100 + 2 * 6 + 2 * (flops_weight(kind) - flops_weight(Weight::cubic_spline));
+}
+constexpr std::int64_t kFlopsPerSupportDot = flops_per_support_dot(Weight::cubic_spline);
 // Per point: solve (151) + field (54 + kFlopsStrain).
 constexpr std::int64_t kFlopsPerPoint = 151 + 54 + kFlopsStrain;
 

@@ -38,13 +38,23 @@ constexpr double kMaxCover = 0.35;
 
 double hw_threads() { return static_cast<double>(std::max(1u, std::thread::hardware_concurrency())); }
 
+// Defaults of the parameters added after stores were measured (keyed_at_default = false): what
+// every configuration did before they existed.
+constexpr std::int64_t kDefaultSupport = 40;
+constexpr double kDefaultLevel = 128;
+constexpr CudaLayout kDefaultLayout{};
+
 struct Geometry {
   std::int64_t w = 0, h = 0;
   std::int64_t dots = 0;
   double radius = 0;
   std::int64_t nx = 0, ny = 0;
   std::int64_t support = 0;
+  double support_radius = 0;  // px; 0: the support is `support` dots
   Interp interp = Interp::mls;
+  Weight weight = Weight::cubic_spline;
+  ThresholdMethod threshold = ThresholdMethod::otsu;
+  double level = kDefaultLevel;
   int bytes_per_pixel = 1;
 };
 
@@ -55,9 +65,26 @@ Geometry geometry_of(const wl::Config& c) {
   g.radius = wl::get_real(c, "radius");
   std::tie(g.nx, g.ny) = wl::get_size2(c, "points");
   g.support = wl::get_int(c, "support");
+  g.support_radius = wl::get_real(c, "support-radius");
   g.interp = interp_from_string(wl::get_text(c, "interp"));
+  g.weight = weight_from_string(wl::get_text(c, "weight"));
+  g.threshold = threshold_method_from_string(wl::get_text(c, "threshold"));
+  g.level = wl::get_real(c, "threshold-level");
   g.bytes_per_pixel = wl::get_text(c, "bits") == "16" ? 2 : 1;
   return g;
+}
+
+CudaLayout layout_of(const wl::Config& c) {
+  CudaLayout l;
+  if (wl::has(c, "block-pixels")) l.block_pixels = static_cast<int>(wl::get_int(c, "block-pixels"));
+  if (wl::has(c, "block-points")) l.block_points = static_cast<int>(wl::get_int(c, "block-points"));
+  if (wl::has(c, "block-dots")) l.block_dots = static_cast<int>(wl::get_int(c, "block-dots"));
+  return l;
+}
+
+// "s40", "r150px", " quartic", " fixed:128": what sets a configuration's fields apart in labels.
+std::string support_text(const Geometry& g) {
+  return g.support_radius > 0 ? fmt::format("r{:g}px", g.support_radius) : fmt::format("s{}", g.support);
 }
 
 double inset(double radius) { return radius + kEdge; }
@@ -257,18 +284,53 @@ class DctWorkload final : public wl::Workload {
         {"radius", Kind::real, "dot radius in the image", 8, 3, 40, {}, {}, "px"},
         {"points", Kind::size2, "interpolation points, a grid NXxNY over the reference dots (seed: 384..2048)",
          "32x32", 1, 256, {}, {}, ""},
-        {"support", Kind::integer, "dots per MLS support domain (seed: 10..100; >= 6 for the quadratic basis)", 40, 6,
+        {"support", Kind::integer, "dots per MLS support domain (seed: 10..100; >= 6 for the quadratic basis; or --support-radius)",
+         kDefaultSupport, 6,
          1000, {}, {}, "dots"},
         {"interp", Kind::choice, "field interpolation: mls (moving least squares) or fe (linear triangles)", "mls", 0,
          0, choices_interp, {}, ""},
+        {"weight", Kind::choice,
+         "MLS weight function (FE: of its gradient recovery): cubic spline, quartic or gaussian (truncated, 0.3 "
+         "of the support radius)",
+         "cubic", 0, 0, {"cubic", "quartic", "gaussian"}, {}, ""},
+        {"threshold", Kind::choice,
+         "threshold: otsu (from the frame's histogram), fixed (--threshold-level) or adaptive (the mean of 51x51 px "
+         "less 10 grey levels; cpu-seq and cpu-par only)",
+         "otsu", 0, 0, {"otsu", "fixed", "adaptive"}, {}, ""},
+        {"threshold-level", Kind::real, "grey level of --threshold fixed, 8-bit scale (x257 on 16-bit frames)",
+         kDefaultLevel, 1, 254, {}, {}, ""},
+        {"support-radius", Kind::real,
+         "support domain radius in px, instead of --support dots (0: by dots); the dots per support then follow the "
+         "dot density (about dots x pi r^2 / pattern area)",
+         0, 0, 16384, {}, {}, "px"},
         {"bits", Kind::choice, "bits per pixel of the frames", "8", 0, 0, {"8", "16"}, {}, ""},
         {"threads", Kind::integer, "CPU threads (default: every hardware thread)", static_cast<int>(hw_threads()), 1, 1024, {},
          {"cpu-par"}, ""},
         {"host-memory", Kind::choice,
          "host memory the frames are uploaded from: pinned (a camera's DMA buffer) or pageable", "pinned", 0, 0,
          {"pinned", "pageable"}, {"cuda"}, ""},
+        {"block-pixels", Kind::integer,
+         "threads per block of the per-pixel kernels (histogram, threshold and labels, union, compress, ids, "
+         "statistics); a multiple of 32",
+         kDefaultLayout.block_pixels, 32, 1024, {}, {"cuda"}, ""},
+        {"block-points", Kind::integer, "threads (points) per block of the MLS / FE field kernel; a multiple of 32",
+         kDefaultLayout.block_points, 32, 1024, {}, {"cuda"}, ""},
+        {"block-dots", Kind::integer,
+         "threads per block of the centroid kernel (one block per dot, its window's pixels); a multiple of 32",
+         kDefaultLayout.block_dots, 32, 1024, {}, {"cuda"}, ""},
         {"specimen-seed", Kind::integer, "seed of the specimen's dot pattern and sensor noise", 1, 0, 2147483647, {}, {}, ""},
     };
+    // Added after stores were measured, each defaulting to what those configurations did: their
+    // keys leave them out at the default, so old samples keep their keys.
+    for (auto& p : params_)
+      if (p.name == "weight" || p.name == "threshold" || p.name == "threshold-level" || p.name == "support-radius" ||
+          p.name.rfind("block-", 0) == 0)
+        p.keyed_at_default = false;
+    // The counts price what tells their values apart (a weight function's FLOPs per support dot,
+    // a threshold method's bytes and operations per pixel): one bias serves all values, and the
+    // tuner does not split its groups by them (docs/tune.md).
+    for (auto& p : params_)
+      if (p.name == "weight" || p.name == "threshold") p.priced = true;
     for (const auto& k : backend_kinds()) backends_.push_back(std::make_unique<ContractBackend>(k));
   }
 
@@ -283,18 +345,32 @@ class DctWorkload final : public wl::Workload {
   std::string label(const wl::Config& c) const override {
     const Geometry g = geometry_of(c);
     std::string s = fmt::format("{}x{} {}d r{:g} {}x{}p", g.w, g.h, g.dots, g.radius, g.nx, g.ny);
-    s += g.interp == Interp::mls ? fmt::format(" s{}", g.support) : " fe";
+    s += g.interp == Interp::mls ? " " + support_text(g) : g.support_radius > 0 ? " fe " + support_text(g) : " fe";
+    if (g.weight != Weight::cubic_spline) s += " " + to_string(g.weight);
+    if (g.threshold == ThresholdMethod::adaptive) s += " adaptive";
+    if (g.threshold == ThresholdMethod::fixed) s += fmt::format(" fixed:{:g}", g.level);
     if (g.bytes_per_pixel == 2) s += " 16b";
     if (wl::has(c, "host-memory") && wl::get_text(c, "host-memory") == "pageable") s += " pageable";
+    if (const CudaLayout l = layout_of(c); wl::has(c, "block-pixels") &&
+        (l.block_pixels != kDefaultLayout.block_pixels || l.block_points != kDefaultLayout.block_points ||
+         l.block_dots != kDefaultLayout.block_dots))
+      s += fmt::format(" b{}/{}/{}", l.block_pixels, l.block_points, l.block_dots);
     return s;
   }
 
   std::string describe(const wl::Backend& b, const wl::Config& c) const override {
     const Geometry g = geometry_of(c);
-    return fmt::format("one {}x{} {}-bit frame of {} dots (radius {:g} px) to {} {} at {}x{} points{} on {}", g.w,
+    const std::string support = g.support_radius > 0 ? fmt::format(", support radius {:g} px", g.support_radius)
+                                : g.interp == Interp::mls ? fmt::format(", {} dots per support", g.support)
+                                                          : std::string();
+    const std::string weight = g.weight == Weight::cubic_spline ? "" : fmt::format(", {} weight", to_string(g.weight));
+    const std::string threshold = g.threshold == ThresholdMethod::otsu ? ""
+                                  : g.threshold == ThresholdMethod::adaptive
+                                      ? ", adaptive threshold"
+                                      : fmt::format(", threshold {:g}", g.level);
+    return fmt::format("one {}x{} {}-bit frame of {} dots (radius {:g} px) to {} {} at {}x{} points{}{}{} on {}", g.w,
                        g.h, 8 * g.bytes_per_pixel, g.dots, g.radius, g.interp == Interp::mls ? "MLS" : "FE",
-                       "strain fields", g.nx, g.ny,
-                       g.interp == Interp::mls ? fmt::format(", {} dots per support", g.support) : "", b.name());
+                       "strain fields", g.nx, g.ny, support, weight, threshold, b.name());
   }
 
   std::vector<std::pair<std::string, std::string>> plan_names() const override {
@@ -394,10 +470,34 @@ class DctWorkload final : public wl::Workload {
     if (g.nx * g.ny > kMaxPoints)
       throw InputError(fmt::format("dct --points {}x{} asks for {} points, more than {}; give a coarser grid", g.nx,
                                    g.ny, g.nx * g.ny, kMaxPoints));
-    if (g.interp == Interp::mls && g.support > g.dots)
+    if (g.support_radius > 0 && g.support != kDefaultSupport)
+      throw InputError(fmt::format("dct --support {} and --support-radius {:g} both set the support domain; give one "
+                                   "(--support-radius replaces --support, which then stays at its default {})",
+                                   g.support, g.support_radius, kDefaultSupport));
+    if (g.support_radius > 0 && g.support_radius < g.radius)
+      throw InputError(fmt::format("dct --support-radius {:g} px is smaller than the dots (radius {:g} px); give a "
+                                   "support radius of several dot spacings, or 0 for --support dots",
+                                   g.support_radius, g.radius));
+    if (g.support_radius == 0 && g.interp == Interp::mls && g.support > g.dots)
       throw InputError(fmt::format("dct --support {} asks for more dots per support domain than the {} dots; give "
                                    "--support <= --dots",
                                    g.support, g.dots));
+    if (g.threshold != ThresholdMethod::fixed && g.level != kDefaultLevel)
+      throw InputError(fmt::format("dct --threshold-level {:g} applies to --threshold fixed only, not {}; drop it or "
+                                   "give --threshold fixed",
+                                   g.level, to_string(g.threshold)));
+    if (b.name() == "cuda" && g.threshold == ThresholdMethod::adaptive)
+      throw InputError("dct --threshold adaptive runs on cpu-seq and cpu-par only; the cuda backend thresholds with "
+                       "otsu or fixed: give one of those, or a CPU backend");
+    if (wl::has(c, "block-pixels")) {
+      const CudaLayout l = layout_of(c);
+      for (const auto& [name, v] : {std::pair<const char*, int>{"block-pixels", l.block_pixels},
+                                    {"block-points", l.block_points},
+                                    {"block-dots", l.block_dots}})
+        if (v % 32 != 0)
+          throw InputError(fmt::format("dct --{} {} is not a multiple of 32 (a warp); give one of 32, 64, ..., 1024",
+                                       name, v));
+    }
   }
 
  private:
@@ -443,8 +543,17 @@ PipelineOptions pipeline_options(const wl::Config& c, const std::string& backend
   const Geometry g = geometry_of(c);
   PipelineOptions o;
   o.interp = g.interp;
-  o.mls.support.kind = Support::Kind::dots;
-  o.mls.support.dots = static_cast<int>(g.support);
+  o.mls.weight = g.weight;
+  if (g.support_radius > 0) {
+    o.mls.support.kind = Support::Kind::radius;
+    o.mls.support.radius = g.support_radius;
+  } else {
+    o.mls.support.kind = Support::Kind::dots;
+    o.mls.support.dots = static_cast<int>(g.support);
+  }
+  o.analysis.method = g.threshold;
+  o.analysis.threshold = g.level;
+  o.layout = layout_of(c);
   o.points_x = static_cast<int>(g.nx);
   o.points_y = static_cast<int>(g.ny);
   o.threads = backend == "cpu-par" ? static_cast<int>(wl::get_int(c, "threads")) : 1;
@@ -473,8 +582,18 @@ Specimen specimen_of(const wl::Config& c) {
 
 FrameShape estimated_shape(const wl::Config& c) {
   const Geometry g = geometry_of(c);
-  FrameShape s = estimate_shape(g.w, g.h, g.bytes_per_pixel, g.dots, g.radius, g.nx * g.ny, g.support, g.interp);
-  s.otsu = true;
+  FrameShape s = estimate_shape(g.w, g.h, g.bytes_per_pixel, g.dots, g.radius, g.nx * g.ny,
+                                g.support_radius > 0 ? 0 : g.support, g.interp);
+  if (g.support_radius > 0) {
+    // The points spread over the dots' bounding box, which is about the area the dots are
+    // thrown into (specimen_of): the expected dots within the radius of each, from the density.
+    const double e = inset(g.radius);
+    s.support_entries = expected_entries_within(g.support_radius, e, e, static_cast<double>(g.w) - 1 - e,
+                                                static_cast<double>(g.h) - 1 - e, g.nx, g.ny, g.dots);
+  }
+  s.weight = g.weight;
+  s.otsu = g.threshold == ThresholdMethod::otsu;
+  s.adaptive = g.threshold == ThresholdMethod::adaptive;
   return s;
 }
 
@@ -525,6 +644,10 @@ std::string shape_difference(const FrameShape& d, const FrameShape& m) {
   differ(out, "k-d tree steps", d.tree_steps, m.tree_steps);
   if (d.interp != m.interp) out += fmt::format("{}interp {} (declared {})", out.empty() ? "" : ", ", to_string(m.interp), to_string(d.interp));
   if (d.otsu != m.otsu) out += fmt::format("{}otsu {} (declared {})", out.empty() ? "" : ", ", m.otsu, d.otsu);
+  if (d.adaptive != m.adaptive)
+    out += fmt::format("{}adaptive {} (declared {})", out.empty() ? "" : ", ", m.adaptive, d.adaptive);
+  if (d.weight != m.weight)
+    out += fmt::format("{}weight {} (declared {})", out.empty() ? "" : ", ", to_string(m.weight), to_string(d.weight));
   return out;
 }
 

@@ -2,6 +2,9 @@
 // for one shape, and the shape a real run reports against what the run did.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <utility>
+
 #include "model/errors.hpp"
 #include "workloads/dct/backend.hpp"
 #include "workloads/dct/counts.hpp"
@@ -87,6 +90,107 @@ TEST(DctCounts, CudaMatchesFormulas) {
   s.bytes_per_pixel = 1;
   s.roi_pixels = 641 * 481;
   EXPECT_EQ(cuda_counts(s, HostMemory::pinned).N_CG, (641 * 481 + 3) / 4 + 1600);
+}
+
+TEST(DctCounts, WeightFunctionsArePricedPerSupportDot) {
+  // Per support dot 321 FLOPs besides the weight function, evaluated once in each pass: the
+  // cubic spline 10, the quartic and the Gaussian 8 (kernels.hpp, weight_fn, counted by hand).
+  EXPECT_EQ(flops_per_support_dot(Weight::cubic_spline), 341);
+  EXPECT_EQ(flops_per_support_dot(Weight::quartic), 337);
+  EXPECT_EQ(flops_per_support_dot(Weight::gaussian), 337);
+  FrameShape s = hand_shape();
+  const std::int64_t fixed = 14LL * 2'000'000 + 11LL * 4'500'000 + 50LL * 1600 + 221LL * 2048;
+  for (auto [w, per] : {std::pair{Weight::cubic_spline, 341LL}, std::pair{Weight::quartic, 337LL},
+                        std::pair{Weight::gaussian, 337LL}}) {
+    s.weight = w;
+    SCOPED_TRACE(to_string(w));
+    EXPECT_EQ(cpu_counts(s, 1).N_C, fixed + per * 2048 * 60);
+    EXPECT_EQ(cuda_counts(s, HostMemory::pinned).N_G, fixed + per * 2048 * 60);
+    // Nothing else changes: the same values are read and written.
+    FrameShape cubic = s;
+    cubic.weight = Weight::cubic_spline;
+    EXPECT_EQ(cpu_counts(s, 1).N_CC, cpu_counts(cubic, 1).N_CC);
+    EXPECT_EQ(cuda_counts(s, HostMemory::pinned).N_GG, cuda_counts(cubic, HostMemory::pinned).N_GG);
+  }
+  // FE's per-frame arithmetic has no weight (its recovery coefficients are the reference's).
+  s.interp = Interp::fe;
+  FrameShape cubic = s;
+  cubic.weight = Weight::cubic_spline;
+  EXPECT_EQ(cpu_counts(s, 1).N_C, cpu_counts(cubic, 1).N_C);
+}
+
+TEST(DctCounts, ThresholdMethodsArePriced) {
+  const FrameShape otsu = hand_shape();
+  const std::int64_t roi = 20'000'000;
+  // The rest of the frame's bytes (hand_shape, CpuMatchesFormulas): labelling 13 per analysed
+  // pixel, 10 per window pixel, 100 per scanned pixel, the ring and weighted pixels, the fields.
+  const std::int64_t rest = 13LL * roi + 10LL * 7'000'000 + 100LL * 2'500'000 + 6'500'000 +
+                            8 * (5LL * 2048 * 60 + 8LL * 2048);
+  const std::int64_t flops = cpu_counts(otsu, 1).N_C;
+  // Otsu: histogram 1 + threshold 2 bytes per pixel.
+  EXPECT_EQ(cpu_counts(otsu, 1).N_CC, (3 * roi + rest) / 8);
+  // Fixed: no histogram.
+  FrameShape fixed = otsu;
+  fixed.otsu = false;
+  EXPECT_EQ(cpu_counts(fixed, 1).N_CC, (2 * roi + rest) / 8);
+  EXPECT_EQ(cpu_counts(fixed, 1).N_C, flops);
+  EXPECT_EQ(cpu_counts(fixed, 1).cpu_footprint, cpu_counts(otsu, 1).cpu_footprint);
+  // Adaptive: box filter (1 read, 4 + 4 row sums, 1 mean written) and the comparison (2 read,
+  // 1 written): 13 bytes a pixel; 5 operations a pixel; the mean adds a byte a pixel to the
+  // working set.
+  FrameShape adaptive = fixed;
+  adaptive.adaptive = true;
+  EXPECT_EQ(cpu_counts(adaptive, 1).N_CC, (13 * roi + rest) / 8);
+  EXPECT_EQ(cpu_counts(adaptive, 1).N_C, flops + 5 * roi);
+  EXPECT_EQ(cpu_counts(adaptive, 1).cpu_footprint, cpu_counts(otsu, 1).cpu_footprint + roi);
+  // 16-bit adaptive: converted to 8 bits first (2 read, 1 written, a multiply), the 8-bit copy
+  // in the working set; the rest of the frame reads the 16-bit ring and weighted pixels.
+  FrameShape wide = adaptive;
+  wide.bytes_per_pixel = 2;
+  EXPECT_EQ(cpu_counts(wide, 1).N_CC, (16 * roi + rest + 6'500'000) / 8);
+  EXPECT_EQ(cpu_counts(wide, 1).N_C, flops + 6 * roi);
+  EXPECT_EQ(cpu_counts(wide, 1).cpu_footprint, roi * (2 + 1 + 4 + 2) + 8 * (5LL * 2048 * 60 + 8LL * 2048));
+  // cuda: a fixed threshold drops the histogram and Otsu kernels, the histogram's read and the
+  // threshold's copy back.
+  const CostCounts g = cuda_counts(otsu, HostMemory::pinned), f = cuda_counts(fixed, HostMemory::pinned);
+  EXPECT_EQ(g.launches - f.launches, 2);
+  EXPECT_EQ(g.N_GG - f.N_GG, roi / 4 + 512);
+  EXPECT_EQ(g.N_GC - f.N_GC, 1);
+  EXPECT_EQ(g.transfers_GC - f.transfers_GC, 1);
+}
+
+TEST(DctCounts, DiscAreaInsideARectangle) {
+  // Within 1e-6 of the area: far finer than a count of dots needs.
+  const double pi = 3.14159265358979323846;
+  EXPECT_NEAR(disc_area_inside(50, 50, 10, 0, 0, 100, 100), pi * 100, 3e-4);      // inside
+  EXPECT_NEAR(disc_area_inside(0, 50, 10, 0, 0, 100, 100), pi * 50, 3e-4);        // on a side
+  EXPECT_NEAR(disc_area_inside(0, 0, 10, 0, 0, 100, 100), pi * 25, 3e-4);         // in a corner
+  EXPECT_NEAR(disc_area_inside(5, 5, 100, 0, 0, 10, 10), 100, 3e-4);              // covers it
+  EXPECT_EQ(disc_area_inside(-20, 50, 10, 0, 0, 100, 100), 0);                    // outside
+  // A chord: the segment of a disc cut at distance d from its centre, area r^2 acos(d/r) - d sqrt(r^2 - d^2).
+  const double r = 10, d = 6, segment = r * r * std::acos(d / r) - d * std::sqrt(r * r - d * d);
+  EXPECT_NEAR(disc_area_inside(50, 6, r, 0, 0, 100, 100), pi * r * r - segment, 3e-4);
+  // A corner cut at both sides, against a fine Monte Carlo-free midpoint sum.
+  double grid = 0;
+  const int n = 2000;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const double x = -10 + 20 * (i + 0.5) / n, y = -10 + 20 * (j + 0.5) / n;
+      if (x * x + y * y < 100 && x + 3 >= 0 && y + 4 >= 0) grid += (20.0 / n) * (20.0 / n);
+    }
+  EXPECT_NEAR(disc_area_inside(3, 4, 10, 0, 0, 100, 100), grid, 0.05);
+}
+
+TEST(DctCounts, SupportByRadiusExpectsTheDensityTimesTheDiscInside) {
+  // One point at the centre of a 1000 x 1000 pattern of 4000 dots: 0.004 per px^2 x pi 50^2.
+  EXPECT_EQ(expected_entries_within(50, 0, 0, 1000, 1000, 1, 1, 4000), std::llround(0.004 * 3.14159265358979 * 2500));
+  // 2 x 2 points in the corners: a quarter disc each.
+  EXPECT_EQ(expected_entries_within(50, 0, 0, 1000, 1000, 2, 2, 4000),
+            std::llround(4 * 0.004 * 3.14159265358979 * 2500 / 4));
+  // A support larger than the pattern holds every dot, no more.
+  EXPECT_EQ(expected_entries_within(5000, 0, 0, 1000, 1000, 3, 3, 4000), 9 * 4000);
+  EXPECT_THROW(expected_entries_within(0, 0, 0, 1000, 1000, 3, 3, 4000), InputError);
+  EXPECT_THROW(expected_entries_within(10, 0, 0, 0, 1000, 3, 3, 4000), InputError);
 }
 
 TEST(DctCounts, EstimateIsCloseToAMeasuredRun) {

@@ -17,6 +17,7 @@
 #include "tests/support/gpu.hpp"
 #include "workloads/dct/backend.hpp"
 #include "workloads/dct/specimen.hpp"
+#include "workloads/dct/workload.hpp"
 
 namespace dtflop::dct {
 namespace {
@@ -40,10 +41,15 @@ struct Case {
 };
 
 // Returns the largest strain difference over the points both estimated.
+double compare_frames(const std::string& what, const cv::Mat& ref, const cv::Mat& def, const PipelineOptions& opt);
 double compare(const Case& c) {
-  SCOPED_TRACE(c.spec);
   const Specimen s = parse_specimen(c.spec);
-  const cv::Mat ref = s.reference_image(), def = s.deformed_image();
+  return compare_frames(c.spec, s.reference_image(), s.deformed_image(), c.opt);
+}
+
+double compare_frames(const std::string& what, const cv::Mat& ref, const cv::Mat& def, const PipelineOptions& opt) {
+  SCOPED_TRACE(what);
+  const Case c{what, opt};
   auto cpu = make_backend("cpu-seq", c.opt);
   auto gpu = make_backend("cuda", c.opt);
   cpu->set_reference(ref);
@@ -202,6 +208,78 @@ TEST(DctCuda, RejectsWhatItCannotDo) {
   o = PipelineOptions{};
   o.layout.block_points = 100;
   EXPECT_THROW(make_backend("cuda", o), InputError);
+}
+
+}  // namespace
+}  // namespace dtflop::dct
+
+namespace dtflop::dct {
+namespace {
+
+// Every block layout the workload allows (its cuda parameters block-pixels, block-points and
+// block-dots: multiples of 32 in 32..1024), one parameter at a time with the others at their
+// defaults, and a few mixed ones, on MLS and FE: the same dots, matches and fields as cpu-seq
+// in float64, within the tolerance of the tests above (compare_frames).
+TEST(DctCuda, EveryAllowedLayoutMatchesCpuSeq) {
+  DTFLOP_REQUIRE_GPU();
+  const std::uint64_t seed = fresh_seed();
+  SCOPED_TRACE(seed_note(seed));
+  const auto& w = workload();
+  const auto& b = w.backend("cuda");
+  const nlohmann::json base = {{"size", "640x480"}, {"dots", 150}, {"radius", 6}, {"points", "16x12"},
+                               {"support", 30}, {"specimen-seed", static_cast<std::int64_t>(seed % 2147483647)}};
+  const Specimen sp = specimen_of(w.validate(base, b));
+  const cv::Mat ref = sp.reference_image(), def = sp.deformed_image();
+  std::vector<nlohmann::json> layouts;
+  for (const char* p : {"block-pixels", "block-points", "block-dots"}) {
+    const auto* spec = w.find_param(p);
+    ASSERT_NE(spec, nullptr) << p;
+    int allowed = 0;
+    for (int v = static_cast<int>(spec->min); v <= static_cast<int>(spec->max); ++v) {
+      nlohmann::json g = base;
+      g[p] = v;
+      try {
+        (void)w.validate(g, b);
+      } catch (const InputError&) {
+        continue;  // not a layout the workload allows
+      }
+      ++allowed;
+      layouts.push_back({{p, v}});
+    }
+    EXPECT_EQ(allowed, 32) << p;  // 32, 64, ..., 1024
+  }
+  layouts.push_back({{"block-pixels", 32}, {"block-points", 1024}, {"block-dots", 32}});
+  layouts.push_back({{"block-pixels", 1024}, {"block-points", 32}, {"block-dots", 1024}});
+  layouts.push_back({{"block-pixels", 96}, {"block-points", 160}, {"block-dots", 224}});
+  double worst = 0;
+  for (const auto& l : layouts)
+    for (const char* interp : {"mls", "fe"}) {
+      nlohmann::json g = base;
+      for (const auto& [k, v] : l.items()) g[k] = v;
+      g["interp"] = interp;
+      const auto c = w.validate(g, b);
+      worst = std::max(worst, compare_frames(fmt::format("{} {}", interp, l.dump()), ref, def, pipeline_options(c, "cuda")));
+    }
+  std::printf("%zu layouts x (mls, fe): max |de| %.2e\n", layouts.size(), worst);
+}
+
+// The threshold and weight parameters on the device: a fixed level and each weight function
+// through the workload's configuration, against cpu-seq.
+TEST(DctCuda, ThresholdAndWeightParametersMatchCpuSeq) {
+  DTFLOP_REQUIRE_GPU();
+  const std::uint64_t seed = fresh_seed();
+  SCOPED_TRACE(seed_note(seed));
+  const auto& w = workload();
+  const auto& b = w.backend("cuda");
+  for (const char* weight : {"cubic", "quartic", "gaussian"})
+    for (const char* threshold : {"otsu", "fixed"}) {
+      const nlohmann::json g = {{"size", "700x500"}, {"dots", 150}, {"radius", 6}, {"points", "16x12"},
+                                {"support-radius", 120}, {"weight", weight}, {"threshold", threshold},
+                                {"specimen-seed", static_cast<std::int64_t>(seed % 2147483647)}};
+      const auto c = w.validate(g, b);
+      const Specimen sp = specimen_of(c);
+      compare_frames(g.dump(), sp.reference_image(), sp.deformed_image(), pipeline_options(c, "cuda"));
+    }
 }
 
 }  // namespace

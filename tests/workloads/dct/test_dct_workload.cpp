@@ -125,6 +125,172 @@ TEST(DctWorkload, StoreKeyNamesEveryParameterInSpecOrder) {
             W().key(par, W().validate({{"dots", 150}, {"size", json::array({800, 600})}}, par)));
 }
 
+TEST(DctWorkload, AddedParametersKeepOldKeysAndAreCheckedWithMessages) {
+  const wl::Backend& seq = W().backend("cpu-seq");
+  const wl::Backend& gpu = W().backend("cuda");
+  // A sample measured before these parameters existed holds none of them: it validates to the
+  // defaults, which are what it did, and keeps its key.
+  const json old = {{"size", "800x600"}, {"dots", 150}, {"radius", 6.5}, {"points", "24x16"}, {"support", 30},
+                    {"interp", "mls"}, {"bits", "8"}, {"specimen-seed", 9}};
+  const wl::Config c = W().validate(old, seq);
+  EXPECT_EQ(c["weight"], "cubic");
+  EXPECT_EQ(c["threshold"], "otsu");
+  EXPECT_EQ(c["threshold-level"], 128.0);
+  EXPECT_EQ(c["support-radius"], 0.0);
+  EXPECT_EQ(W().key(seq, c), "dct/cpu-seq/size=800x600/dots=150/radius=6.5/points=24x16/support=30/interp=mls/bits=8/"
+                             "specimen-seed=9");
+  const PipelineOptions o = pipeline_options(c, "cpu-seq");
+  EXPECT_EQ(o.mls.weight, Weight::cubic_spline);
+  EXPECT_EQ(o.analysis.method, ThresholdMethod::otsu);
+  EXPECT_EQ(o.mls.support.kind, Support::Kind::dots);
+  const wl::Config g = W().validate(old, gpu);
+  EXPECT_EQ(W().key(gpu, g), "dct/cuda/size=800x600/dots=150/radius=6.5/points=24x16/support=30/interp=mls/bits=8/"
+                             "host-memory=pinned/specimen-seed=9");
+  // Given the default, the key is the same; any other value is in it, in spec order.
+  json d = old;
+  d["weight"] = "cubic";
+  d["block-dots"] = 128;
+  EXPECT_EQ(W().key(gpu, W().validate(d, gpu)), W().key(gpu, g));
+  json x = old;
+  x["weight"] = "gaussian";
+  x["threshold"] = "fixed";
+  x["threshold-level"] = 100;
+  x["block-points"] = 64;
+  EXPECT_EQ(W().key(gpu, W().validate(x, gpu)),
+            "dct/cuda/size=800x600/dots=150/radius=6.5/points=24x16/support=30/interp=mls/weight=gaussian/"
+            "threshold=fixed/threshold-level=100.0/bits=8/host-memory=pinned/block-points=64/specimen-seed=9");
+  json r = old;
+  r.erase("support");
+  r["support-radius"] = "120.5";
+  EXPECT_NE(W().key(seq, W().validate(r, seq)).find("/support=40/interp=mls/support-radius=120.5/"), std::string::npos);
+  EXPECT_EQ(W().label(W().validate(r, seq)), "800x600 150d r6.5 24x16p r120.5px");
+  EXPECT_EQ(W().label(W().validate(x, gpu)), "800x600 150d r6.5 24x16p s30 gaussian fixed:100 b256/64/128");
+
+  // Messages: one line each, naming the parameter and what to do.
+  auto has = [](const std::string& m, const std::string& what) {
+    EXPECT_NE(m.find(what), std::string::npos) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  };
+  has(rejection({{"weight", "wendland"}}), "use one of cubic, quartic, gaussian");
+  has(rejection({{"threshold", "triangle"}}), "use one of otsu, fixed, adaptive");
+  has(rejection({{"threshold-level", 100}}), "--threshold-level 100 applies to --threshold fixed only");
+  has(rejection({{"threshold", "fixed"}, {"threshold-level", 300}}), "outside [1, 254]");
+  has(rejection({{"threshold", "adaptive"}}, "cuda"), "adaptive runs on cpu-seq and cpu-par only");
+  EXPECT_EQ(rejection({{"threshold", "adaptive"}}, "cpu-par"), "");
+  has(rejection({{"support", 60}, {"support-radius", 150}}), "give one");
+  has(rejection({{"support-radius", 3}, {"radius", 8}}), "smaller than the dots");
+  has(rejection({{"support-radius", -1}}), "outside [0, 16384]");
+  EXPECT_EQ(rejection({{"support-radius", 150}, {"interp", "fe"}}), "");
+  has(rejection({{"block-pixels", 100}}, "cuda"), "--block-pixels 100 is not a multiple of 32");
+  has(rejection({{"block-dots", 2048}}, "cuda"), "outside [32, 1024]");
+  has(rejection({{"block-points", 64}}, "cpu-seq"), "applies to cuda only");
+  EXPECT_EQ(rejection({{"block-pixels", 1024}, {"block-points", 32}, {"block-dots", 992}}, "cuda"), "");
+  // A support radius with fewer dots than asked of --support is no conflict: the radius decides.
+  EXPECT_EQ(rejection({{"dots", 20}, {"support-radius", 300}}), "");
+}
+
+// A store measured before the parameters were added (the H100's tuning of the open-hole plate,
+// cpu-seq, cpu-par and cuda): every sample's parameters validate to a configuration whose key
+// is the sample's key, and whose counts are the sample's (the defaults priced as before).
+TEST(DctWorkload, AStoreMeasuredBeforeTheAddedParametersKeepsItsKeysAndCounts) {
+  const auto path = std::filesystem::path(DTFLOP_SOURCE_DIR) / "results/tuning/h100-2026-11-24/dct/store.jsonl";
+  std::ifstream in(path);
+  ASSERT_TRUE(in) << path;
+  std::string line;
+  int samples = 0;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    const json j = json::parse(line);
+    const wl::Backend& b = W().backend(j.at("backend").get<std::string>());
+    for (const char* added : {"weight", "threshold", "threshold-level", "support-radius", "block-pixels"})
+      EXPECT_FALSE(j.at("parameters").contains(added));
+    const wl::Config c = W().validate(j.at("parameters"), b);
+    EXPECT_EQ(W().key(b, c), j.at("key").get<std::string>());
+    // The frame's counts as the sample declared them, repetitions of `steps` frames (cuda's
+    // multiprocessor-free counts; the pixel classes are the rendered frame's, so compare the
+    // terms the configuration alone fixes: the fields' FLOPs through N_C or N_G's difference).
+    const CostCounts est = b.counts(c, nullptr);
+    const json& k = j.at("counts");
+    const std::int64_t steps = j.at("steps").get<std::int64_t>();
+    EXPECT_EQ(est.launches * steps, k.at("launches").get<std::int64_t>()) << j.at("key");
+    EXPECT_EQ(est.transfers_GC * steps, k.at("transfers_GC").get<std::int64_t>()) << j.at("key");
+    ++samples;
+  }
+  EXPECT_EQ(samples, 30);
+}
+
+// The pipeline a configuration makes does what its parameters say (a parameter ignored on the
+// way would fail here): the weight changes the fields as the library's own weight does, the
+// threshold is the one asked for, the support is the radius, on both CPU backends.
+TEST(DctWorkload, ParametersReachThePipeline) {
+  const json base = {{"size", "640x480"}, {"dots", 120}, {"radius", 6}, {"points", "12x9"}, {"support", 30}};
+  for (const char* backend : {"cpu-seq", "cpu-par"}) {
+    SCOPED_TRACE(backend);
+    const wl::Backend& b = W().backend(backend);
+    auto frame = [&](const json& given) {
+      const wl::Config c = W().validate(given, b);
+      const Specimen sp = specimen_of(c);
+      auto p = make_backend(backend, pipeline_options(c, backend));
+      p->set_reference(sp.reference_image());
+      struct R {
+        FrameOutput out;
+        MlsTable table;
+        std::vector<Vec2> reference;
+      };
+      return R{p->process(sp.deformed_image()), p->mls_table(), p->reference_positions()};
+    };
+    const auto cubic = frame(base);
+    ASSERT_EQ(cubic.out.dots.size(), 120u);
+    // Weight: the fields are those of the library's MLS with that weight on the same dots, and
+    // differ from the cubic spline's.
+    for (const char* w : {"quartic", "gaussian"}) {
+      json g = base;
+      g["weight"] = w;
+      const auto r = frame(g);
+      MlsOptions mo;
+      mo.weight = weight_from_string(w);
+      const auto expect = evaluate_mls(r.table, r.reference, r.out.displacement, r.out.tracked, mo);
+      ASSERT_EQ(expect.size(), r.out.fields.size());
+      double differs = 0;
+      int ok = 0;
+      for (std::size_t m = 0; m < r.out.fields.size(); ++m) {
+        EXPECT_EQ(r.out.fields[m].status, expect[m].status);
+        if (r.out.fields[m].status != PointStatus::ok || cubic.out.fields[m].status != PointStatus::ok) continue;
+        ++ok;
+        EXPECT_NEAR(r.out.fields[m].exx, expect[m].exx, 1e-12);
+        differs = std::max(differs, std::abs(r.out.fields[m].exx - cubic.out.fields[m].exx));
+      }
+      EXPECT_GT(ok, 50);
+      EXPECT_GT(differs, 1e-7) << w;
+      EXPECT_EQ(r.out.shape.weight, weight_from_string(w));
+    }
+    // Threshold: Otsu's is computed from the frame; fixed is the level; adaptive has none.
+    EXPECT_NE(cubic.out.stats.threshold, 100);
+    json f = base;
+    f["threshold"] = "fixed";
+    f["threshold-level"] = 100;
+    EXPECT_EQ(frame(f).out.stats.threshold, 100);
+    f["threshold-level"] = 150;
+    const auto fixed150 = frame(f);
+    EXPECT_EQ(fixed150.out.stats.threshold, 150);
+    EXPECT_FALSE(fixed150.out.shape.otsu);
+    json a = base;
+    a["threshold"] = "adaptive";
+    const auto adaptive = frame(a);
+    EXPECT_EQ(adaptive.out.stats.threshold, -1);
+    EXPECT_TRUE(adaptive.out.shape.adaptive);
+    EXPECT_EQ(adaptive.out.dots.size(), 120u);
+    // Support radius: every point's support is the radius, and holds the dots within it.
+    json r = base;
+    r.erase("support");
+    r["support-radius"] = 90;
+    const auto byr = frame(r);
+    for (double rho : byr.table.rho) EXPECT_EQ(rho, 90);
+    for (double rho : cubic.table.rho) EXPECT_NE(rho, 90);
+    EXPECT_NE(byr.table.entries(), cubic.table.entries());
+  }
+}
+
 // ---- Counts before the frame ----------------------------------------------------------------
 
 struct Case {
@@ -171,7 +337,10 @@ TEST_P(CountsBeforeFrame, DeclaredCountsAreWhatTheFramesDid) {
   const auto entries = d["support_entries"].get<std::int64_t>();
   const FrameShape e = estimated_shape(c);
   EXPECT_EQ(e.dots, wl::get_int(c, "dots"));
-  if (mls) {
+  const double radius = wl::get_real(c, "support-radius");
+  if (radius > 0) {  // the dots within the radius, expected from the density: within 15%
+    EXPECT_NEAR(static_cast<double>(e.support_entries), static_cast<double>(entries), 0.15 * static_cast<double>(entries));
+  } else if (mls) {
     EXPECT_EQ(entries, nx * ny * wl::get_int(c, "support"));
     EXPECT_EQ(e.support_entries, entries);
   } else {  // FE's recovery triangles: estimated before the reference (counts.cpp), within 2x
@@ -203,7 +372,25 @@ INSTANTIATE_TEST_SUITE_P(
                          {"threads", 2}}},
         Case{"cuda", {{"size", "640x480"}, {"dots", 120}, {"radius", 6}, {"points", "16x12"}, {"support", 20}}},
         Case{"cuda", {{"size", "640x480"}, {"dots", 100}, {"radius", 6}, {"points", "16x12"}, {"interp", "fe"},
-                      {"bits", "16"}, {"host-memory", "pageable"}}}),
+                      {"bits", "16"}, {"host-memory", "pageable"}}},
+        // Every value of the parameters added for the tuner, on each CPU backend and on cuda.
+        Case{"cpu-seq", {{"size", "640x480"}, {"dots", 120}, {"radius", 6}, {"points", "16x12"}, {"support", 20},
+                         {"weight", "quartic"}, {"threshold", "fixed"}, {"threshold-level", 110}}},
+        Case{"cpu-par", {{"size", "640x480"}, {"dots", 120}, {"radius", 6}, {"points", "16x12"}, {"support", 20},
+                         {"weight", "gaussian"}, {"threshold", "adaptive"}, {"threads", 2}}},
+        Case{"cpu-seq", {{"size", "640x480"}, {"dots", 120}, {"radius", 6}, {"points", "16x12"},
+                         {"support-radius", 110}, {"threshold", "adaptive"}, {"bits", "16"}}},
+        Case{"cpu-par", {{"size", "700x500"}, {"dots", 150}, {"radius", 6}, {"points", "12x10"},
+                         {"support-radius", 140}, {"weight", "gaussian"}, {"threshold", "fixed"}, {"threads", 2}}},
+        Case{"cpu-seq", {{"size", "700x500"}, {"dots", 150}, {"radius", 6}, {"points", "12x10"}, {"interp", "fe"},
+                         {"support-radius", 140}, {"weight", "quartic"}}},
+        Case{"cpu-par", {{"size", "640x480"}, {"dots", 120}, {"radius", 6}, {"points", "16x12"}, {"support", 20},
+                         {"weight", "quartic"}, {"threshold", "fixed"}, {"bits", "16"}, {"threads", 1}}},
+        Case{"cuda", {{"size", "640x480"}, {"dots", 120}, {"radius", 6}, {"points", "16x12"}, {"support-radius", 110},
+                      {"weight", "gaussian"}, {"threshold", "fixed"}, {"block-pixels", 32}, {"block-points", 1024},
+                      {"block-dots", 64}}},
+        Case{"cuda", {{"size", "641x481"}, {"dots", 120}, {"radius", 6}, {"points", "16x12"}, {"support", 20},
+                      {"weight", "quartic"}, {"block-pixels", 1024}, {"block-points", 32}, {"block-dots", 1024}}}),
     [](const ::testing::TestParamInfo<Case>& p) {
       std::string name = p.param.backend;
       name.erase(std::remove(name.begin(), name.end(), '-'), name.end());
