@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
+#include <tuple>
 
 #include <cuda_runtime.h>
 #include <fmt/format.h>
@@ -147,6 +148,16 @@ class CudaBackend final : public Backend {
       if (b < 32 || b > 1024 || b % 32 != 0)
         throw InputError(fmt::format("CUDA block sizes must be multiples of 32 in 32..1024 (got {}, {}, {})",
                                      l.block_pixels, l.block_points, l.block_dots));
+    // A block size the workload allows can still be more than a kernel's registers let a block run
+    // on this device (the fields kernel: 768 threads on an H100): refused before any frame.
+    const BlockLimits lim = block_limits();
+    for (auto [name, asked, most] : {std::tuple{"block-pixels", l.block_pixels, lim.pixels},
+                                     std::tuple{"block-points", l.block_points, lim.points},
+                                     std::tuple{"block-dots", l.block_dots, lim.dots}})
+      if (asked > most)
+        throw InputError(fmt::format("{} {}: the kernels it sizes run at most {} threads a block on this GPU (their "
+                                     "registers); use {} or fewer",
+                                     name, asked, most, most / 32 * 32));
     DTFLOP_CUDA(cudaStreamCreate(&stream_));
   }
   ~CudaBackend() override { if (stream_) cudaStreamDestroy(stream_); }

@@ -396,6 +396,26 @@ void launch_labels(const void* img, bool wide, int w, int h, const int* T_dev, i
   DTFLOP_CUDA_LAUNCHED();
 }
 
+namespace {
+template <class K>
+int max_threads(K kernel) {
+  cudaFuncAttributes a{};
+  DTFLOP_CUDA(cudaFuncGetAttributes(&a, kernel));
+  return a.maxThreadsPerBlock;
+}
+}  // namespace
+
+BlockLimits block_limits() {
+  BlockLimits b;
+  for (int t : {max_threads(k_histogram<std::uint8_t>), max_threads(k_histogram<std::uint16_t>),
+                max_threads(k_init<std::uint8_t>), max_threads(k_init<std::uint16_t>), max_threads(k_union),
+                max_threads(k_compress), max_threads(k_ids), max_threads(k_stats)})
+    b.pixels = std::min(b.pixels, t);
+  b.points = std::min(max_threads(k_mls), max_threads(k_fe));
+  b.dots = std::min(max_threads(k_centroid<std::uint8_t>), max_threads(k_centroid<std::uint16_t>));
+  return b;
+}
+
 void launch_stats(const int* L, int w, int h, CompStats cs, int n, int block, cudaStream_t s) {
   k_stats_init<<<grid_for(n, 256), 256, 0, s>>>(cs, n);
   DTFLOP_CUDA_LAUNCHED();

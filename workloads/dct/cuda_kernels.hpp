@@ -37,6 +37,15 @@ struct DotOut {
 
 
 // 256-bin histogram (8-bit scale) of a w x h image and Otsu's threshold in native levels.
+// The most threads a block of each layout's kernels can run on the current device (their
+// registers decide it: a kernel compiled for more registers a thread fits fewer threads a block),
+// the smallest over the kernels each block size is used for.
+struct BlockLimits {
+  int pixels = 1024;  // histogram, threshold and labelling, component statistics
+  int points = 1024;  // MLS and FE fields
+  int dots = 1024;    // centroids
+};
+BlockLimits block_limits();
 void launch_otsu(const void* img, bool wide, int w, int h, unsigned int* hist, int* T, int block, cudaStream_t s);
 // Threshold + union-find labelling; afterwards *count holds the number of components.
 // T_dev (or T_fixed when null): dark dots are v <= T, light dots v > T.

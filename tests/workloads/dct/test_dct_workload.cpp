@@ -387,7 +387,7 @@ INSTANTIATE_TEST_SUITE_P(
         Case{"cpu-par", {{"size", "640x480"}, {"dots", 120}, {"radius", 6}, {"points", "16x12"}, {"support", 20},
                          {"weight", "quartic"}, {"threshold", "fixed"}, {"bits", "16"}, {"threads", 1}}},
         Case{"cuda", {{"size", "640x480"}, {"dots", 120}, {"radius", 6}, {"points", "16x12"}, {"support-radius", 110},
-                      {"weight", "gaussian"}, {"threshold", "fixed"}, {"block-pixels", 32}, {"block-points", 1024},
+                      {"weight", "gaussian"}, {"threshold", "fixed"}, {"block-pixels", 32}, {"block-points", 512},
                       {"block-dots", 64}}},
         Case{"cuda", {{"size", "641x481"}, {"dots", 120}, {"radius", 6}, {"points", "16x12"}, {"support", 20},
                       {"weight", "quartic"}, {"block-pixels", 1024}, {"block-points", 32}, {"block-dots", 1024}}}),
