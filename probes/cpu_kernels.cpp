@@ -4,6 +4,8 @@
 // registers; docs/probe.md shows the disassembly (vfmadd132ps on ymm / zmm registers).
 #include "probes/cpu_kernels.hpp"
 
+#include "kernels/host_loops.hpp"
+
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -182,59 +184,16 @@ void stream_triad(Isa isa, double* a, const double* b, const double* c, double s
   }
 }
 
-// The chained window: 8 outputs a group, the baseline build (no target attribute), as the
-// float64 reference loops of the RBE workload are compiled.
+// The chained window and the serial sum are the workloads' own loops (kernels/host_loops.hpp).
 double window_chained(const double* in, const double* k, std::int64_t taps, std::int64_t n, double* out) {
-  constexpr int G = kWindowChainedGroup;
-  for (std::int64_t x = 0; x < n; x += G) {
-    double acc[G];
-    for (int j = 0; j < G; ++j) acc[j] = 0.0;
-    for (std::int64_t a = 0; a < taps; ++a) {
-      const double w = k[a];
-      for (int j = 0; j < G; ++j) acc[j] = acc[j] + w * in[x + j + a];
-    }
-    for (int j = 0; j < G; ++j) out[x + j] = acc[j];
-  }
-  return 2.0 * static_cast<double>(n) * static_cast<double>(taps);
-}
-
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define DTFLOP_WINDOW_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
-#else
-#define DTFLOP_WINDOW_CLONES
-#endif
-
-// The wide window: 64 outputs a group held in registers while the taps stream past, cloned for
-// x86-64-v3 and the baseline and chosen at load time, as the vectorized CPU backend is.
-DTFLOP_WINDOW_CLONES
-double window_wide(const float* in, const float* k, std::int64_t taps, std::int64_t n, float* out) {
-  constexpr int G = kWindowWideGroup;
-  for (std::int64_t x = 0; x < n; x += G) {
-    float acc[G] = {};
-    for (std::int64_t a = 0; a < taps; ++a) {
-      const float c = k[a];
-      const float* s = in + x + a;
-      for (int j = 0; j < G; ++j) acc[j] += c * s[j];
-    }
-    for (int j = 0; j < G; ++j) out[x + j] = acc[j];
-  }
-  return 2.0 * static_cast<double>(n) * static_cast<double>(taps);
+  kernels::correlate_chained(in + (taps - 1), n, k, taps, out);
+  const std::int64_t groups = (n + kWindowChainedGroup - 1) / kWindowChainedGroup;
+  return 2.0 * static_cast<double>(groups * kWindowChainedGroup) * static_cast<double>(taps);
 }
 
 double serial_sum(const double* in, std::int64_t n, double* sum) {
-  double s = 0;
-  for (std::int64_t i = 0; i < n; ++i) s += in[i];
-  *sum = s;
+  *sum = kernels::serial_sum(n, in);
   return static_cast<double>(n);
-}
-
-std::string_view window_wide_isa() {
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-  __builtin_cpu_init();
-  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && __builtin_cpu_supports("bmi2"))
-    return "x86-64-v3 (AVX2+FMA)";
-#endif
-  return "baseline";
 }
 
 }  // namespace dtflop::probes::cpu

@@ -41,13 +41,13 @@ void fma_chains(Isa isa, std::int64_t iterations, double a, double b, double* ac
 void stream_copy(Isa isa, double* a, const double* b, std::size_t n);
 void stream_triad(Isa isa, double* a, const double* b, const double* c, double s, std::size_t n);
 
-// Sliding-window correlations along one row, out[x] = sum_a k[a] in[x + a] for x < n (n a
-// multiple of the group; `in` holds n + taps - 1 values), the two shapes the CPU backends' taps
-// have (docs/probe.md, cpu-window):
-//   window_chained: float64, 8 outputs in flight (one accumulator each), compiled for the
-//     baseline instruction set like the float64 reference loops: every tap's addition waits for
-//     the previous tap's, so the loop runs at the adder's latency, not at the FMA units' rate.
-//   window_wide: float32, 64 outputs in flight (eight AVX vectors), compiled for x86-64-v3
+// Sliding-window correlations along one row (n a multiple of the group; `in` holds n + taps - 1
+// values), the two shapes the CPU backends' taps have (docs/probe.md, cpu-window):
+//   window_chained: out[x] = sum_a k[a] in[x + taps - 1 - a]; the RBE reference's own loop
+//     (kernels::correlate_chained): float64, 8 outputs in flight (one accumulator each), the
+//     baseline instruction set: every tap's addition waits for the previous tap's, so the loop
+//     runs at the adder's latency, not at the FMA units' rate.
+//   window_wide: out[x] = sum_a k[a] in[x + a]; float32, 64 outputs in flight (eight AVX vectors), compiled for x86-64-v3
 //     (AVX2+FMA) where the CPU has it, like the vectorized loops: enough independent chains for
 //     the FMA units, so the loads (one unaligned vector load per FMA) set the pace.
 // Each returns the FLOPs it did: 2 n taps.
@@ -55,8 +55,8 @@ inline constexpr int kWindowChainedGroup = 8;
 inline constexpr int kWindowWideGroup = 64;
 double window_chained(const double* in, const double* k, std::int64_t taps, std::int64_t n, double* out);
 double window_wide(const float* in, const float* k, std::int64_t taps, std::int64_t n, float* out);
-// The plain float64 sum of in[0..n), one addition after another (a serial chain, as the
-// workloads' sums are written). Returns n FLOPs and the sum in *sum.
+// The plain float64 sum of in[0..n), one addition after another (kernels::serial_sum, the RBE
+// reference's sum). Returns n FLOPs and the sum in *sum.
 double serial_sum(const double* in, std::int64_t n, double* sum);
 // The instruction set window_wide runs with on this CPU: "x86-64-v3 (AVX2+FMA)" or "baseline".
 std::string_view window_wide_isa();

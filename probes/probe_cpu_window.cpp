@@ -103,7 +103,7 @@ Measurement peak(const Plan& p) {
 // One window: times `calls` correlations of the row, checks every output against its exact
 // value (small integers: every partial sum is exact in float32 and float64).
 template <typename T>
-Measurement window(const Plan& p, int group, std::string key, std::string label, std::string how,
+Measurement window(const Plan& p, int group, bool reversed, std::string key, std::string label, std::string how,
                    double (*kernel)(const T*, const T*, std::int64_t, std::int64_t, T*)) {
   if (p.n % group != 0) throw std::logic_error("cpu-window: the row is not a whole number of groups");
   std::vector<T> in(static_cast<std::size_t>(p.n + p.taps - 1)), k(static_cast<std::size_t>(p.taps));
@@ -114,7 +114,8 @@ Measurement window(const Plan& p, int group, std::string key, std::string label,
   for (std::int64_t x = 0; x < p.n; ++x) {
     double s = 0;
     for (std::int64_t a = 0; a < p.taps; ++a)
-      s += static_cast<double>(k[static_cast<std::size_t>(a)]) * static_cast<double>(in[static_cast<std::size_t>(x + a)]);
+      s += static_cast<double>(k[static_cast<std::size_t>(a)]) *
+           static_cast<double>(in[static_cast<std::size_t>(reversed ? x + p.taps - 1 - a : x + a)]);
     expect[static_cast<std::size_t>(x)] = s;
   }
   auto once = [&](std::int64_t calls) {
@@ -177,11 +178,11 @@ ProbeReport run(const ProbeOptions& o) {
   const Plan p = plan(o.effort);
   const Measurement fp64 = peak<double>(p);
   const Measurement chained = window<double>(
-      p, cpu::kWindowChainedGroup, "chained_fp64", "CPU FP64 chained sliding window, 1 thread",
-      "8 outputs in flight, baseline instruction set", cpu::window_chained);
+      p, cpu::kWindowChainedGroup, true, "chained_fp64", "CPU FP64 chained sliding window, 1 thread",
+      "the RBE reference's loop: 8 outputs in flight, baseline instruction set", cpu::window_chained);
   const Measurement fp32 = peak<float>(p);
   const Measurement wide = window<float>(
-      p, cpu::kWindowWideGroup, "wide_fp32", "CPU FP32 sliding window, 1 thread",
+      p, cpu::kWindowWideGroup, false, "wide_fp32", "CPU FP32 sliding window, 1 thread",
       fmt::format("64 outputs in flight, {}", cpu::window_wide_isa()), cpu::window_wide);
   const Measurement k_cd = ratio(fp64, chained, Param::K_CD, "cost of a chained sliding-window FLOP / one at the FMA rate");
   const Measurement k_cw = ratio(fp32, wide, Param::K_CW, "cost of a sliding-window FLOP / one at the FMA rate");

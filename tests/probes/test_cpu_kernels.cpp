@@ -105,17 +105,18 @@ TEST(CpuKernels, WindowKernelsComputeTheCorrelation) {
       for (std::size_t i = 0; i < in64.size(); ++i) in64[i] = static_cast<double>((i * 5 + 1) % 13) - 6;
       for (std::size_t a = 0; a < k64.size(); ++a) k64[a] = static_cast<double>(a % 4) + 1;
       std::vector<float> in32(in64.begin(), in64.end()), k32(k64.begin(), k64.end());
-      auto expect = [&](std::int64_t x) {
+      auto expect = [&](std::int64_t x, bool reversed) {
         double s = 0;
-        for (std::int64_t a = 0; a < taps; ++a) s += k64[static_cast<std::size_t>(a)] * in64[static_cast<std::size_t>(x + a)];
+        for (std::int64_t a = 0; a < taps; ++a)
+          s += k64[static_cast<std::size_t>(a)] * in64[static_cast<std::size_t>(reversed ? x + taps - 1 - a : x + a)];
         return s;
       };
       std::vector<double> out64(static_cast<std::size_t>(nc), -1e300);
       EXPECT_EQ(cpu::window_chained(in64.data(), k64.data(), taps, nc, out64.data()), 2.0 * nc * taps);
-      for (std::int64_t x = 0; x < nc; ++x) EXPECT_EQ(out64[static_cast<std::size_t>(x)], expect(x)) << x;
+      for (std::int64_t x = 0; x < nc; ++x) EXPECT_EQ(out64[static_cast<std::size_t>(x)], expect(x, true)) << x;
       std::vector<float> out32(static_cast<std::size_t>(nw), -1e30f);
       EXPECT_EQ(cpu::window_wide(in32.data(), k32.data(), taps, nw, out32.data()), 2.0 * nw * taps);
-      for (std::int64_t x = 0; x < nw; ++x) EXPECT_EQ(out32[static_cast<std::size_t>(x)], expect(x)) << x;
+      for (std::int64_t x = 0; x < nw; ++x) EXPECT_EQ(out32[static_cast<std::size_t>(x)], expect(x, false)) << x;
     }
   }
 }

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "kernels/host_loops.hpp"
 #include "workloads/rbe/motion.hpp"
 
 namespace dtflop::rbe::reference {
@@ -27,8 +28,9 @@ inline std::int64_t end_tap(std::int64_t i, std::int64_t c, std::int64_t I) { re
 // consecutive outputs' chains only when an output has few taps), and on how many outputs sit
 // near an edge; this way it is the same for every tap, and the FLOPs predict the time. The last
 // group of a row is computed whole too (its outputs past the row are dropped), so a row costs
-// kGroup ceil(n_x / kGroup) outputs' taps.
-inline constexpr std::int64_t kGroup = 8;
+// kGroup ceil(n_x / kGroup) outputs' taps. The loop over a line is kernels::correlate_chained,
+// which the cpu-window probe times for K_CD.
+inline constexpr std::int64_t kGroup = kernels::kChainGroup;
 template <class T>
 void pass_x(std::int64_t nx, std::int64_t ny, const T* k, std::int64_t I, const T* p, T* u) {
   const std::int64_t left = I - 1 - kernel_centre(I);  // padding before the row
@@ -37,17 +39,7 @@ void pass_x(std::int64_t nx, std::int64_t ny, const T* k, std::int64_t I, const 
   std::vector<T> line(static_cast<std::size_t>(groups * kGroup + I - 1), T(0));
   for (std::int64_t iy = 0; iy < ny; ++iy) {
     for (std::int64_t j = 0; j < nx; ++j) line[static_cast<std::size_t>(left + j)] = p[iy * nx + j];
-    const T* src = line.data() + (I - 1);
-    T* out = u + iy * nx;
-    for (std::int64_t ix = 0; ix < nx; ix += kGroup) {
-      T acc[kGroup];
-      for (std::int64_t j = 0; j < kGroup; ++j) acc[j] = T(0);
-      for (std::int64_t a = 0; a < I; ++a) {
-        const T w = k[a];
-        for (std::int64_t j = 0; j < kGroup; ++j) acc[j] = acc[j] + w * src[ix + j - a];
-      }
-      for (std::int64_t j = 0; j < kGroup && ix + j < nx; ++j) out[ix + j] = acc[j];
-    }
+    kernels::correlate_chained(line.data() + (I - 1), nx, k, I, u + iy * nx);
   }
 }
 
@@ -99,12 +91,10 @@ void multiply(std::int64_t n, const T* l, const T* pred, T* q) {
   for (std::int64_t i = 0; i < n; ++i) q[i] = l[i] * pred[i];
 }
 
-// Correction step 2: the sum of q.
+// Correction step 2: the sum of q, a serial chain (kernels::serial_sum, the cpu-window probe's V_CS).
 template <class T>
 T sum(std::int64_t n, const T* q) {
-  T s = T(0);
-  for (std::int64_t i = 0; i < n; ++i) s = s + q[i];
-  return s;
+  return kernels::serial_sum(n, q);
 }
 
 // Correction step 3 (4.11): p = q / (A_c x sum). The caller checks that the sum is positive.
