@@ -39,7 +39,7 @@ double default_start(Param p) {
   if (p == Param::L_net) return 2e-6;    // a message between processes of one host
   if (p == Param::B_net) return 2e9;
   if (unit == "s") return 10e-6;
-  if (p == Param::K_CW || p == Param::K_CD || p == Param::K_GR) return 1.0;  // a FLOP costs what any other does
+  if (p == Param::K_CW || p == Param::K_CD || p == Param::K_CA || p == Param::K_GR) return 1.0;  // a FLOP costs what any other does
   if (p == Param::S_GC_staged) return 256.0 * 1024;  // the staging chunks of today's drivers
   if (p == Param::S_GC_flat) return 128.0 * 1024;
   if (p == Param::V_G_fp32 || p == Param::V_G_fp64) return 10e12;

@@ -49,6 +49,10 @@ struct CostCounts {
                                 // set), so every tap's addition waits for the previous tap's.
                                 // Priced K_CD times a FLOP at the CPU rate (memory and extended
                                 // variants); 0 = none. A FLOP is in N_CW or N_CD, never both
+  std::int64_t N_CA = 0;        // of N_C, the FLOPs of aligned vector windows: a correlation across
+                                // rows whose every aligned row segment loaded feeds two FMAs (two
+                                // output rows at once). Priced K_CA times a FLOP at the CPU rate
+                                // (memory and extended variants); 0 = none
   std::int64_t N_CS = 0;        // of N_C, the FLOPs of one serial chain: a plain sum whose every
                                 // addition waits for the one before (no other chain beside it).
                                 // Priced at V_CS, the rate of such a chain (latency, memory and

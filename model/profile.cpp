@@ -56,6 +56,7 @@ const std::vector<ParamInfo>& all_params() {
       {Param::S_GC_flat, "S_GC_flat", "B", "device->host pageable: bytes after S_GC_staged that cost nothing more"},
       {Param::K_CW, "K_CW", "x", "cost of a sliding-window CPU FLOP (one unaligned load per FMA) relative to one at the CPU rate"},
       {Param::K_CD, "K_CD", "x", "cost of a chained sliding-window CPU FLOP (few outputs in flight, each tap's addition waits for the one before) relative to one at the CPU rate"},
+      {Param::K_CA, "K_CA", "x", "cost of an aligned-window CPU FLOP (vectorized, each row segment loaded once for two FMAs) relative to one at the CPU rate"},
       {Param::V_CS, "V_CS", "FLOP/s", "CPU rate of one chain of dependent additions (a plain sum: each addition waits for the one before), one thread"},
       {Param::K_GR, "K_GR", "x", "cost of a GPU FLOP whose tap reads another row of device memory relative to one at V_G"},
       {Param::L_tree, "L_tree", "s", "one step of host k-d tree work: a point placed at one level, a level descended or a leaf point examined"},
@@ -107,6 +108,7 @@ bool device_param(Param p) {
     case Param::K_CW:
     case Param::K_CD:
     case Param::V_CS:
+    case Param::K_CA:
     case Param::L_tree:
     case Param::L_net:
     case Param::B_net:

@@ -51,6 +51,7 @@ enum class Param {
   S_GC_flat,       // bytes after those that cost nothing more; the rest at B_GC_pageable [B]
   K_CW,            // cost of a sliding-window FLOP (N_CW) relative to one at the CPU rate [x]
   K_CD,            // cost of a chained sliding-window FLOP (N_CD) relative to one at the CPU rate [x]
+  K_CA,            // cost of an aligned-window FLOP (N_CA) relative to one at the CPU rate     [x]
   V_CS,            // rate of one chain of dependent additions (a plain sum, N_CS), one thread [FLOP/s]
   K_GR,            // cost of an across-rows GPU FLOP (N_GR) relative to one at V_G         [x]
   L_tree,          // one step of host k-d tree work (tree_steps)                          [s]

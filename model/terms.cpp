@@ -139,6 +139,7 @@ double g_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const 
 // addition waits for the one before: docs/model.md 2.4).
 bool sliding_window(const CostCounts& c, Variant v) { return kHostMemoryVariants.contains(v) && c.N_CW > 0; }
 bool chained_window(const CostCounts& c, Variant v) { return kHostMemoryVariants.contains(v) && c.N_CD > 0; }
+bool aligned_window(const CostCounts& c, Variant v) { return kHostMemoryVariants.contains(v) && c.N_CA > 0; }
 // latency+: a serial chain (N_CS) runs at its own rate V_CS, on one thread whatever cpu_threads is,
 // where the profile has V_CS (or a fit is to find it); a profile made before the probe measured it
 // prices the chain at the CPU rate, as it was fitted to (like the staging figures, docs/model.md 2.4).
@@ -151,6 +152,7 @@ std::vector<Param> c_needs(const CostCounts& c, Variant v, const Pricing& x) {
   if (c.N_C > (serial ? c.N_CS : 0)) out = cpu_params(v_c1(c), v_c(c), c.cpu_threads);
   if (sliding_window(c, v)) out.push_back(Param::K_CW);
   if (chained_window(c, v)) out.push_back(Param::K_CD);
+  if (aligned_window(c, v)) out.push_back(Param::K_CA);
   if (serial) out.push_back(Param::V_CS);
   return out;
 }
@@ -158,7 +160,8 @@ double c_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const 
   const bool serial = serial_chain(c, v, x);
   const double flops = priced_flops(c.N_C - (serial ? c.N_CS : 0), c.N_CW,
                                     sliding_window(c, v) ? m.get(Param::K_CW).value : 1.0) +
-                       (chained_window(c, v) ? m.get(Param::K_CD).value - 1 : 0.0) * static_cast<double>(c.N_CD);
+                       (chained_window(c, v) ? m.get(Param::K_CD).value - 1 : 0.0) * static_cast<double>(c.N_CD) +
+                       (aligned_window(c, v) ? m.get(Param::K_CA).value - 1 : 0.0) * static_cast<double>(c.N_CA);
   const double rest = flops > 0 ? flops / cpu_rate(m, c.precision, c.cpu_threads) : 0.0;
   return rest + (serial ? static_cast<double>(c.N_CS) / m.get(Param::V_CS).value : 0.0);
 }
@@ -225,9 +228,9 @@ const std::vector<Term>& terms() {
       {"dt_GS", &P::dt_GS, Phase::G, kLatencyVariants, sum, "P N_GS", "B_GS", "shared-memory tile fills",
        per_byte<&C::N_GS, only<Param::B_GS>>()},
       {"dt_C_arith", &P::dt_C_arith, Phase::C, kEveryVariant, overlap,
-       "N_C + (K_CW - 1) N_CW + (K_CD - 1) N_CD, N_CS apart (latency+); seed: N_C",
+       "N_C + (K_CW - 1) N_CW + (K_CD - 1) N_CD + (K_CA - 1) N_CA, N_CS apart (latency+); seed: N_C",
        "V_C1_fp32 or V_C1_fp64 (precision), and V_C_fp32 or V_C_fp64 for cpu_threads > 1 (2.3); K_CW (memory, "
-       "extended, N_CW > 0); K_CD (memory, extended, N_CD > 0); V_CS (latency+, N_CS > 0)",
+       "extended, N_CW > 0); K_CD, K_CA (memory, extended, N_CD, N_CA > 0); V_CS (latency+, N_CS > 0)",
        "CPU arithmetic", {positive<&C::N_C>, c_needs, c_seconds}},
       {"dt_CC", &P::dt_CC, Phase::C, kHostMemoryVariants, overlap, "P N_CC",
        "B_host_1, and B_host for cpu_threads > 1; B_llc_1 (and B_llc) when 0 < cpu_footprint < LLC (2.4)",

@@ -50,11 +50,16 @@ void stream_triad(Isa isa, double* a, const double* b, const double* c, double s
 //   window_wide: out[x] = sum_a k[a] in[x + a]; float32, 64 outputs in flight (eight AVX vectors), compiled for x86-64-v3
 //     (AVX2+FMA) where the CPU has it, like the vectorized loops: enough independent chains for
 //     the FMA units, so the loads (one unaligned vector load per FMA) set the pace.
-// Each returns the FLOPs it did: 2 n taps.
+//   window_aligned: cpu-par's y-pass block over a strip of `n` rows (n even) of kWindowStrip
+//     floats: out[y][x] = sum_a k[a] in[y + a][x] for two rows y at a time, each row loaded once
+//     feeding two FMAs (aligned loads); `in` holds n + taps rows. 2 n kWindowStrip taps FLOPs.
+// Each returns the FLOPs it did: 2 n taps (window_aligned: 2 n kWindowStrip taps).
 inline constexpr int kWindowChainedGroup = 8;
 inline constexpr int kWindowWideGroup = 64;
+inline constexpr int kWindowStrip = 32;
 double window_chained(const double* in, const double* k, std::int64_t taps, std::int64_t n, double* out);
 double window_wide(const float* in, const float* k, std::int64_t taps, std::int64_t n, float* out);
+double window_aligned(const float* in, const float* k, std::int64_t taps, std::int64_t n, float* out);
 // The plain float64 sum of in[0..n), one addition after another (kernels::serial_sum, the RBE
 // reference's sum). Returns n FLOPs and the sum in *sum.
 double serial_sum(const double* in, std::int64_t n, double* sum);

@@ -5,6 +5,7 @@
 //         paced by the adder's latency (the float64 reference loops, cpu-seq's taps);
 //   K_CW  float32, 64 outputs in flight, AVX2+FMA where the CPU has it: paced by one unaligned
 //         vector load per FMA (the vectorized loops, cpu-par's x-pass);
+//   K_CA  float32, two rows of 32 outputs, each row loaded once for two FMAs (cpu-par's y-pass);
 //   V_CS  one chain of dependent float64 additions over a row (the workloads' host sums).
 // A row of 2048 outputs and 33 taps stays in the first-level cache, so memory plays no part: the
 // ratio is the loop's own. The FMA rates are rerun here (the cpu-fma probe's kernel) so that each
@@ -35,10 +36,10 @@ struct Plan {
 Plan plan(Effort e) {
   switch (e) {
     case Effort::smoke: return {0.002, 3, 256, 9};
-    case Effort::quick: return {0.04, 7, 2048, 33};
-    case Effort::full: return {0.15, 9, 2048, 33};
+    case Effort::quick: return {0.04, 7, 2048, 97};
+    case Effort::full: return {0.15, 9, 2048, 97};
   }
-  return {0.04, 7, 2048, 33};
+  return {0.04, 7, 2048, 97};
 }
 
 // Times `once(count)` (which does `count` calls' work and returns its FLOPs): the count grows
@@ -137,6 +138,44 @@ Measurement window(const Plan& p, int group, bool reversed, std::string key, std
                           fmt::format("{}; a row of {} outputs, {} taps, median of {}", how, p.n, p.taps, p.reps));
 }
 
+// cpu-par's y-pass block over a strip of 64 rows of 32 floats (in the first-level cache), every
+// output checked against its exact value.
+Measurement aligned(const Plan& p) {
+  constexpr std::int64_t B = cpu::kWindowStrip;
+  const std::int64_t rows = 64;
+  std::vector<float> in(static_cast<std::size_t>((rows + p.taps) * B)), k(static_cast<std::size_t>(p.taps));
+  std::vector<float> out(static_cast<std::size_t>(rows * B));
+  for (std::size_t i = 0; i < in.size(); ++i) in[i] = static_cast<float>((i * 5 + 2) % 9);
+  for (std::size_t a = 0; a < k.size(); ++a) k[a] = static_cast<float>(1 + a % 4);
+  auto expect = [&](std::int64_t y, std::int64_t x) {
+    double s = 0;
+    for (std::int64_t a = 0; a < p.taps; ++a)
+      s += static_cast<double>(k[static_cast<std::size_t>(a)]) * static_cast<double>(in[static_cast<std::size_t>((y + a) * B + x)]);
+    return s;
+  };
+  auto once = [&](std::int64_t calls) {
+    double flops = 0;
+    for (std::int64_t c = 0; c < calls; ++c) {
+      in[0] = static_cast<float>(c % 2 ? 1 : 2);
+      flops += cpu::window_aligned(in.data(), k.data(), p.taps, rows, out.data());
+    }
+    in[0] = 2;
+    cpu::window_aligned(in.data(), k.data(), p.taps, rows, out.data());
+    for (std::int64_t y = 0; y < rows; ++y)
+      for (std::int64_t x = 0; x < B; ++x)
+        if (static_cast<double>(out[static_cast<std::size_t>(y * B + x)]) != expect(y, x))
+          throw ValidationError(fmt::format("CPU FP32 aligned window: output ({}, {}) is {}, expected {}", y, x,
+                                            out[static_cast<std::size_t>(y * B + x)], expect(y, x)));
+    return flops;
+  };
+  const Timed t = time_calls(once, p);
+  return rate_measurement("aligned_fp32", "CPU FP32 aligned window, 1 thread", "FLOP/s", t.flops, t.seconds,
+                          std::nullopt,
+                          fmt::format("cpu-par's y-pass block: {} rows of {} floats, {} taps, each row loaded once for "
+                                      "two FMAs, {}, median of {}",
+                                      rows, B, p.taps, cpu::window_wide_isa(), p.reps));
+}
+
 // The serial chain: a float64 sum of the row (small integers: exact), `calls` times.
 Measurement serial(const Plan& p) {
   const std::int64_t n = 4096;  // 32 KiB: in the first-level cache, so the chain and not memory sets the pace
@@ -186,12 +225,16 @@ ProbeReport run(const ProbeOptions& o) {
       fmt::format("64 outputs in flight, {}", cpu::window_wide_isa()), cpu::window_wide);
   const Measurement k_cd = ratio(fp64, chained, Param::K_CD, "cost of a chained sliding-window FLOP / one at the FMA rate");
   const Measurement k_cw = ratio(fp32, wide, Param::K_CW, "cost of a sliding-window FLOP / one at the FMA rate");
+  const Measurement al = aligned(p);
+  const Measurement k_ca = ratio(fp32, al, Param::K_CA, "cost of an aligned-window FLOP / one at the FMA rate");
+  o.say(fmt::format("  CPU aligned window (fp32): {:.1f} GFLOP/s, K_CA {:.2f}", al.value / 1e9, k_ca.value));
   o.say(fmt::format("  CPU chained window (fp64): {:.2f} GFLOP/s, K_CD {:.2f}; wide window (fp32): {:.1f} GFLOP/s, "
                     "K_CW {:.2f}",
                     chained.value / 1e9, k_cd.value, wide.value / 1e9, k_cw.value));
   const Measurement chain = serial(p);
   o.say(fmt::format("  CPU serial chain (fp64 sum): {:.2f} GFLOP/s", chain.value / 1e9));
-  for (const Measurement* m : {&fp64, &chained, &k_cd, &fp32, &wide, &k_cw, &chain}) r.measurements.push_back(*m);
+  for (const Measurement* m : {&fp64, &chained, &k_cd, &fp32, &wide, &k_cw, &al, &k_ca, &chain})
+    r.measurements.push_back(*m);
   return r;
 }
 
@@ -201,6 +244,6 @@ ProbeReport run(const ProbeOptions& o) {
 DTFLOP_PROBE_UNIT(probe_cpu_window) {
   registry.add({"cpu-window",
                 "CPU sliding-window correlations against the FMA rate (K_CD: chained float64 taps, K_CW: vectorized "
-                "float32 taps) and the rate of a plain sum (V_CS)",
+                "float32 taps, K_CA: aligned float32 rows) and the rate of a plain sum (V_CS)",
                 false, 22, dtflop::probes::run});
 }

@@ -178,6 +178,13 @@ TEST(Predict, ChainedWindowFlopsCostKCdTimesTheOthersBesideTheSlidingWindowOnes)
   CostCounts none = c;
   none.N_CD = 0;
   EXPECT_FALSE(needs(none, Variant::memory, Param::K_CD));
+  // Aligned-window FLOPs at K_CA.
+  m.set(Param::K_CA, Parameter{2.0, Provenance::probed, {}, {}, {}});
+  c.N_CA = 100'000;  // 1 us -> 2 us
+  EXPECT_NEAR(predict(m, c, Variant::memory).dt_C, (3e5 + 3e5 + 2e6 + 1e5) / 100e9, 1e-15);
+  EXPECT_NEAR(predict(m, c, Variant::latency).dt_C, 10e-6, 1e-15);
+  EXPECT_TRUE(needs(c, Variant::memory, Param::K_CA));
+  c.N_CA = 0;
   // A FLOP is of one kind of window at most.
   c.N_CD = 900'000;
   EXPECT_THROW(predict(m, c, Variant::memory), InputError);

@@ -65,6 +65,7 @@ CostCounts cpu_par_counts(const Shape& s, Convolution prediction, int threads) {
     // The x-pass slides along its row: one unaligned load per FMA. (The y-pass loads aligned row
     // segments of its strip, each feeding two output rows.)
     c.N_CW = 2 * s.ny * s.Ix * round_up(s.nx, kCpuParXBlock);
+    c.N_CA = 2 * s.ny * s.Iy * round_up(s.nx, kCpuParYStrip);  // the y-pass: each row loaded for two FMAs
     c.N_CC = 7 * ng + s.Ix + s.Iy;
     // Working set: q, l, the prediction and u, strip by strip (Y columns), with I_y - 1 zero rows.
     c.cpu_footprint = (3 * ng + (s.ny + s.Iy - 1) * round_up(s.nx, kCpuParYStrip)) * c.P;

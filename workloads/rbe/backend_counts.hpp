@@ -40,7 +40,8 @@ CostCounts cpu_seq_counts(const Shape& s, Convolution prediction);
 //   separable: N_C = 2 n_y (I_x X + I_y Y) + 3 n_g + 2,  N_CC = 7 n_g + I_x + I_y
 //   full:      N_C = 2 n_g I_x I_y + 3 n_g + 2,          N_CC = 7 n_g + I_x I_y
 //   sliding-window FLOPs (one unaligned load per FMA): N_CW = 2 n_y I_x X (the x-pass),
-//   2 n_g I_x I_y (full 2D); the y-pass's aligned loads each feed two FMAs and are not counted
+//   2 n_g I_x I_y (full 2D); aligned-window FLOPs (each row segment loaded feeds two FMAs):
+//   N_CA = 2 n_y I_y Y (the y-pass), 0 (full 2D)
 //   cpu_syncs = 3 with two threads or more (the prediction's parallel region, the barrier between
 //   its two loops, the correction's region), 0 on one thread
 //   cpu_footprint (separable) = P (3 n_g + (n_y + I_y - 1) Y): q, l, the prediction and u, which

@@ -13,6 +13,7 @@
 
 #include <fmt/format.h>
 
+#include "kernels/vector_loops.hpp"
 #include "workloads/rbe/backend_counts.hpp"
 #include "workloads/rbe/fusion_counts.hpp"
 #include "workloads/rbe/detail.hpp"
@@ -25,35 +26,14 @@ namespace {
 #else
 #define DTFLOP_VECTOR_CLONES
 #endif
-// Helpers of the cloned functions are forced inline so that they are compiled for each clone's
-// instruction set (a call would run the baseline build of the helper).
-#if defined(__GNUC__)
-#define DTFLOP_INLINE [[gnu::always_inline]] inline
-#else
-#define DTFLOP_INLINE inline
-#endif
 
 // Outputs per block of the x-pass and columns per strip of the y-pass (backend_counts.hpp:
 // whole blocks are computed, and counted).
 constexpr int kXBlock = kCpuParXBlock;
 constexpr int kYStrip = kCpuParYStrip;
-
-// out[x] = sum_a k[a] in[x + a] for 2 x kYStrip consecutive x: the accumulators stay in
-// registers while the taps stream past (64 = eight AVX vectors, enough independent FMA chains to
-// keep both FMA pipes busy). The first kYStrip outputs go to out0, the others to out1: the two
-// y-pass strips the block covers.
-DTFLOP_INLINE void correlate_block(const float* __restrict in, const float* __restrict k, std::int64_t I,
-                                   float* __restrict out0, float* __restrict out1) {
-  static_assert(kXBlock == 2 * kYStrip, "an x-pass block fills two y-pass strips");
-  float acc[kXBlock] = {};
-  for (std::int64_t a = 0; a < I; ++a) {
-    const float c = k[a];
-    const float* s = in + a;
-    for (int j = 0; j < kXBlock; ++j) acc[j] += c * s[j];
-  }
-  for (int j = 0; j < kYStrip; ++j) out0[j] = acc[j];
-  for (int j = 0; j < kYStrip; ++j) out1[j] = acc[kYStrip + j];
-}
+static_assert(kXBlock == kernels::kWideBlock && kYStrip == kernels::kWideStrip, "the blocks are kernels/'s");
+using kernels::combine_block;
+using kernels::correlate_block;
 
 // Row r of u, u[x] = sum_a k[a] in[x + a] for every column x of the strips: `in` holds the
 // zero-padded input row and kXBlock - 1 readable values after it; u is stored strip by strip
@@ -68,41 +48,6 @@ void correlate_row(const float* __restrict in, const float* __restrict k, std::i
   for (std::int64_t s = 0; s < strips; s += 2) {
     float* hi = s + 1 < strips ? u + (s + 1) * strip : spill;
     correlate_block(in + s * kYStrip, k, I, u + s * strip, hi);
-  }
-}
-
-// The y-pass for kYStrip columns of two neighbouring output rows: out0[x] = sum_b k[b] in[b p + x]
-// and out1[x] = sum_b k[b] in[(b + 1) p + x], p = kYStrip (one strip of u). The two outputs share
-// I - 1 of their input rows, so each row segment loaded feeds two FMAs (2 x 32 accumulators in
-// registers). Taps are summed in the same order as for one row at a time. Without out1, one row.
-DTFLOP_INLINE void combine_block(const float* __restrict in, const float* __restrict k, std::int64_t I,
-                                 float* __restrict out0, float* __restrict out1) {
-  constexpr int B = kYStrip;
-  float a0[B] = {};
-  if (out1 == nullptr) {
-    for (std::int64_t b = 0; b < I; ++b) {
-      const float c = k[b];
-      const float* s = in + b * B;
-      for (int j = 0; j < B; ++j) a0[j] += c * s[j];
-    }
-    for (int j = 0; j < B; ++j) out0[j] = a0[j];
-    return;
-  }
-  float a1[B] = {};
-  for (int j = 0; j < B; ++j) a0[j] += k[0] * in[j];
-  for (std::int64_t b = 1; b < I; ++b) {
-    const float c0 = k[b], c1 = k[b - 1];
-    const float* s = in + b * B;
-    for (int j = 0; j < B; ++j) {
-      a0[j] += c0 * s[j];
-      a1[j] += c1 * s[j];
-    }
-  }
-  const float* s = in + I * B;
-  for (int j = 0; j < B; ++j) a1[j] += k[I - 1] * s[j];
-  for (int j = 0; j < B; ++j) {
-    out0[j] = a0[j];
-    out1[j] = a1[j];
   }
 }
 

@@ -92,6 +92,9 @@ TEST(RbeBackendCounts, CpuParByHand) {
   EXPECT_EQ(c.N_C, 2LL * 1000 * (33 * 1024 + 33 * 1024) + 3LL * 1000000 + 2);
   EXPECT_EQ(c.N_CC, 7LL * 1000000 + 66);
   EXPECT_EQ(c.N_CW, 2LL * 1000 * 33 * 1024);  // the x-pass's FLOPs: it slides along its rows
+  EXPECT_EQ(c.N_CA, 2LL * 1000 * 33 * 1024);  // the y-pass's: each row segment loaded feeds two FMAs
+  EXPECT_EQ(cpu_par_counts({100, 10, 3, 5}, Convolution::separable, 2).N_CA, 2LL * 10 * 5 * 128);
+  EXPECT_EQ(cpu_par_counts({100, 50, 5, 7}, Convolution::full, 1).N_CA, 0);
   EXPECT_EQ(c.cpu_syncs, 3);
   // Working set: q, l, prediction (10^6 floats each) and u: 32 strips of 32 columns, 1032 rows.
   EXPECT_EQ(c.cpu_footprint, 4LL * (3 * 1000000 + 1032 * 1024));
