@@ -1,6 +1,7 @@
 // dct_quality: the DCT workload's measurement quality on images from the independent renderer
 // (tests/workloads/dct/independent_renderer), which shares no code with workloads/dct.
 //   dct_quality fields  [backend] [support] [interp] [seeds]  displacement / strain errors per deformation
+//   dct_quality fe-ratio [backend] [support] [seeds]                 FE / MLS strain error by distance from the hull
 //   dct_quality centroids [margin]                                   centroid error vs radius, blur, noise
 //   dct_quality sigma [backend] [support] [interp] [runs]            stated vs observed deviation
 //   dct_quality kirsch [backend] [seeds] [interp] [support...]       e_yy at the hole edge: bias and noise
@@ -38,6 +39,7 @@ dct_indep::Params params(const std::string& deformation, std::uint64_t seed) {
   dct_indep::Params p;
   p.deformation = deformation;
   p.seed = seed;
+  if (std::getenv("DCT_QUALITY_NOISE")) p.noise = std::atof(std::getenv("DCT_QUALITY_NOISE"));
   return p;
 }
 
@@ -112,6 +114,68 @@ int fields(int argc, char** argv) {
       for (const auto& [why, k] : e.invalid) std::fprintf(stderr, "  invalid: %d %s\n", k, why.c_str());
       std::fflush(stdout);
     }
+  return 0;
+}
+
+// FE against MLS on the same images, by distance from the dots' convex hull: the strain error
+// RMS (all three components) of each over the points both give, inside the hull, in bands
+// 0-100 px, 100-200 px and over 200 px from it, and over all of them; FE / MLS per band.
+int fe_ratio(int argc, char** argv) {
+  const std::string backend = argc > 2 ? argv[2] : "cpu-par";
+  const std::string support = argc > 3 ? argv[3] : Support{}.str();
+  const int seeds = argc > 4 ? std::stoi(argv[4]) : 1;
+  constexpr int kBands = 4;  // 0-100, 100-200, > 200, all
+  const char* band_names[kBands] = {"0-100 px", "100-200 px", "> 200 px", "all"};
+  std::printf("FE / MLS strain error RMS by distance from the hull, %s, %s\n", backend.c_str(), support.c_str());
+  std::printf("| deformation | seed | band | points | MLS [microstrain] | FE [microstrain] | FE / MLS |\n"
+              "|---|---|---|---|---|---|---|\n");
+  double worst = 0;
+  for (const char* d : {"tension", "bending", "rotation"})
+    for (int seed = 1; seed <= seeds; ++seed) {
+      const dct_indep::Scene s = dct_indep::make_scene(params(d, seed));
+      const cv::Mat ref = dct_indep::finish(dct_indep::render_clean(s, false), s.p.noise, 2 * seed);
+      const cv::Mat def = dct_indep::finish(dct_indep::render_clean(s, true), s.p.noise, 2 * seed + 1);
+      std::vector<FieldValue<double>> f[2];
+      std::vector<Vec2> pts;
+      for (int k = 0; k < 2; ++k) {
+        PipelineOptions o;
+        o.mls.support = parse_support(support);
+        o.interp = k ? Interp::fe : Interp::mls;
+        auto b = make_backend(backend, o);
+        b->set_reference(ref);
+        f[k] = b->process(def).fields;
+        pts = b->points();
+      }
+      std::vector<cv::Point2f> refs, hull;
+      for (const auto& q : s.dots) refs.emplace_back(static_cast<float>(q.x), static_cast<float>(q.y));
+      cv::convexHull(refs, hull);
+      double sse[2][kBands] = {};
+      int n[kBands] = {};
+      for (std::size_t m = 0; m < pts.size(); ++m) {
+        const double dist = cv::pointPolygonTest(hull, cv::Point2f(static_cast<float>(pts[m].x), static_cast<float>(pts[m].y)), true);
+        if (!(dist > 0.5) || f[0][m].status != PointStatus::ok || f[1][m].status != PointStatus::ok) continue;
+        const dct_indep::Grad g = s.field->grad({pts[m].x, pts[m].y});
+        const int band = dist <= 100 ? 0 : dist <= 200 ? 1 : 2;
+        for (int k = 0; k < 2; ++k) {
+          const auto& v = f[k][m];
+          const double e = std::pow(v.exx - dct_indep::gl_xx(g), 2) + std::pow(v.eyy - dct_indep::gl_yy(g), 2) +
+                           std::pow(v.exy - dct_indep::gl_xy(g), 2);
+          sse[k][band] += e;
+          sse[k][kBands - 1] += e;
+        }
+        ++n[band];
+        ++n[kBands - 1];
+      }
+      for (int b = 0; b < kBands; ++b) {
+        if (!n[b]) continue;
+        const double mls = std::sqrt(sse[0][b] / (3 * n[b])), fe = std::sqrt(sse[1][b] / (3 * n[b]));
+        worst = std::max(worst, fe / mls);
+        std::printf("| %s | %d | %s | %d | %.1f | %.1f | %.2f |\n", d, seed, band_names[b], n[b], 1e6 * mls, 1e6 * fe,
+                    fe / mls);
+      }
+      std::fflush(stdout);
+    }
+  std::printf("worst FE / MLS: %.2f\n", worst);
   return 0;
 }
 
@@ -364,6 +428,7 @@ int main(int argc, char** argv) {
   try {
     if (mode == "fields") return fields(argc, argv);
     if (mode == "sigma") return sigma(argc, argv);
+    if (mode == "fe-ratio") return fe_ratio(argc, argv);
     if (mode == "kirsch") return kirsch(argc, argv);
     if (mode == "support-noise") return support_noise(argc, argv);
     if (mode == "centroids") return centroids(argc > 2 ? std::stoi(argv[2]) : AnalysisOptions{}.margin);
@@ -371,8 +436,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "dct_quality: %s\n", e.what());
     return 2;
   }
-  std::fprintf(stderr, "usage: dct_quality fields [backend] [support] [mls|fe] [seeds] [weight] | centroids [margin] | "
-                       "sigma [backend] [support] [mls|fe] [runs] | kirsch [backend] [seeds] [mls|fe] [support...] | "
+  std::fprintf(stderr, "usage: dct_quality fields [backend] [support] [mls|fe] [seeds] [weight] | fe-ratio [backend] [support] [seeds] | "
+                       "centroids [margin] | sigma [backend] [support] [mls|fe] [runs] | kirsch [backend] [seeds] [mls|fe] [support...] | "
                        "support-noise [backend]\n");
   return 2;
 }
