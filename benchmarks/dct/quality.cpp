@@ -39,7 +39,6 @@ dct_indep::Params params(const std::string& deformation, std::uint64_t seed) {
   dct_indep::Params p;
   p.deformation = deformation;
   p.seed = seed;
-  if (std::getenv("DCT_QUALITY_NOISE")) p.noise = std::atof(std::getenv("DCT_QUALITY_NOISE"));
   return p;
 }
 

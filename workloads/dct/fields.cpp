@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 
 #include <fmt/format.h>
 #include <opencv2/core/utility.hpp>
@@ -293,7 +292,7 @@ FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec
   // the weight itself rather than its derivative. Measured on independent renders
   // (`dct_quality fe-ratio`, docs/dct.md "FE"). A linear field is still recovered exactly
   // (any weights do).
-  const double kFeHullTaper = std::getenv("FEL") ? std::atof(std::getenv("FEL")) : 0.25;  // of the point's support radius
+  constexpr double kFeHullTaper = 0.25;  // of the point's support radius
   std::vector<double> tri_weight(centroid.size(), 0.0), hull_dist(centroid.size(), 0.0);
   {
     std::vector<cv::Point2f> pts2, hull;
@@ -301,7 +300,7 @@ FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec
     cv::convexHull(pts2, hull);
     for (std::size_t k = 0; k < tri_weight.size(); ++k) {
       if (!sound[k]) continue;
-      tri_weight[k] = area[k] * (std::getenv("FEQ") ? quality[k] : 1.0);
+      tri_weight[k] = area[k] * quality[k];
       if (hull.size() >= 3)
         hull_dist[k] = cv::pointPolygonTest(
             hull, cv::Point2f(static_cast<float>(centroid[k].x), static_cast<float>(centroid[k].y)), true);

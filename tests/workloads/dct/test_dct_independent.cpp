@@ -117,10 +117,14 @@ TEST(DctIndependent, DefaultsMeetTheTargetsInTensionBendingAndRotation) {
 }
 
 // FE: valid wherever the triangulation covers the point (inside the dots' convex hull, from
-// the renderer's own dots), and its recovered strain close to MLS's on the points at least
-// 200 px inside the hull: measured 1.3-2.2x MLS's at the default 200-dot support over seeds
-// (the target is 2x; near the hull, where the recovery's linear fit extrapolates, up
-// to ~4x; docs/dct.md), asserted at 2.5x.
+// the renderer's own dots), and its recovered strain against MLS's on the same images, over the
+// points both give inside the hull, by distance from the hull: within 200 px of it and beyond.
+// The target is 2x MLS. Measured (`dct_quality fe-ratio`, 3 patterns x tension, bending,
+// rotation; docs/dct.md "FE"): at 60 dots per support FE / MLS is 0.69-1.70 in every band and
+// 0.93-1.28 overall (this test's seed: see its output), so the 2x bound is asserted everywhere
+// there; at the default 200 dots the hull's one-sided patches still cost FE more than MLS:
+// 1.27-2.49 beyond 200 px, 1.37-3.98 within 200 px (the area-weighted gradients' boundary term
+// grows as sqrt(support radius / dot spacing) against MLS's noise), asserted at 2.5x and 4.5x.
 TEST(DctIndependent, FeCoversTheHullAndTracksMls) {
   dct_indep::Params p;
   p.deformation = "bending";
@@ -131,39 +135,59 @@ TEST(DctIndependent, FeCoversTheHullAndTracksMls) {
   std::vector<cv::Point2f> dots, hull;
   for (const auto& d : s.dots) dots.emplace_back(static_cast<float>(d.x), static_cast<float>(d.y));
   cv::convexHull(dots, hull);
-  double sse[2] = {0, 0};
-  int inner = 0, covered = 0, covered_valid = 0;
-  std::vector<FieldValue<double>> mls;
-  for (const Interp interp : {Interp::mls, Interp::fe}) {
-    PipelineOptions o;
-    o.interp = interp;
-    auto b = make_backend("cpu-par", o);
-    b->set_reference(ref);
-    const FrameOutput out = b->process(def);
-    if (interp == Interp::mls) mls = out.fields;
-    for (std::size_t m = 0; m < out.fields.size(); ++m) {
-      const auto& f = out.fields[m];
-      const dct_indep::P2 P{b->points()[m].x, b->points()[m].y};
-      const double dist = cv::pointPolygonTest(hull, cv::Point2f(static_cast<float>(P.x), static_cast<float>(P.y)), true);
-      if (interp == Interp::fe && dist > 0.5) {
-        ++covered;
-        covered_valid += f.status == PointStatus::ok;
-      }
-      if (dist < 200 || f.status != PointStatus::ok || mls[m].status != PointStatus::ok) continue;
-      const dct_indep::Grad g = s.field->grad(P);
-      const double e[3] = {f.exx - dct_indep::gl_xx(g), f.eyy - dct_indep::gl_yy(g), f.exy - dct_indep::gl_xy(g)};
-      for (double v : e) sse[interp == Interp::fe] += v * v;
-      inner += interp == Interp::fe;
+  struct Ratio { double near = 0, inner = 0; };
+  auto ratios = [&](const char* support) {
+    double sse[2][2] = {};  // [mls, fe][near, inner]
+    int n[2] = {0, 0}, covered = 0, covered_valid = 0;
+    std::vector<FieldValue<double>> f[2];
+    std::vector<Vec2> pts;
+    for (int k = 0; k < 2; ++k) {
+      PipelineOptions o;
+      o.interp = k ? Interp::fe : Interp::mls;
+      o.mls.support = parse_support(support);
+      auto b = make_backend("cpu-par", o);
+      b->set_reference(ref);
+      f[k] = b->process(def).fields;
+      pts = b->points();
     }
-  }
-  ASSERT_GT(covered, 800);
-  EXPECT_GE(covered_valid, covered * 99 / 100) << covered_valid << " of " << covered;
-  ASSERT_GT(inner, 300);
-  const double rms_mls = std::sqrt(sse[0] / (3 * inner)), rms_fe = std::sqrt(sse[1] / (3 * inner));
-  std::printf("FE: %d of %d covered points valid; inner strain RMS FE %.1f, MLS %.1f microstrain\n", covered_valid,
-              covered, 1e6 * rms_fe, 1e6 * rms_mls);
-  EXPECT_LE(rms_fe, 2.5 * rms_mls);
-  EXPECT_GT(rms_fe, 0);
+    for (std::size_t m = 0; m < pts.size(); ++m) {
+      const double dist =
+          cv::pointPolygonTest(hull, cv::Point2f(static_cast<float>(pts[m].x), static_cast<float>(pts[m].y)), true);
+      if (!(dist > 0.5)) continue;
+      ++covered;
+      covered_valid += f[1][m].status == PointStatus::ok;
+      if (f[0][m].status != PointStatus::ok || f[1][m].status != PointStatus::ok) continue;
+      const dct_indep::Grad g = s.field->grad({pts[m].x, pts[m].y});
+      const int band = dist > 200;
+      for (int k = 0; k < 2; ++k) {
+        const auto& v = f[k][m];
+        sse[k][band] += std::pow(v.exx - dct_indep::gl_xx(g), 2) + std::pow(v.eyy - dct_indep::gl_yy(g), 2) +
+                        std::pow(v.exy - dct_indep::gl_xy(g), 2);
+      }
+      ++n[band];
+    }
+    EXPECT_GT(covered, 800) << support;
+    EXPECT_GE(covered_valid, covered * 99 / 100) << support << ": " << covered_valid << " of " << covered;
+    EXPECT_GT(n[0], 300) << support;
+    EXPECT_GT(n[1], 300) << support;
+    Ratio r;
+    double rms[2][2];
+    for (int k = 0; k < 2; ++k)
+      for (int band = 0; band < 2; ++band) rms[k][band] = std::sqrt(sse[k][band] / (3 * std::max(1, n[band])));
+    r.near = rms[1][0] / rms[0][0];
+    r.inner = rms[1][1] / rms[0][1];
+    std::printf("FE at %s: %d of %d covered points valid; strain RMS within 200 px of the hull FE %.1f, MLS %.1f "
+                "(%.2fx), beyond FE %.1f, MLS %.1f (%.2fx) microstrain\n", support, covered_valid, covered,
+                1e6 * rms[1][0], 1e6 * rms[0][0], r.near, 1e6 * rms[1][1], 1e6 * rms[0][1], r.inner);
+    EXPECT_GT(rms[1][0], 0);
+    return r;
+  };
+  const Ratio r60 = ratios("60dots");
+  EXPECT_LE(r60.near, 2.0);
+  EXPECT_LE(r60.inner, 2.0);
+  const Ratio r200 = ratios("200dots");
+  EXPECT_LE(r200.inner, 2.5);
+  EXPECT_LE(r200.near, 4.5);
 }
 
 // Kirsch's plate on independent renders (load y, far-field strain 2e-3, hole radius 300 px,
