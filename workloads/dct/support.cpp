@@ -171,7 +171,10 @@ StrainFeature estimate_feature(const std::vector<Vec2>& points, const std::vecto
 
 FrameSuggestion suggest_for_frame(const Backend& b, const FrameOutput& out, const FrameUncertainty& u, int nx, int ny) {
   FrameSuggestion f;
-  f.displacement_sd_px = displacement_sd(out, u);
+  // Noiseless images still leave each centroid ~0.001 px off (the pixels' partial coverage,
+  // docs/dct.md "Centroids"): below that the stated deviation understates the error, and a
+  // suggestion from it would chase features of a few microstrain with tiny supports.
+  f.displacement_sd_px = std::max(displacement_sd(out, u), kCentroidFloorPx);
   f.spacing_px = median_spacing(b.reference_positions());
   f.dots = static_cast<int>(b.reference_positions().size());
   if (!std::isfinite(f.displacement_sd_px) || !(f.displacement_sd_px > 0) || !(f.spacing_px > 0) || f.dots < 6) return f;

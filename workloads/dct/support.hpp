@@ -80,7 +80,10 @@ StrainFeature estimate_feature(const std::vector<Vec2>& points, const std::vecto
 // The suggestion for a measured frame (what `dtflop fields` prints and, without --support,
 // applies): the dots' displacement sd, the reference's median spacing and dot count, and the
 // strain feature of the frame's nx x ny grid of points (none when the points are not that grid).
-// ok() is false when no suggestion can be made (no noise estimate, fewer than 6 dots).
+// ok() is false when no suggestion can be made (no noise estimate, fewer than 6 dots). The
+// displacement sd is taken as at least kCentroidFloorPx, the centroid error noiseless images
+// still show (partial pixel coverage).
+constexpr double kCentroidFloorPx = 0.001;
 struct FrameSuggestion {
   SupportSuggestion suggestion;
   StrainFeature feature;
