@@ -143,28 +143,29 @@ cv::Rect parse_roi(const std::string& s) {
 }
 
 // The support that minimizes the total strain error (support.hpp): the measured noise and dot
-// density, and the strain feature this frame shows. One line, after the first frame.
-void print_support_suggestion(const dct::Backend& b, const dct::FrameOutput& out, const dct::FrameUncertainty& unc,
-                              const dct::PipelineOptions& p, const Size2& grid) {
-  const double sd = dct::displacement_sd(out, unc);
-  const double spacing = dct::median_spacing(b.reference_positions());
-  const int dots = static_cast<int>(b.reference_positions().size());
-  if (!std::isfinite(sd) || !(sd > 0) || !(spacing > 0) || dots < 6) return;
-  const dct::StrainFeature f = p.points.empty()
-                                   ? dct::estimate_feature(b.points(), out.fields, unc.points, static_cast<int>(grid.x), static_cast<int>(grid.y))
-                                   : dct::StrainFeature{};
-  const dct::SupportSuggestion s = dct::suggest_support(sd, spacing, dots, f);
+// density, and the strain feature this frame shows. One line, after the first frame; returns the
+// suggested dots per support (0: none could be made).
+int print_support_suggestion(const dct::Backend& b, const dct::FrameOutput& out, const dct::FrameUncertainty& unc,
+                             const dct::PipelineOptions& p, const Size2& grid) {
+  const dct::FrameSuggestion fs = p.points.empty()
+                                      ? dct::suggest_for_frame(b, out, unc, static_cast<int>(grid.x), static_cast<int>(grid.y))
+                                      : dct::suggest_for_frame(b, out, unc, 0, 0);
+  if (!fs.ok()) return 0;
+  const dct::SupportSuggestion& s = fs.suggestion;
+  const dct::StrainFeature& f = fs.feature;
   const std::string feature =
       f.length_px > 0 ? fmt::format("a strain feature of {:.0f} microstrain over {:.0f} px", 1e6 * f.amplitude, f.length_px)
                       : "no strain feature above the noise";
   std::string now;
   if (p.mls.support.kind == dct::Support::Kind::dots) {
-    const dct::SupportSuggestion c = dct::support_error(std::min(p.mls.support.dots, dots), sd, spacing, f);
+    const dct::SupportSuggestion c =
+        dct::support_error(std::min(p.mls.support.dots, fs.dots), fs.displacement_sd_px, fs.spacing_px, f);
     now = fmt::format("; {} predicts {:.1f} + {:.1f}", p.mls.support.str(), 1e6 * c.noise, 1e6 * c.bias);
   }
   fmt::print("support: suggest --support {}dots (radius ~{:.0f} px): strain noise ~{:.1f} + smoothing ~{:.1f} "
              "microstrain for displacement sd {:.4f} px, dot spacing {:.1f} px, {}{}\n",
-             s.dots, s.radius_px, 1e6 * s.noise, 1e6 * s.bias, sd, spacing, feature, now);
+             s.dots, s.radius_px, 1e6 * s.noise, 1e6 * s.bias, fs.displacement_sd_px, fs.spacing_px, feature, now);
+  return s.dots;
 }
 
 // One overlay kind: a field's values per frame (NaN where a point has none).
@@ -403,27 +404,48 @@ void run(const RunDctOptions& o) {
       label = frame_files[k].filename().string();
     }
     FrameOutput out;
-    try {
-      out = backend->process(frame);
-    } catch (const InputError& e) {
-      throw InputError(fmt::format("frame {}: {}", label, e.what()));
-    }
-    const std::string stem = fmt::format("frame_{:04d}", k + 1);
     int valid = 0;
     double mxx = 0, myy = 0;
-    for (const auto& f : out.fields)
-      if (f.status == PointStatus::ok) { ++valid; mxx += f.exx; myy += f.eyy; }
-    if (valid == 0) throw InputError(fmt::format("frame {}: {}", label, no_valid_point(out.fields, o.support)));
+    auto measure = [&] {
+      try {
+        out = backend->process(frame);
+      } catch (const InputError& e) {
+        throw InputError(fmt::format("frame {}: {}", label, e.what()));
+      }
+      valid = 0;
+      mxx = myy = 0;
+      for (const auto& f : out.fields)
+        if (f.status == PointStatus::ok) { ++valid; mxx += f.exx; myy += f.eyy; }
+      if (valid == 0) throw InputError(fmt::format("frame {}: {}", label, no_valid_point(out.fields, p.mls.support.str())));
+    };
+    measure();
+    const std::string stem = fmt::format("frame_{:04d}", k + 1);
     // Uncertainty from the images' own noise (uncertainty.hpp), the dots table, and one line
     // counting the invalid points by reason.
-    const FrameUncertainty unc = frame_uncertainty(reference, frame, *backend, out);
+    FrameUncertainty unc = frame_uncertainty(reference, frame, *backend, out);
     if (!unc.reference_noise.ok() || !unc.frame_noise.ok())
       fmt::print("frame {}: no standard deviations: {}\n", label,
                  unc.reference_noise.ok() ? unc.frame_noise.why_not : "reference: " + unc.reference_noise.why_not);
     else
       fmt::print("frame {}: noise {:.2f} grey levels (reference {:.2f}; from {} dots' background rings)\n", label,
                  unc.frame_noise.sigma, unc.reference_noise.sigma, unc.frame_noise.dots_used);
-    if (k == 0 && unc.reference_noise.ok() && unc.frame_noise.ok()) print_support_suggestion(*backend, out, unc, p, grid);
+    if (k == 0 && unc.reference_noise.ok() && unc.frame_noise.ok()) {
+      const int suggested = print_support_suggestion(*backend, out, unc, p, grid);
+      // No --support given (MLS): the suggestion is the support, for this frame and the rest
+      // (docs/dct.md, "Choosing the support"). The first pass at the default is its input.
+      const int now = std::min(p.mls.support.dots, static_cast<int>(backend->reference_positions().size()));
+      if (!o.support_given && p.interp == Interp::mls && suggested >= 6 && suggested != now) {
+        p.mls.support = parse_support(fmt::format("{}dots", suggested));
+        backend = make_backend(o.backend, p);
+        backend->set_reference(reference);
+        measure();
+        unc = frame_uncertainty(reference, frame, *backend, out);
+        fmt::print("support: no --support given: measuring with the suggested {} (the first pass used {}dots)\n",
+                   p.mls.support.str(), now);
+      }
+    } else if (k == 0 && !o.support_given && p.interp == Interp::mls) {
+      fmt::print("support: no noise estimate, so no suggestion: measuring with the default {}\n", p.mls.support.str());
+    }
     if (valid < static_cast<int>(out.fields.size())) {
       std::map<std::string, int> why;
       for (const auto& f : out.fields)
@@ -492,9 +514,11 @@ void add_fields_command(CLI::App& root) {
   app->add_option("--frames", o->frames, "Deformed frames: a file or a printf pattern, e.g. 'def_%04d.png'");
   app->add_option("--specimen", o->specimen, "Render a specimen instead (see `dtflop specimen --help`) and compare with its truth");
   app->add_option("--support", o->support,
-                  "MLS support domain (and FE's gradient recovery): dots per support (200dots; the default takes "
-                  "every dot where fewer were found) or radius (12.5px). After the first frame a line suggests the "
-                  "support of least strain error for the measured noise, dot density and strain feature")
+                  "MLS support domain (and FE's gradient recovery): dots per support (60dots) or radius (12.5px). "
+                  "After the first frame a line suggests the support of least strain error for the measured noise, "
+                  "dot density and strain feature; without --support, MLS then measures every frame at that "
+                  "suggestion (the first pass uses 200dots, or every dot where fewer were found; FE, or images "
+                  "whose noise cannot be estimated, keep 200dots)")
       ->capture_default_str()
       ->each([o](const std::string&) { o->support_given = true; });
   app->add_option("--interp", o->interp,

@@ -1,6 +1,8 @@
 // dct_quality: the DCT workload's measurement quality on images from the independent renderer
 // (tests/workloads/dct/independent_renderer), which shares no code with workloads/dct.
 //   dct_quality fields  [backend] [support] [interp] [seeds]  displacement / strain errors per deformation
+//   dct_quality auto-support [backend] [seeds]                       the support suggestion applied: errors before / after
+//   dct_quality fe-ratio [backend] [support] [seeds]                 FE / MLS strain error by distance from the hull
 //   dct_quality centroids [margin]                                   centroid error vs radius, blur, noise
 //   dct_quality sigma [backend] [support] [interp] [runs]            stated vs observed deviation
 //   dct_quality kirsch [backend] [seeds] [interp] [support...]       e_yy at the hole edge: bias and noise
@@ -19,6 +21,7 @@
 
 #include "render.hpp"
 #include "workloads/dct/backend.hpp"
+#include "workloads/dct/support.hpp"
 #include "workloads/dct/tracking.hpp"
 #include "workloads/dct/uncertainty.hpp"
 
@@ -112,6 +115,68 @@ int fields(int argc, char** argv) {
       for (const auto& [why, k] : e.invalid) std::fprintf(stderr, "  invalid: %d %s\n", k, why.c_str());
       std::fflush(stdout);
     }
+  return 0;
+}
+
+// FE against MLS on the same images, by distance from the dots' convex hull: the strain error
+// RMS (all three components) of each over the points both give, inside the hull, in bands
+// 0-100 px, 100-200 px and over 200 px from it, and over all of them; FE / MLS per band.
+int fe_ratio(int argc, char** argv) {
+  const std::string backend = argc > 2 ? argv[2] : "cpu-par";
+  const std::string support = argc > 3 ? argv[3] : Support{}.str();
+  const int seeds = argc > 4 ? std::stoi(argv[4]) : 1;
+  constexpr int kBands = 4;  // 0-100, 100-200, > 200, all
+  const char* band_names[kBands] = {"0-100 px", "100-200 px", "> 200 px", "all"};
+  std::printf("FE / MLS strain error RMS by distance from the hull, %s, %s\n", backend.c_str(), support.c_str());
+  std::printf("| deformation | seed | band | points | MLS [microstrain] | FE [microstrain] | FE / MLS |\n"
+              "|---|---|---|---|---|---|---|\n");
+  double worst = 0;
+  for (const char* d : {"tension", "bending", "rotation"})
+    for (int seed = 1; seed <= seeds; ++seed) {
+      const dct_indep::Scene s = dct_indep::make_scene(params(d, seed));
+      const cv::Mat ref = dct_indep::finish(dct_indep::render_clean(s, false), s.p.noise, 2 * seed);
+      const cv::Mat def = dct_indep::finish(dct_indep::render_clean(s, true), s.p.noise, 2 * seed + 1);
+      std::vector<FieldValue<double>> f[2];
+      std::vector<Vec2> pts;
+      for (int k = 0; k < 2; ++k) {
+        PipelineOptions o;
+        o.mls.support = parse_support(support);
+        o.interp = k ? Interp::fe : Interp::mls;
+        auto b = make_backend(backend, o);
+        b->set_reference(ref);
+        f[k] = b->process(def).fields;
+        pts = b->points();
+      }
+      std::vector<cv::Point2f> refs, hull;
+      for (const auto& q : s.dots) refs.emplace_back(static_cast<float>(q.x), static_cast<float>(q.y));
+      cv::convexHull(refs, hull);
+      double sse[2][kBands] = {};
+      int n[kBands] = {};
+      for (std::size_t m = 0; m < pts.size(); ++m) {
+        const double dist = cv::pointPolygonTest(hull, cv::Point2f(static_cast<float>(pts[m].x), static_cast<float>(pts[m].y)), true);
+        if (!(dist > 0.5) || f[0][m].status != PointStatus::ok || f[1][m].status != PointStatus::ok) continue;
+        const dct_indep::Grad g = s.field->grad({pts[m].x, pts[m].y});
+        const int band = dist <= 100 ? 0 : dist <= 200 ? 1 : 2;
+        for (int k = 0; k < 2; ++k) {
+          const auto& v = f[k][m];
+          const double e = std::pow(v.exx - dct_indep::gl_xx(g), 2) + std::pow(v.eyy - dct_indep::gl_yy(g), 2) +
+                           std::pow(v.exy - dct_indep::gl_xy(g), 2);
+          sse[k][band] += e;
+          sse[k][kBands - 1] += e;
+        }
+        ++n[band];
+        ++n[kBands - 1];
+      }
+      for (int b = 0; b < kBands; ++b) {
+        if (!n[b]) continue;
+        const double mls = std::sqrt(sse[0][b] / (3 * n[b])), fe = std::sqrt(sse[1][b] / (3 * n[b]));
+        worst = std::max(worst, fe / mls);
+        std::printf("| %s | %d | %s | %d | %.1f | %.1f | %.2f |\n", d, seed, band_names[b], n[b], 1e6 * mls, 1e6 * fe,
+                    fe / mls);
+      }
+      std::fflush(stdout);
+    }
+  std::printf("worst FE / MLS: %.2f\n", worst);
   return 0;
 }
 
@@ -357,6 +422,62 @@ int support_noise(int argc, char** argv) {
   return 0;
 }
 
+// The support suggestion applied (support.hpp): a first pass at the default support (32x32
+// points) gives the noise, the dot spacing and the strain feature; the suggested support then
+// measures the field again. Per deformation and pattern: the suggestion and the strain errors at
+// the default and at the suggestion; for Kirsch's plate also e_yy at the hole edge at both
+// (bias and noise over the noise draws).
+struct Suggested {
+  int dots = 0;
+  double amplitude = 0, length = 0;
+};
+Suggested suggestion_for(const cv::Mat& ref, const cv::Mat& def, const std::string& backend, PipelineOptions o) {
+  auto b = make_backend(backend, o);
+  b->set_reference(ref);
+  const FrameOutput out = b->process(def);
+  const FrameUncertainty u = frame_uncertainty(ref, def, *b, out);
+  const FrameSuggestion f = suggest_for_frame(*b, out, u, o.points_x, o.points_y);
+  return {f.suggestion.dots, f.feature.amplitude, f.feature.length_px};
+}
+
+int auto_support(int argc, char** argv) {
+  const std::string backend = argc > 2 ? argv[2] : "cpu-par";
+  const int seeds = argc > 3 ? std::stoi(argv[3]) : 3;
+  std::printf("| deformation | seed | feature [microstrain / px] | suggested | e_xx / e_yy / e_xy RMS at 200dots | "
+              "max | at the suggestion | max |\n|---|---|---|---|---|---|---|---|\n");
+  for (const char* d : {"tension", "bending", "rotation"})
+    for (int seed = 1; seed <= seeds; ++seed) {
+      const dct_indep::Scene s = dct_indep::make_scene(params(d, seed));
+      const cv::Mat ref = dct_indep::finish(dct_indep::render_clean(s, false), s.p.noise, 2 * seed);
+      const cv::Mat def = dct_indep::finish(dct_indep::render_clean(s, true), s.p.noise, 2 * seed + 1);
+      const Suggested sg = suggestion_for(ref, def, backend, PipelineOptions{});
+      PipelineOptions o;
+      const Errors e0 = measure(s, backend, o, seed);
+      o.mls.support = parse_support(std::to_string(sg.dots) + "dots");
+      const Errors e1 = measure(s, backend, o, seed);
+      std::printf("| %s | %d | %.0f / %.0f | %ddots | %.1f / %.1f / %.1f | %.1f | %.1f / %.1f / %.1f | %.1f |\n", d, seed,
+                  1e6 * sg.amplitude, sg.length, sg.dots, 1e6 * e0.exx, 1e6 * e0.eyy, 1e6 * e0.exy, 1e6 * e0.e_max,
+                  1e6 * e1.exx, 1e6 * e1.eyy, 1e6 * e1.exy, 1e6 * e1.e_max);
+      std::fflush(stdout);
+    }
+  // Kirsch: the suggestion from the first draw's 32x32 field, then the hole edge at it.
+  const dct_indep::Scene s = dct_indep::make_scene(kirsch_params());
+  const cv::Mat ref = dct_indep::finish(dct_indep::render_clean(s, false), s.p.noise, 500);
+  const cv::Mat def = dct_indep::finish(dct_indep::render_clean(s, true), s.p.noise, 501);
+  PipelineOptions o;
+  o.analysis.max_area = 2000;
+  const Suggested sg = suggestion_for(ref, def, backend, o);
+  const std::string sup = std::to_string(sg.dots) + "dots";
+  const auto r = kirsch_edge(backend, {"200dots", sup}, Interp::mls, 10);
+  std::printf("\nKirsch (feature %.0f microstrain over %.0f px): suggested %s; e_yy at the hole edge (%.0f microstrain), "
+              "10 draws:\n| support | bias [%%] | noise [%%] | RMS [%%] |\n|---|---|---|---|\n",
+              1e6 * sg.amplitude, sg.length, sup.c_str(), 1e6 * r[0].truth);
+  for (std::size_t k = 0; k < r.size(); ++k)
+    std::printf("| %s | %+.2f | %.2f | %.2f |\n", k ? sup.c_str() : "200dots", 100 * r[k].bias / r[k].truth,
+                100 * r[k].noise / r[k].truth, 100 * r[k].rms / r[k].truth);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -364,6 +485,8 @@ int main(int argc, char** argv) {
   try {
     if (mode == "fields") return fields(argc, argv);
     if (mode == "sigma") return sigma(argc, argv);
+    if (mode == "fe-ratio") return fe_ratio(argc, argv);
+    if (mode == "auto-support") return auto_support(argc, argv);
     if (mode == "kirsch") return kirsch(argc, argv);
     if (mode == "support-noise") return support_noise(argc, argv);
     if (mode == "centroids") return centroids(argc > 2 ? std::stoi(argv[2]) : AnalysisOptions{}.margin);
@@ -371,8 +494,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "dct_quality: %s\n", e.what());
     return 2;
   }
-  std::fprintf(stderr, "usage: dct_quality fields [backend] [support] [mls|fe] [seeds] [weight] | centroids [margin] | "
-                       "sigma [backend] [support] [mls|fe] [runs] | kirsch [backend] [seeds] [mls|fe] [support...] | "
+  std::fprintf(stderr, "usage: dct_quality fields [backend] [support] [mls|fe] [seeds] [weight] | fe-ratio [backend] [support] [seeds] | auto-support [backend] [seeds] | "
+                       "centroids [margin] | sigma [backend] [support] [mls|fe] [runs] | kirsch [backend] [seeds] [mls|fe] [support...] | "
                        "support-noise [backend]\n");
   return 2;
 }

@@ -239,6 +239,7 @@ FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec
   std::vector<Vec2> centroid;
   std::vector<double> area;
   std::vector<std::uint8_t> sound;
+  std::vector<double> quality;
   {
     std::vector<int> lead;
     sub.getLeadingEdgeList(lead);
@@ -258,6 +259,10 @@ FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec
         t.tri_gy.insert(t.tri_gy.end(), gy, gy + 3);
         centroid.push_back({(A.x + B.x + C.x) / 3, (A.y + B.y + C.y) / 3});
         area.push_back(0.5 * std::abs(det));
+        {
+          const double l2 = len(a, b) * len(a, b) + len(b, c) * len(b, c) + len(c, a) * len(c, a);
+          quality.push_back(4 * std::sqrt(3.0) * 0.5 * std::abs(det) / l2);
+        }
         const double longest = std::max({len(a, b), len(b, c), len(c, a)});
         sound.push_back(!(max_gap > 0 && longest > 2 * max_gap * spacing));
       }
@@ -273,8 +278,34 @@ FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec
   if (centroid.empty()) {  // no triangle (collinear dots): a far sentinel the index can hold
     centroid.push_back({x0 - 1e9, y0 - 1e9});
     sound.push_back(0);
+    quality.push_back(0);
   }
   const PointIndex tri_index(centroid);  // keeps a reference to `centroid`
+  // Each triangle's weight in the recovery, besides the MLS weight of its centroid's distance:
+  // its area x its shape quality q = 4 sqrt(3) area / (sum of squared edges) (1 for an
+  // equilateral triangle, -> 0 for a sliver) x a taper that rises from 0 on the dots' convex
+  // hull to 1 a quarter of the point's support radius inside it. Area x q is area^2 / sum l^2, the
+  // inverse of the variance of the triangle's gradient (sigma^2 sum l^2 / (4 area^2) for
+  // independent vertex noise sigma), so slivers, whose gradient across them is noise over
+  // their small height, count for little; the taper keeps the recovery's fit off the hull's
+  // one-sided edge, where area-weighted gradients sum to the hull dots' displacements times
+  // the weight itself rather than its derivative. Measured on independent renders
+  // (`dct_quality fe-ratio`, docs/dct.md "FE"). A linear field is still recovered exactly
+  // (any weights do).
+  constexpr double kFeHullTaper = 0.25;  // of the point's support radius
+  std::vector<double> tri_weight(centroid.size(), 0.0), hull_dist(centroid.size(), 0.0);
+  {
+    std::vector<cv::Point2f> pts2, hull;
+    for (const auto& d : reference) pts2.emplace_back(static_cast<float>(d.x), static_cast<float>(d.y));
+    cv::convexHull(pts2, hull);
+    for (std::size_t k = 0; k < tri_weight.size(); ++k) {
+      if (!sound[k]) continue;
+      tri_weight[k] = area[k] * quality[k];
+      if (hull.size() >= 3)
+        hull_dist[k] = cv::pointPolygonTest(
+            hull, cv::Point2f(static_cast<float>(centroid[k].x), static_cast<float>(centroid[k].y)), true);
+    }
+  }
   std::vector<std::uint32_t> idx;
   std::vector<double> d2;
   std::vector<std::pair<std::uint32_t, double>> hits;
@@ -326,7 +357,8 @@ FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec
         double w = 0, dws = 0;
         weight_fn(recovery.weight, std::sqrt(xi * xi + eta * eta), w, dws);
         if (!(w > 0)) continue;
-        w *= area[h.first];
+        w *= tri_weight[h.first] * std::clamp(hull_dist[h.first] / (kFeHullTaper * rho), 0.0, 1.0);
+        if (!(w > 0)) continue;
         const cv::Vec3d q(1, xi, eta);
         M += w * (q * q.t());
         rows.push_back({static_cast<int>(h.first), w * q});

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "model/errors.hpp"
+#include "workloads/dct/tracking.hpp"
 
 namespace dtflop::dct {
 
@@ -166,6 +167,20 @@ StrainFeature estimate_feature(const std::vector<Vec2>& points, const std::vecto
     if (best.length_px <= 0 || length < best.length_px) best = {a, length};
   }
   return best;
+}
+
+FrameSuggestion suggest_for_frame(const Backend& b, const FrameOutput& out, const FrameUncertainty& u, int nx, int ny) {
+  FrameSuggestion f;
+  // Noiseless images still leave each centroid ~0.001 px off (the pixels' partial coverage,
+  // docs/dct.md "Centroids"): below that the stated deviation understates the error, and a
+  // suggestion from it would chase features of a few microstrain with tiny supports.
+  f.displacement_sd_px = std::max(displacement_sd(out, u), kCentroidFloorPx);
+  f.spacing_px = median_spacing(b.reference_positions());
+  f.dots = static_cast<int>(b.reference_positions().size());
+  if (!std::isfinite(f.displacement_sd_px) || !(f.displacement_sd_px > 0) || !(f.spacing_px > 0) || f.dots < 6) return f;
+  f.feature = estimate_feature(b.points(), out.fields, u.points, nx, ny);
+  f.suggestion = suggest_support(f.displacement_sd_px, f.spacing_px, f.dots, f.feature);
+  return f;
 }
 
 }  // namespace dtflop::dct

@@ -77,4 +77,20 @@ double displacement_sd(const FrameOutput& out, const FrameUncertainty& u);
 StrainFeature estimate_feature(const std::vector<Vec2>& points, const std::vector<FieldValue<double>>& fields,
                                const std::vector<FieldSigma>& sd, int nx, int ny);
 
+// The suggestion for a measured frame (what `dtflop fields` prints and, without --support,
+// applies): the dots' displacement sd, the reference's median spacing and dot count, and the
+// strain feature of the frame's nx x ny grid of points (none when the points are not that grid).
+// ok() is false when no suggestion can be made (no noise estimate, fewer than 6 dots). The
+// displacement sd is taken as at least kCentroidFloorPx, the centroid error noiseless images
+// still show (partial pixel coverage).
+constexpr double kCentroidFloorPx = 0.001;
+struct FrameSuggestion {
+  SupportSuggestion suggestion;
+  StrainFeature feature;
+  double displacement_sd_px = 0, spacing_px = 0;
+  int dots = 0;  // reference dots
+  bool ok() const { return suggestion.dots > 0; }
+};
+FrameSuggestion suggest_for_frame(const Backend& b, const FrameOutput& out, const FrameUncertainty& u, int nx, int ny);
+
 }  // namespace dtflop::dct

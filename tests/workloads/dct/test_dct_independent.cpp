@@ -11,6 +11,7 @@
 #include "render.hpp"
 #include "tests/support/gpu.hpp"
 #include "workloads/dct/backend.hpp"
+#include "workloads/dct/support.hpp"
 #include "workloads/dct/tracking.hpp"
 #include "workloads/dct/uncertainty.hpp"
 
@@ -63,10 +64,11 @@ TEST(DctIndependentRenderer, KirschConcentrationAndFarField) {
 }
 
 // The targets on 1600x1200 8-bit images, 500 dots of radius 7 px, 1 grey level of noise,
-// with the defaults (MLS, 200 dots per support, 32x32 points): displacement RMS <= 0.005 px, each
-// strain component's RMS <= 15 microstrain, no valid point beyond 60; every value within 4 of its
-// stated standard deviations of the truth (rotation: the small-strain tensor of the rotation,
-// cos t - 1 on the diagonal, which is what a displacement gradient gives).
+// with the defaults: displacement RMS <= 0.005 px, each strain component's RMS <= 15 microstrain,
+// no valid point beyond 60; every value within 4 of its stated standard deviations of the truth
+// (rotation: zero Green-Lagrange strain). Both defaults: the library's (MLS, 200 dots per
+// support, 32x32 points) and `dtflop fields`'s without --support (the suggestion made from that
+// first pass: 400 dots on tension and rotation, which show no strain feature, 276-300 on bending).
 TEST(DctIndependent, DefaultsMeetTheTargetsInTensionBendingAndRotation) {
   for (const char* d : {"tension", "bending", "rotation"}) {
     dct_indep::Params p;
@@ -76,51 +78,64 @@ TEST(DctIndependent, DefaultsMeetTheTargetsInTensionBendingAndRotation) {
     const cv::Mat ref = dct_indep::finish(dct_indep::render_clean(s, false), p.noise, 7);
     const cv::Mat def = dct_indep::finish(dct_indep::render_clean(s, true), p.noise, 8);
     PipelineOptions o;
-    auto b = make_backend("cpu-par", o);
-    b->set_reference(ref);
-    const FrameOutput out = b->process(def);
-    const FrameUncertainty u = frame_uncertainty(ref, def, *b, out);
-    ASSERT_TRUE(u.frame_noise.ok()) << u.frame_noise.why_not;
-    double su = 0, se[3] = {0, 0, 0}, emax = 0, z2 = 0;
-    int n = 0, beyond = 0;
-    for (std::size_t m = 0; m < out.fields.size(); ++m) {
-      const auto& f = out.fields[m];
-      if (f.status != PointStatus::ok) continue;
-      const dct_indep::P2 P{b->points()[m].x, b->points()[m].y};
-      const dct_indep::P2 t = s.field->u(P);
-      const dct_indep::Grad g = s.field->grad(P);
-      su += (f.ux - t.x) * (f.ux - t.x) + (f.uy - t.y) * (f.uy - t.y);
-      const double e[3] = {f.exx - dct_indep::gl_xx(g), f.eyy - dct_indep::gl_yy(g), f.exy - dct_indep::gl_xy(g)};
-      const double sd[3] = {u.points[m].exx, u.points[m].eyy, u.points[m].exy};
-      for (int i = 0; i < 3; ++i) {
-        se[i] += e[i] * e[i];
-        emax = std::max(emax, std::abs(e[i]));
-        beyond += !(std::abs(e[i]) <= 4 * sd[i]);
-        z2 += e[i] * e[i] / (sd[i] * sd[i]);
+    for (int pass = 0; pass < 2; ++pass) {
+      auto b = make_backend("cpu-par", o);
+      b->set_reference(ref);
+      const FrameOutput out = b->process(def);
+      const FrameUncertainty u = frame_uncertainty(ref, def, *b, out);
+      ASSERT_TRUE(u.frame_noise.ok()) << u.frame_noise.why_not;
+      double su = 0, se[3] = {0, 0, 0}, emax = 0, z2 = 0;
+      int n = 0, beyond = 0;
+      for (std::size_t m = 0; m < out.fields.size(); ++m) {
+        const auto& f = out.fields[m];
+        if (f.status != PointStatus::ok) continue;
+        const dct_indep::P2 P{b->points()[m].x, b->points()[m].y};
+        const dct_indep::P2 t = s.field->u(P);
+        const dct_indep::Grad g = s.field->grad(P);
+        su += (f.ux - t.x) * (f.ux - t.x) + (f.uy - t.y) * (f.uy - t.y);
+        const double e[3] = {f.exx - dct_indep::gl_xx(g), f.eyy - dct_indep::gl_yy(g), f.exy - dct_indep::gl_xy(g)};
+        const double sd[3] = {u.points[m].exx, u.points[m].eyy, u.points[m].exy};
+        for (int i = 0; i < 3; ++i) {
+          se[i] += e[i] * e[i];
+          emax = std::max(emax, std::abs(e[i]));
+          beyond += !(std::abs(e[i]) <= 4 * sd[i]);
+          z2 += e[i] * e[i] / (sd[i] * sd[i]);
+        }
+        ++n;
       }
-      ++n;
+      const std::string what = std::string(d) + " at " + o.mls.support.str();
+      ASSERT_GE(n, 1000) << what;  // of 1024; the corners' nearest dots may lie beyond the gap
+      const double u_rms = std::sqrt(su / (2 * n));
+      const double z = std::sqrt(z2 / (3 * n));  // RMS of error / stated deviation
+      std::printf("%s: u RMS %.4f px, strain RMS %.1f %.1f %.1f, max %.1f microstrain, %d values beyond 4 sd, "
+                  "RMS error / sd %.2f\n", what.c_str(), u_rms, 1e6 * std::sqrt(se[0] / n), 1e6 * std::sqrt(se[1] / n),
+                  1e6 * std::sqrt(se[2] / n), 1e6 * emax, beyond, z);
+      EXPECT_LE(u_rms, 0.005) << what;
+      for (int i = 0; i < 3; ++i) EXPECT_LE(std::sqrt(se[i] / n), 15e-6) << what << " component " << i;
+      EXPECT_LE(emax, 60e-6) << what;
+      EXPECT_LE(beyond, 3 * n / 100) << what;
+      // Rotation: the strain reads zero (Green-Lagrange) within the stated deviation, as do the
+      // others against their closed forms: the error is the noise the deviation states.
+      EXPECT_LE(z, 1.3) << what;
+      if (pass == 0) {  // the suggestion from this pass: the support of the second
+        const FrameSuggestion fs = suggest_for_frame(*b, out, u, o.points_x, o.points_y);
+        ASSERT_TRUE(fs.ok()) << what;
+        EXPECT_GE(fs.suggestion.dots, 200) << what;  // no feature the quadratic basis misses
+        o.mls.support = parse_support(std::to_string(fs.suggestion.dots) + "dots");
+      }
     }
-    ASSERT_GE(n, 1000) << d;  // of 1024; the corners' nearest dots may lie beyond the gap
-    const double u_rms = std::sqrt(su / (2 * n));
-    const double z = std::sqrt(z2 / (3 * n));  // RMS of error / stated deviation
-    std::printf("%s: u RMS %.4f px, strain RMS %.1f %.1f %.1f, max %.1f microstrain, %d values beyond 4 sd, "
-                "RMS error / sd %.2f\n", d, u_rms, 1e6 * std::sqrt(se[0] / n), 1e6 * std::sqrt(se[1] / n),
-                1e6 * std::sqrt(se[2] / n), 1e6 * emax, beyond, z);
-    EXPECT_LE(u_rms, 0.005) << d;
-    for (int i = 0; i < 3; ++i) EXPECT_LE(std::sqrt(se[i] / n), 15e-6) << d << " component " << i;
-    EXPECT_LE(emax, 60e-6) << d;
-    EXPECT_LE(beyond, 3 * n / 100) << d;
-    // Rotation: the strain reads zero (Green-Lagrange) within the stated deviation, as do the
-    // others against their closed forms: the error is the noise the deviation states.
-    EXPECT_LE(z, 1.3) << d;
   }
 }
 
 // FE: valid wherever the triangulation covers the point (inside the dots' convex hull, from
-// the renderer's own dots), and its recovered strain close to MLS's on the points at least
-// 200 px inside the hull: measured 1.3-2.2x MLS's at the default 200-dot support over seeds
-// (the target is 2x; near the hull, where the recovery's linear fit extrapolates, up
-// to ~4x; docs/dct.md), asserted at 2.5x.
+// the renderer's own dots), and its recovered strain against MLS's on the same images, over the
+// points both give inside the hull, by distance from the hull: within 200 px of it and beyond.
+// The target is 2x MLS. Measured (`dct_quality fe-ratio`, 3 patterns x tension, bending,
+// rotation; docs/dct.md "FE"): at 60 dots per support FE / MLS is 0.69-1.70 in every band and
+// 0.93-1.28 overall (this test's seed: see its output), so the 2x bound is asserted everywhere
+// there; at the default 200 dots the hull's one-sided patches still cost FE more than MLS:
+// 1.21-2.49 beyond 200 px, 1.67-3.57 within 200 px (the area-weighted gradients' boundary term
+// grows as sqrt(support radius / dot spacing) against MLS's noise), asserted at 2.5x and 4.5x.
 TEST(DctIndependent, FeCoversTheHullAndTracksMls) {
   dct_indep::Params p;
   p.deformation = "bending";
@@ -131,47 +146,69 @@ TEST(DctIndependent, FeCoversTheHullAndTracksMls) {
   std::vector<cv::Point2f> dots, hull;
   for (const auto& d : s.dots) dots.emplace_back(static_cast<float>(d.x), static_cast<float>(d.y));
   cv::convexHull(dots, hull);
-  double sse[2] = {0, 0};
-  int inner = 0, covered = 0, covered_valid = 0;
-  std::vector<FieldValue<double>> mls;
-  for (const Interp interp : {Interp::mls, Interp::fe}) {
-    PipelineOptions o;
-    o.interp = interp;
-    auto b = make_backend("cpu-par", o);
-    b->set_reference(ref);
-    const FrameOutput out = b->process(def);
-    if (interp == Interp::mls) mls = out.fields;
-    for (std::size_t m = 0; m < out.fields.size(); ++m) {
-      const auto& f = out.fields[m];
-      const dct_indep::P2 P{b->points()[m].x, b->points()[m].y};
-      const double dist = cv::pointPolygonTest(hull, cv::Point2f(static_cast<float>(P.x), static_cast<float>(P.y)), true);
-      if (interp == Interp::fe && dist > 0.5) {
-        ++covered;
-        covered_valid += f.status == PointStatus::ok;
-      }
-      if (dist < 200 || f.status != PointStatus::ok || mls[m].status != PointStatus::ok) continue;
-      const dct_indep::Grad g = s.field->grad(P);
-      const double e[3] = {f.exx - dct_indep::gl_xx(g), f.eyy - dct_indep::gl_yy(g), f.exy - dct_indep::gl_xy(g)};
-      for (double v : e) sse[interp == Interp::fe] += v * v;
-      inner += interp == Interp::fe;
+  struct Ratio { double near = 0, inner = 0; };
+  auto ratios = [&](const char* support) {
+    double sse[2][2] = {};  // [mls, fe][near, inner]
+    int n[2] = {0, 0}, covered = 0, covered_valid = 0;
+    std::vector<FieldValue<double>> f[2];
+    std::vector<Vec2> pts;
+    for (int k = 0; k < 2; ++k) {
+      PipelineOptions o;
+      o.interp = k ? Interp::fe : Interp::mls;
+      o.mls.support = parse_support(support);
+      auto b = make_backend("cpu-par", o);
+      b->set_reference(ref);
+      f[k] = b->process(def).fields;
+      pts = b->points();
     }
-  }
-  ASSERT_GT(covered, 800);
-  EXPECT_GE(covered_valid, covered * 99 / 100) << covered_valid << " of " << covered;
-  ASSERT_GT(inner, 300);
-  const double rms_mls = std::sqrt(sse[0] / (3 * inner)), rms_fe = std::sqrt(sse[1] / (3 * inner));
-  std::printf("FE: %d of %d covered points valid; inner strain RMS FE %.1f, MLS %.1f microstrain\n", covered_valid,
-              covered, 1e6 * rms_fe, 1e6 * rms_mls);
-  EXPECT_LE(rms_fe, 2.5 * rms_mls);
-  EXPECT_GT(rms_fe, 0);
+    for (std::size_t m = 0; m < pts.size(); ++m) {
+      const double dist =
+          cv::pointPolygonTest(hull, cv::Point2f(static_cast<float>(pts[m].x), static_cast<float>(pts[m].y)), true);
+      if (!(dist > 0.5)) continue;
+      ++covered;
+      covered_valid += f[1][m].status == PointStatus::ok;
+      if (f[0][m].status != PointStatus::ok || f[1][m].status != PointStatus::ok) continue;
+      const dct_indep::Grad g = s.field->grad({pts[m].x, pts[m].y});
+      const int band = dist > 200;
+      for (int k = 0; k < 2; ++k) {
+        const auto& v = f[k][m];
+        sse[k][band] += std::pow(v.exx - dct_indep::gl_xx(g), 2) + std::pow(v.eyy - dct_indep::gl_yy(g), 2) +
+                        std::pow(v.exy - dct_indep::gl_xy(g), 2);
+      }
+      ++n[band];
+    }
+    EXPECT_GT(covered, 800) << support;
+    EXPECT_GE(covered_valid, covered * 99 / 100) << support << ": " << covered_valid << " of " << covered;
+    EXPECT_GT(n[0], 300) << support;
+    EXPECT_GT(n[1], 300) << support;
+    Ratio r;
+    double rms[2][2];
+    for (int k = 0; k < 2; ++k)
+      for (int band = 0; band < 2; ++band) rms[k][band] = std::sqrt(sse[k][band] / (3 * std::max(1, n[band])));
+    r.near = rms[1][0] / rms[0][0];
+    r.inner = rms[1][1] / rms[0][1];
+    std::printf("FE at %s: %d of %d covered points valid; strain RMS within 200 px of the hull FE %.1f, MLS %.1f "
+                "(%.2fx), beyond FE %.1f, MLS %.1f (%.2fx) microstrain\n", support, covered_valid, covered,
+                1e6 * rms[1][0], 1e6 * rms[0][0], r.near, 1e6 * rms[1][1], 1e6 * rms[0][1], r.inner);
+    EXPECT_GT(rms[1][0], 0);
+    return r;
+  };
+  const Ratio r60 = ratios("60dots");
+  EXPECT_LE(r60.near, 2.0);
+  EXPECT_LE(r60.inner, 2.0);
+  const Ratio r200 = ratios("200dots");
+  EXPECT_LE(r200.inner, 2.5);
+  EXPECT_LE(r200.near, 4.5);
 }
 
 // Kirsch's plate on independent renders (load y, far-field strain 2e-3, hole radius 300 px,
 // 2400 dots of radius 5 px): e_yy at both ends of the hole's horizontal diameter (closed form
 // 3 x 2e-3) over 3 noise draws of one pattern, bias (mean - closed form) and noise (scatter
 // over the draws) apart. With 60 dots per support both are small (within 5% together); the
-// default 200 dots smooths the concentration (a bias well beyond its noise) and 20 dots is
-// noisier than 60: the trade-off `dct_quality kirsch` tabulates.
+// library's default 200 dots smooths the concentration (a bias well beyond its noise) and 20
+// dots is noisier than 60: the trade-off `dct_quality kirsch` tabulates. The support `dtflop
+// fields` uses by default, the suggestion from a first pass at 200 dots, is within 5% too
+// (`dct_quality auto-support`: 72 dots, bias -0.5%, noise 0.8% over 10 draws at full coverage).
 TEST(DctIndependent, KirschHoleEdgeBiasAndNoise) {
   dct_indep::Params p;
   p.deformation = "kirsch";
@@ -187,11 +224,25 @@ TEST(DctIndependent, KirschHoleEdgeBiasAndNoise) {
   const std::vector<Vec2> edges = {{s.centre.x + p.hole, s.centre.y}, {s.centre.x - p.hole, s.centre.y}};
   const double truth = dct_indep::gl_yy(s.field->grad({edges[0].x, edges[0].y}));  // 3 e0 + (3 e0)^2 / 2 + ...
   ASSERT_NEAR(dct_indep::eyy(s.field->grad({edges[0].x, edges[0].y})), 3 * p.strain, 1e-9);
-  const char* supports[3] = {"20dots", "60dots", "200dots"};
-  std::vector<double> values[3];
+  // The fourth support is what `dtflop fields` uses without --support: the suggestion from a
+  // first pass at 200 dots over its 32x32 grid (first draw).
+  std::string supports[4] = {"20dots", "60dots", "200dots", ""};
+  std::vector<double> values[4];
   for (int r = 0; r < 3; ++r) {
     const cv::Mat ref = dct_indep::finish(cref, p.noise, 700 + 2 * r), def = dct_indep::finish(cdef, p.noise, 701 + 2 * r);
-    for (int k = 0; k < 3; ++k) {
+    if (r == 0) {
+      PipelineOptions o;
+      o.analysis.max_area = 2000;
+      auto b = make_backend("cpu-par", o);
+      b->set_reference(ref);
+      const FrameOutput out = b->process(def);
+      const FrameUncertainty u = frame_uncertainty(ref, def, *b, out);
+      const FrameSuggestion fs = suggest_for_frame(*b, out, u, o.points_x, o.points_y);
+      ASSERT_TRUE(fs.ok());
+      EXPECT_GT(fs.feature.length_px, 0);  // the hole's concentration stands clear of the noise
+      supports[3] = std::to_string(fs.suggestion.dots) + "dots";
+    }
+    for (int k = 0; k < 4; ++k) {
       PipelineOptions o;
       o.mls.support = parse_support(supports[k]);
       o.analysis.max_area = 2000;  // the hole is one huge dark blob
@@ -205,15 +256,15 @@ TEST(DctIndependent, KirschHoleEdgeBiasAndNoise) {
       }
     }
   }
-  double bias[3], noise[3];
-  for (int k = 0; k < 3; ++k) {
+  double bias[4], noise[4];
+  for (int k = 0; k < 4; ++k) {
     double mean = 0, var = 0;
     const auto n = static_cast<double>(values[k].size());
     for (double v : values[k]) mean += v / n;
     for (double v : values[k]) var += (v - mean) * (v - mean) / (n - 1);
     bias[k] = mean - truth;
     noise[k] = std::sqrt(var);
-    std::printf("Kirsch e_yy at the hole edge, %s: bias %+.2f%%, noise %.2f%% of %.0f microstrain\n", supports[k],
+    std::printf("Kirsch e_yy at the hole edge, %s: bias %+.2f%%, noise %.2f%% of %.0f microstrain\n", supports[k].c_str(),
                 100 * bias[k] / truth, 100 * noise[k] / truth, 1e6 * truth);
   }
   EXPECT_LE(std::abs(bias[1]) + noise[1], 0.05 * truth);
@@ -221,6 +272,8 @@ TEST(DctIndependent, KirschHoleEdgeBiasAndNoise) {
   EXPECT_GT(std::abs(bias[2]), 3 * noise[2]);   // the large support: smoothing bias
   EXPECT_GT(std::abs(bias[2]), 0.05 * truth);
   EXPECT_GT(noise[0], 1.5 * noise[1]);          // the small support: noise
+  EXPECT_LE(std::abs(bias[3]) + noise[3], 0.05 * truth) << "suggested " << supports[3];
+  for (double v : values[3]) EXPECT_NEAR(v, truth, 0.05 * truth) << "suggested " << supports[3];
 }
 
 // Centroids (eq. 7.1 over the dot and a 2 px margin, background plane removed) against the
