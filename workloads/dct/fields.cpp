@@ -132,8 +132,12 @@ MlsTable build_mls_table(const std::vector<Vec2>& reference, const std::vector<V
       index.knn(p, count + 1, idx, d2);
       const double dn = std::sqrt(d2[static_cast<std::size_t>(count) - 1]);
       const double dn1 = idx.size() > static_cast<std::size_t>(count) ? std::sqrt(d2.back()) : dn * 1.05;
-      rho = 0.5 * (dn + dn1);
-      if (!(rho > dn)) rho = std::nextafter(dn, 2 * dn + 1);  // two dots at one distance
+      // Halfway to the next dot, and at least 1e-4 of dn beyond the N-th: where the two are nearly
+      // equidistant, the N-th dot's scaled distance dn / rho must stay below 1 in float32 too, or
+      // its weight W(1) = 0 drops it on the device and not on the host (the support counts then
+      // differed, 40 against 39, on one H200 specimen in 50). Only the N listed dots are used, so
+      // a radius reaching the (N+1)-th changes nothing else.
+      rho = std::max(0.5 * (dn + dn1), dn * (1 + 1e-4));
       idx.resize(static_cast<std::size_t>(count));
       for (auto k : idx) t.dots.push_back(static_cast<std::int32_t>(k));
       t.geometry.push_back(gap > 0 && std::sqrt(d2[0]) > gap ? PointStatus::far_from_dots : PointStatus::ok);
