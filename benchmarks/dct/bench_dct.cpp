@@ -204,7 +204,11 @@ int main(int argc, char** argv) {
     const double c = get(fmt::format("BM_SeedSweep/cuda/{}", s)) * 1e3;
     const double q = get(fmt::format("BM_SeedSweep/cpu_seq/{}", s)) * 1e3;
     const double p = get(fmt::format("BM_SeedSweep/cpu_par/{}", s)) * 1e3;
-    std::printf("  %-8d %12.1f %12.1f %12.1f %10.1f %10.1f\n", s, c, q, p, c > 0 ? q / c : 0.0, c > 0 ? p / c : 0.0);
+    // A backend the filter left out (get() < 0) prints "-", and so does a ratio with it.
+    auto time = [](double t) { return t > 0 ? fmt::format("{:.1f}", t) : std::string("-"); };
+    auto ratio = [](double a, double b) { return a > 0 && b > 0 ? fmt::format("{:.1f}", a / b) : std::string("-"); };
+    std::printf("  %-8d %12s %12s %12s %10s %10s\n", s, time(c).c_str(), time(q).c_str(), time(p).c_str(),
+                ratio(q, c).c_str(), ratio(p, c).c_str());
   }
   benchmark::Shutdown();
   return 0;
