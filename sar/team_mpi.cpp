@@ -152,19 +152,25 @@ int finish(int status) {
   return status;
 }
 
-}  // namespace
-
-bool have_mpi() { return true; }
-
-int run_team(const Scenario& scenario, const TeamOptions& o) {
+// MPI started for one process of a team: errors returned (not fatal), SIGTERM and SIGINT stop the
+// run between steps, and this process's rank and the team's size.
+void start_mpi(int* rank, int* size) {
   int provided = 0;
   MPI_Init_thread(nullptr, nullptr, MPI_THREAD_SINGLE, &provided);
   MPI_Comm_set_errhandler(MPI_COMM_WORLD, MPI_ERRORS_RETURN);
   std::signal(SIGTERM, on_stop);
   std::signal(SIGINT, on_stop);
+  MPI_Comm_rank(MPI_COMM_WORLD, rank);
+  MPI_Comm_size(MPI_COMM_WORLD, size);
+}
+
+}  // namespace
+
+bool have_mpi() { return true; }
+
+int run_team(const Scenario& scenario, const TeamOptions& o) {
   int rank = 0, size = 1;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  start_mpi(&rank, &size);
 
   // Every process must hold the same team: compare digests (and the grid, for the message).
   std::uint64_t mine[3] = {team_digest(scenario), std::uint64_t(scenario.nx), std::uint64_t(scenario.ny)};
@@ -379,14 +385,8 @@ int run_team(const Scenario& scenario, const TeamOptions& o) {
 
 int run_exchange_sweep(const ExchangeSweep& sweep, const std::function<void(int team)>& begin,
                        const std::function<void(const ExchangeSample&)>& sink) {
-  int provided = 0;
-  MPI_Init_thread(nullptr, nullptr, MPI_THREAD_SINGLE, &provided);
-  MPI_Comm_set_errhandler(MPI_COMM_WORLD, MPI_ERRORS_RETURN);
-  std::signal(SIGTERM, on_stop);
-  std::signal(SIGINT, on_stop);
   int rank = 0, size = 1;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  start_mpi(&rank, &size);
   if (size < 2) {
     fmt::print(stderr, "dtflop: error: an exchange sweep needs a team: run it under `mpirun -n N dtflop sar ...` with "
                        "N >= 2\n");
