@@ -39,7 +39,7 @@ double default_start(Param p) {
   if (p == Param::L_net) return 2e-6;    // a message between processes of one host
   if (p == Param::B_net) return 2e9;
   if (unit == "s") return 10e-6;
-  if (p == Param::K_CW || p == Param::K_CD || p == Param::K_CA || p == Param::K_GR) return 1.0;  // a FLOP costs what any other does
+  if (info(p).unit == "x") return 1.0;  // a cost ratio: a FLOP costs what any other does
   if (p == Param::S_GC_staged) return 256.0 * 1024;  // the staging chunks of today's drivers
   if (p == Param::S_GC_flat) return 128.0 * 1024;
   if (p == Param::V_G_fp32 || p == Param::V_G_fp64) return 10e12;
@@ -125,7 +125,7 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
   // The parameters the samples' counts exercise, in Param order.
   std::vector<Param> ids;
   for (const auto& s : samples)
-    for (Param p : required_params(s.counts, o.variant, start.identity.cpu_llc_bytes, true, true))
+    for (Param p : required_params(s.counts, o.variant, start.identity.cpu_llc_bytes, true, true, true))
       if (std::find(ids.begin(), ids.end(), p) == ids.end()) ids.push_back(p);
   std::sort(ids.begin(), ids.end());
   // Start values: the latency variant's fit for extended (see FitOptions::warm_start), else
@@ -155,7 +155,7 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
   std::vector<Residual> residuals;
   for (const auto& s : samples) {
     std::vector<int> params;
-    for (Param p : required_params(s.counts, o.variant, start.identity.cpu_llc_bytes, true, true)) params.push_back(index_of(p));
+    for (Param p : required_params(s.counts, o.variant, start.identity.cpu_llc_bytes, true, true, true)) params.push_back(index_of(p));
     for (Component c : all_components()) {
       if (c != Component::total &&
           std::find(o.components.begin(), o.components.end(), c) == o.components.end())

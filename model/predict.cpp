@@ -154,8 +154,8 @@ MissingParameter missing_parameters(const std::vector<Param>& missing, Variant v
 }  // namespace
 
 std::vector<Param> required_params(const CostCounts& c, Variant variant, std::int64_t profile_llc, bool staged,
-                                   bool serial) {
-  return required_params(c, variant, Pricing{profile_llc, staged, serial});
+                                   bool serial, bool all_threads) {
+  return required_params(c, variant, Pricing{profile_llc, staged, all_threads, serial});
 }
 
 Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant) {

@@ -74,8 +74,10 @@ struct Prediction {
 // (B_GC_staged, S_GC_staged, S_GC_flat): true where the profile has them (has_staging) or a fit
 // is to find them.
 // `serial`: price serial chains (N_CS) at V_CS: true where the profile has it or a fit is to find it.
+// `all_threads`: price windows on several threads with K_CW_all, K_CA_all (the profile has them or
+// a fit is to find them).
 std::vector<Param> required_params(const CostCounts& counts, Variant variant, std::int64_t profile_llc = 0,
-                                   bool staged = false, bool serial = false);
+                                   bool staged = false, bool serial = false, bool all_threads = false);
 // Does the profile have the three staging figures of pageable device->host copies?
 bool has_staging(const MachineProfile& profile);
 // Seconds a pageable device->host copy of `bytes` takes past its latency:

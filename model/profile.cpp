@@ -57,6 +57,8 @@ const std::vector<ParamInfo>& all_params() {
       {Param::K_CW, "K_CW", "x", "cost of a sliding-window CPU FLOP (one unaligned load per FMA) relative to one at the CPU rate"},
       {Param::K_CD, "K_CD", "x", "cost of a chained sliding-window CPU FLOP (few outputs in flight, each tap's addition waits for the one before) relative to one at the CPU rate"},
       {Param::K_CA, "K_CA", "x", "cost of an aligned-window CPU FLOP (vectorized, each row segment loaded once for two FMAs) relative to one at the CPU rate"},
+      {Param::K_CW_all, "K_CW_all", "x", "K_CW with every hardware thread at work (its rate against the all-thread FMA rate)"},
+      {Param::K_CA_all, "K_CA_all", "x", "K_CA with every hardware thread at work (its rate against the all-thread FMA rate)"},
       {Param::V_CS, "V_CS", "FLOP/s", "CPU rate of one chain of dependent additions (a plain sum: each addition waits for the one before), one thread"},
       {Param::K_GR, "K_GR", "x", "cost of a GPU FLOP whose tap reads another row of device memory relative to one at V_G"},
       {Param::L_tree, "L_tree", "s", "one step of host k-d tree work: a point placed at one level, a level descended or a leaf point examined"},
@@ -109,6 +111,8 @@ bool device_param(Param p) {
     case Param::K_CD:
     case Param::V_CS:
     case Param::K_CA:
+    case Param::K_CW_all:
+    case Param::K_CA_all:
     case Param::L_tree:
     case Param::L_net:
     case Param::B_net:

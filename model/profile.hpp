@@ -52,6 +52,8 @@ enum class Param {
   K_CW,            // cost of a sliding-window FLOP (N_CW) relative to one at the CPU rate [x]
   K_CD,            // cost of a chained sliding-window FLOP (N_CD) relative to one at the CPU rate [x]
   K_CA,            // cost of an aligned-window FLOP (N_CA) relative to one at the CPU rate     [x]
+  K_CW_all,        // K_CW with every hardware thread at work (cpu_threads > 1)          [x]
+  K_CA_all,        // K_CA with every hardware thread at work (cpu_threads > 1)          [x]
   V_CS,            // rate of one chain of dependent additions (a plain sum, N_CS), one thread [FLOP/s]
   K_GR,            // cost of an across-rows GPU FLOP (N_GR) relative to one at V_G         [x]
   L_tree,          // one step of host k-d tree work (tree_steps)                          [s]

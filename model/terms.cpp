@@ -48,7 +48,9 @@ std::string Variants::str() const {
   return every ? std::string("every variant") : out;
 }
 
-Pricing Pricing::of(const MachineProfile& m) { return {m.identity.cpu_llc_bytes, has_staging(m), m.has(Param::V_CS)}; }
+Pricing Pricing::of(const MachineProfile& m) {
+  return {m.identity.cpu_llc_bytes, has_staging(m), m.has(Param::K_CW_all) || m.has(Param::K_CA_all), m.has(Param::V_CS)};
+}
 
 namespace {
 
@@ -150,18 +152,21 @@ std::vector<Param> c_needs(const CostCounts& c, Variant v, const Pricing& x) {
   const bool serial = serial_chain(c, v, x);
   std::vector<Param> out;
   if (c.N_C > (serial ? c.N_CS : 0)) out = cpu_params(v_c1(c), v_c(c), c.cpu_threads);
-  if (sliding_window(c, v)) out.push_back(Param::K_CW);
+  const bool all = x.all_threads && c.cpu_threads > 1;
+  if (sliding_window(c, v)) out.push_back(all ? Param::K_CW_all : Param::K_CW);
   if (chained_window(c, v)) out.push_back(Param::K_CD);
-  if (aligned_window(c, v)) out.push_back(Param::K_CA);
+  if (aligned_window(c, v)) out.push_back(all ? Param::K_CA_all : Param::K_CA);
   if (serial) out.push_back(Param::V_CS);
   return out;
 }
 double c_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing& x) {
   const bool serial = serial_chain(c, v, x);
+  const bool all = x.all_threads && c.cpu_threads > 1;  // the windows' ratios with every thread at work
   const double flops = priced_flops(c.N_C - (serial ? c.N_CS : 0), c.N_CW,
-                                    sliding_window(c, v) ? m.get(Param::K_CW).value : 1.0) +
+                                    sliding_window(c, v) ? m.get(all ? Param::K_CW_all : Param::K_CW).value : 1.0) +
                        (chained_window(c, v) ? m.get(Param::K_CD).value - 1 : 0.0) * static_cast<double>(c.N_CD) +
-                       (aligned_window(c, v) ? m.get(Param::K_CA).value - 1 : 0.0) * static_cast<double>(c.N_CA);
+                       (aligned_window(c, v) ? m.get(all ? Param::K_CA_all : Param::K_CA).value - 1 : 0.0) *
+                           static_cast<double>(c.N_CA);
   const double rest = flops > 0 ? flops / cpu_rate(m, c.precision, c.cpu_threads) : 0.0;
   return rest + (serial ? static_cast<double>(c.N_CS) / m.get(Param::V_CS).value : 0.0);
 }
@@ -230,7 +235,8 @@ const std::vector<Term>& terms() {
       {"dt_C_arith", &P::dt_C_arith, Phase::C, kEveryVariant, overlap,
        "N_C + (K_CW - 1) N_CW + (K_CD - 1) N_CD + (K_CA - 1) N_CA, N_CS apart (latency+); seed: N_C",
        "V_C1_fp32 or V_C1_fp64 (precision), and V_C_fp32 or V_C_fp64 for cpu_threads > 1 (2.3); K_CW (memory, "
-       "extended, N_CW > 0); K_CD, K_CA (memory, extended, N_CD, N_CA > 0); V_CS (latency+, N_CS > 0)",
+       "extended, N_CW > 0); K_CD, K_CA (memory, extended, N_CD, N_CA > 0); K_CW_all, K_CA_all in place of K_CW, "
+       "K_CA for cpu_threads > 1 where the profile has them; V_CS (latency+, N_CS > 0)",
        "CPU arithmetic", {positive<&C::N_C>, c_needs, c_seconds}},
       {"dt_CC", &P::dt_CC, Phase::C, kHostMemoryVariants, overlap, "P N_CC",
        "B_host_1, and B_host for cpu_threads > 1; B_llc_1 (and B_llc) when 0 < cpu_footprint < LLC (2.4)",

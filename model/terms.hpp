@@ -69,6 +69,8 @@ struct Pricing {
   std::int64_t llc_bytes = 0;  // the machine's last-level cache (0: unknown)
   bool staging = false;        // price sized pageable device->host copies with the staging figures
                                // (the profile has them, has_staging(), or a fit is to find them)
+  bool all_threads = false;    // price windows on cpu_threads > 1 with K_CW_all, K_CA_all (the
+                               // profile has them, or a fit is to find them); else K_CW, K_CA
   bool serial = false;         // price serial chains (N_CS) at V_CS (the profile has it, or a fit is
                                // to find it); else at the CPU rate, as profiles made before it did
   static Pricing of(const MachineProfile& profile);

@@ -99,6 +99,20 @@ MachineProfile make_profile(const MachineReport& report) {
       prof.set(*m.param, std::move(par));
     }
   }
+  // Cost ratios rebased on the profile's own rates (Measurement::reference_param): the ratio was
+  // taken against the probe's own rerun of the rate, and a prediction divides by the profile's.
+  for (const auto& r : report.reports) {
+    if (r.error || r.skipped) continue;
+    for (const auto& m : r.measurements) {
+      if (!m.param || !m.reference_param || !(m.reference > 0) || !prof.has(*m.reference_param)) continue;
+      const double rate = prof.get(*m.reference_param).value;
+      Parameter par = prof.get(*m.param);
+      par.value = m.value * rate / m.reference;
+      par.note += fmt::format("; rebased on {} ({:.4g}): {:.4g} x {:.4g} / {:.4g}", info(*m.reference_param).name, rate,
+                              m.value, rate, m.reference);
+      prof.set(*m.param, std::move(par));
+    }
+  }
   auto& md = prof.metadata;
   // Every point of the transfer sweeps, so a report can draw them against the fitted curve:
   // "probe.transfers.<series>" = "bytes:seconds ..." (seconds: the median of one copy's

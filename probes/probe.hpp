@@ -50,6 +50,12 @@ struct Measurement {
   std::string note;                    // how it was obtained
   // One point of a sweep (e.g. one transfer size): shown only when details are asked for.
   bool detail = false;
+  // A cost ratio against a rate this probe measured again beside its loop (K_CW: the FMA rate of
+  // one thread): the profile rebases it on that rate's own parameter, value x (the profile's rate /
+  // `reference`), so that a prediction prices the loop at the rate the loop ran at, whatever the
+  // two runs of the reference gave on a machine whose speed drifts (make_profile()).
+  std::optional<Param> reference_param;
+  double reference = 0;  // the rate the ratio was taken against, in its parameter's unit
 };
 
 struct ProbeReport {

@@ -53,8 +53,11 @@ void Team::worker_loop(int index) {
 double Team::run(const std::function<void(int)>& fn) {
   job_ = &fn;
   for (auto& e : errors_) e = nullptr;
-  start_.arrive_and_wait();
+  // The clock starts before the caller releases the workers (they wait at the barrier already):
+  // a caller that lost its CPU right after the release would otherwise start it late, after
+  // the others had done the work (with run_chunks(), all of it).
   const auto t0 = std::chrono::steady_clock::now();
+  start_.arrive_and_wait();
   try {
     fn(0);
   } catch (...) {
@@ -66,6 +69,15 @@ double Team::run(const std::function<void(int)>& fn) {
   for (auto& e : errors_)
     if (e) std::rethrow_exception(e);
   return std::chrono::duration<double>(t1 - t0).count();
+}
+
+double Team::run_chunks(std::int64_t chunks, const std::function<void(int, std::int64_t)>& fn) {
+  next_chunk_.store(0, std::memory_order_relaxed);
+  return run([&](int w) {
+    for (std::int64_t c = next_chunk_.fetch_add(1, std::memory_order_relaxed); c < chunks;
+         c = next_chunk_.fetch_add(1, std::memory_order_relaxed))
+      fn(w, c);
+  });
 }
 
 }  // namespace dtflop::probes

@@ -3,7 +3,9 @@
 // released to the moment the last one finishes (thread creation stays out of the timing).
 #pragma once
 
+#include <atomic>
 #include <barrier>
+#include <cstdint>
 #include <functional>
 #include <thread>
 #include <vector>
@@ -25,6 +27,12 @@ class Team {
   // re-thrown here (the first one).
   double run(const std::function<void(int worker)>& fn);
 
+  // Runs fn(worker, chunk) for chunks 0 .. chunks - 1, each worker taking the next chunk as it
+  // finishes one (as OpenMP's dynamic schedule does, which the CPU backends use): a worker that
+  // loses its CPU to another process does fewer chunks instead of holding up the end, so the time
+  // is the team's throughput, as a backend sees it. Returns the wall time as run() does.
+  double run_chunks(std::int64_t chunks, const std::function<void(int worker, std::int64_t chunk)>& fn);
+
  private:
   void worker_loop(int index);
   int size_;
@@ -34,6 +42,7 @@ class Team {
   bool quit_ = false;
   std::vector<std::exception_ptr> errors_;
   std::vector<std::jthread> threads_;
+  std::atomic<std::int64_t> next_chunk_{0};
 };
 
 // CPUs this process may run on (the affinity mask; hardware_concurrency as fallback).

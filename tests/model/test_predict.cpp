@@ -190,6 +190,41 @@ TEST(Predict, ChainedWindowFlopsCostKCdTimesTheOthersBesideTheSlidingWindowOnes)
   EXPECT_THROW(predict(m, c, Variant::memory), InputError);
 }
 
+TEST(Predict, WindowsOnSeveralThreadsUseTheAllThreadRatiosWhereTheProfileHasThem) {
+  auto m = test::round_profile();  // K_CW = 1.5, V_C1 100 GFLOP/s
+  m.set(Param::K_CA, Parameter{2.0, Provenance::probed, {}, {}, {}});
+  CostCounts c;
+  c.N_C = 1'000'000;
+  c.N_CW = 200'000;
+  c.N_CA = 100'000;
+  c.cpu_threads = 4;
+  CostCounts plain = c;  // the same FLOPs at the CPU rate of 4 threads (2.3)
+  plain.N_CW = plain.N_CA = 0;
+  const double v = 1e6 / predict(m, plain, Variant::memory).dt_C_arith;
+  const auto needs_with = [&](Param p) {
+    const auto r = required_params(c, Variant::memory, 0, false, false, true);  // as Pricing::of(m) sets it
+    return std::find(r.begin(), r.end(), p) != r.end();
+  };
+  // A profile without the all-thread ratios (made before them) prices with the one-thread ones.
+  EXPECT_NEAR(predict(m, c, Variant::memory).dt_C_arith, (1e6 + 0.5 * 2e5 + 1.0 * 1e5) / v, 1e-15);
+  m.set(Param::K_CW_all, Parameter{1.1, Provenance::probed, {}, {}, {}});
+  m.set(Param::K_CA_all, Parameter{1.25, Provenance::probed, {}, {}, {}});
+  EXPECT_NEAR(predict(m, c, Variant::memory).dt_C_arith, (1e6 + 0.1 * 2e5 + 0.25 * 1e5) / v, 1e-15);
+  EXPECT_TRUE(needs_with(Param::K_CW_all));
+  EXPECT_FALSE(needs_with(Param::K_CW));
+  // One thread keeps the one-thread ratios, whatever the profile holds.
+  c.cpu_threads = 1;
+  EXPECT_NEAR(predict(m, c, Variant::memory).dt_C_arith,
+              (1e6 + 0.5 * 2e5 + 1.0 * 1e5) / m.get(Param::V_C1_fp32).value, 1e-15);
+  EXPECT_FALSE(needs_with(Param::K_CA_all));
+  EXPECT_TRUE(needs_with(Param::K_CA));
+  // A fit of multi-threaded samples finds the _all ratios.
+  c.cpu_threads = 2;
+  const auto r = required_params(c, Variant::extended, 0, false, false, true);
+  EXPECT_NE(std::find(r.begin(), r.end(), Param::K_CA_all), r.end());
+  EXPECT_EQ(std::find(r.begin(), r.end(), Param::K_CA), r.end());
+}
+
 TEST(Predict, ASerialChainRunsAtItsOwnRateOnOneThread) {
   auto m = test::round_profile();  // V_C1_fp32 100 GFLOP/s
   m.set(Param::V_CS, Parameter{1e9, Provenance::probed, {}, {}, {}});

@@ -73,7 +73,7 @@ TEST(CpuProbes, WindowGivesBothCostRatios) {
   o.effort = Effort::smoke;
   const ProbeReport r = probe("cpu-window").run(o);
   expect_sane(r);
-  for (Param p : {Param::K_CD, Param::K_CW, Param::K_CA}) {
+  for (Param p : {Param::K_CD, Param::K_CW, Param::K_CA, Param::K_CW_all, Param::K_CA_all}) {
     const auto* m = find(r, p);
     ASSERT_NE(m, nullptr) << info(p).name;
     // A loop of FMAs cannot beat the FMA units by more than timing noise, and no CPU of this
