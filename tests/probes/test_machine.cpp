@@ -117,6 +117,38 @@ TEST(ProbeMachine, ProfileHoldsWhatWasMeasuredAndNothingElse) {
   EXPECT_EQ(back.identity.measured_at, prof.identity.measured_at);
 }
 
+TEST(ProbeMachine, CostRatiosAreRebasedOnTheProfilesOwnRate) {
+  // cpu-fma measured V_C1_fp32 = 100 GFLOP/s; cpu-window's loop ran at 50 GFLOP/s against its own
+  // rerun of the FMA loop at 150: K_CW = 3 there, 2 against the profile's rate, so that the
+  // prediction N_CW x K_CW / V_C1 is the loop's own 50 GFLOP/s.
+  MachineReport rep;
+  ProbeReport fma, window;
+  fma.probe = "cpu-fma";
+  Measurement rate;
+  rate.key = "fp32_1";
+  rate.unit = "FLOP/s";
+  rate.value = 100e9;
+  rate.param = Param::V_C1_fp32;
+  fma.measurements.push_back(rate);
+  window.probe = "cpu-window";
+  Measurement k;
+  k.key = "K_CW";
+  k.unit = "x";
+  k.value = 3.0;
+  k.param = Param::K_CW;
+  k.reference_param = Param::V_C1_fp32;
+  k.reference = 150e9;
+  window.measurements.push_back(k);
+  k.param = Param::K_CA;  // against a rate the profile lacks: left as measured
+  k.reference_param = Param::V_C1_fp64;
+  window.measurements.push_back(k);
+  rep.reports = {window, fma};  // the order of the probes does not matter
+  const MachineProfile prof = make_profile(rep);
+  EXPECT_DOUBLE_EQ(prof.get(Param::K_CW).value, 2.0);
+  EXPECT_NE(prof.get(Param::K_CW).note.find("rebased on V_C1_fp32"), std::string::npos);
+  EXPECT_DOUBLE_EQ(prof.get(Param::K_CA).value, 3.0);
+}
+
 TEST(ProbeMachine, AFailingProbeLeavesItsParametersOut) {
   // make_profile takes measurements from sound reports only.
   MachineReport rep;
