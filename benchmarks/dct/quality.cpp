@@ -3,6 +3,7 @@
 //   dct_quality fields  [backend] [support] [interp] [seeds]  displacement / strain errors per deformation
 //   dct_quality auto-support [backend] [seeds]                       the support suggestion applied: errors before / after
 //   dct_quality fe-ratio [backend] [support] [seeds]                 FE / MLS strain error by distance from the hull
+//   dct_quality fe-sd [support] [seeds]                              FE / MLS stated strain deviation, geometry only
 //   dct_quality centroids [margin]                                   centroid error vs radius, blur, noise
 //   dct_quality sigma [backend] [support] [interp] [runs]            stated vs observed deviation
 //   dct_quality kirsch [backend] [seeds] [interp] [support...]       e_yy at the hole edge: bias and noise
@@ -14,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -196,6 +198,7 @@ int fe_ratio(int argc, char** argv) {
 int fe_sd(int argc, char** argv) {
   const std::string support = argc > 2 ? argv[2] : Support{}.str();
   const int seeds = argc > 3 ? std::stoi(argv[3]) : 3;
+  if (seeds < 1 || seeds > 1000) throw std::invalid_argument("fe-sd: seeds must be 1..1000; give a pattern count in that range");
   constexpr int kBands = 4;
   const char* band_names[kBands] = {"0-100 px", "100-200 px", "> 200 px", "all"};
   std::printf("FE / MLS stated strain deviation (unit dot variance) by distance from the hull, %s\n", support.c_str());
@@ -563,7 +566,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "dct_quality: %s\n", e.what());
     return 2;
   }
-  std::fprintf(stderr, "usage: dct_quality fields [backend] [support] [mls|fe] [seeds] [weight] | fe-ratio [backend] [support] [seeds] | auto-support [backend] [seeds] | "
+  std::fprintf(stderr, "usage: dct_quality fields [backend] [support] [mls|fe] [seeds] [weight] | fe-ratio [backend] [support] [seeds] | fe-sd [support] [seeds] | auto-support [backend] [seeds] | "
                        "centroids [margin] | sigma [backend] [support] [mls|fe] [runs] | kirsch [backend] [seeds] [mls|fe] [support...] | "
                        "support-noise [backend]\n");
   return 2;
