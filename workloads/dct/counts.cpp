@@ -35,10 +35,13 @@ FrameShape estimate_shape(std::int64_t width, std::int64_t height, int bytes_per
   s.margin = margin;
   s.points = n_points;
   // FE's recovery reads the triangles whose centroids lie in the support: a Delaunay
-  // triangulation holds about two triangles per dot inside the pattern, fewer along its hull,
-  // and the grid's points outside the hull read none; counted as one per support dot (an
-  // estimate; the reference's table gives the exact count).
-  s.support_entries = n_points * dots_per_support;
+  // triangulation of n dots holds 2n - 2 - h triangles (h on the hull), about two per support
+  // dot, for the points inside the dots' hull; the grid spans the dots' bounding box, and its
+  // outer ring of points lies (mostly) outside the hull and reads none. Counted as two per
+  // support dot for the grid's inner points, the grid taken as square (an estimate; the
+  // reference's table gives the exact count).
+  s.support_entries = interp == Interp::fe ? 2 * fe_inner_points(n_points) * dots_per_support
+                                           : n_points * dots_per_support;
   s.interp = interp;
   s.tree_steps = match_tree_steps(n_dots, n_dots);  // every dot found and matched at once
   return s;
@@ -85,6 +88,12 @@ double disc_area_inside(double cx, double cy, double r, double x0, double y0, do
     area += piece * half * std::numbers::pi / 2;
   }
   return area;
+}
+
+std::int64_t fe_inner_points(std::int64_t n_points) {
+  if (n_points < 9) return n_points;
+  const double side = std::sqrt(static_cast<double>(n_points)) - 2;
+  return std::llround(side * side);
 }
 
 std::int64_t expected_entries_within(double radius, double x0, double y0, double x1, double y1, std::int64_t nx,

@@ -43,6 +43,10 @@ FrameShape estimate_shape(std::int64_t width, std::int64_t height, int bytes_per
                           double dot_radius, std::int64_t n_points, std::int64_t dots_per_support, Interp interp,
                           int margin = 2);
 
+// FE: the points of a grid of n_points over the dots' bounding box expected inside the dots'
+// hull, the grid taken as square less its outer ring (n_points itself below 9 points).
+std::int64_t fe_inner_points(std::int64_t n_points);
+
 // Expected support entries of an MLS support of radius `radius` px, summed over an nx x ny grid
 // of points spread over [x0, x1] x [y0, y1] (fields.hpp, grid_points), for `dots` dots spread
 // uniformly over that rectangle: at each point the density times the area of the support disc

@@ -1,7 +1,9 @@
 #include "workloads/dct/fields.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <set>
 
 #include <fmt/format.h>
 #include <opencv2/core/utility.hpp>
@@ -238,22 +240,30 @@ FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec
   };
   FeTable t;
   t.points = points;
-  // The triangles: every face of the subdivision whose three vertices are dots, once (each
-  // face is found from its three edges; keep it from the edge whose origin is its smallest dot).
+  // The triangles: every face of the subdivision whose three vertices are dots, once.
+  // getLeadingEdgeList() gives one directed edge per face (the face on its left), so each face
+  // is taken from its own leading edge; the face across it (the reversed edge) is looked at too
+  // and every face is kept the first time its vertex triple is seen. (Keeping a face only from
+  // the edge whose origin is its smallest dot, as before, lost a third of the triangles: their
+  // holes in the tiling left each bordering dot's displacement in the recovered gradient, a
+  // noise that grew with the support; docs/dct.md "FE".)
   std::vector<Vec2> centroid;
   std::vector<double> area;
   std::vector<std::uint8_t> sound;
-  std::vector<double> quality;
   {
     std::vector<int> lead;
     sub.getLeadingEdgeList(lead);
+    std::set<std::array<int, 3>> seen;
     for (int e0 : lead)
       for (int e : {e0, sub.rotateEdge(e0, 2)}) {
         const int e1 = sub.getEdge(e, cv::Subdiv2D::NEXT_AROUND_LEFT);
         const int e2 = sub.getEdge(e1, cv::Subdiv2D::NEXT_AROUND_LEFT);
         if (sub.getEdge(e2, cv::Subdiv2D::NEXT_AROUND_LEFT) != e) continue;
         const int a = vdot(sub.edgeOrg(e)), b = vdot(sub.edgeOrg(e1)), c = vdot(sub.edgeOrg(e2));
-        if (a < 0 || b < 0 || c < 0 || a > b || a > c) continue;
+        if (a < 0 || b < 0 || c < 0) continue;
+        std::array<int, 3> key = {a, b, c};
+        std::sort(key.begin(), key.end());
+        if (!seen.insert(key).second) continue;
         double n[3], gx[3], gy[3];
         if (!bary(a, b, c, reference[static_cast<std::size_t>(a)], n, gx, gy)) continue;
         const Vec2 A = reference[a], B = reference[b], C = reference[c];
@@ -263,10 +273,6 @@ FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec
         t.tri_gy.insert(t.tri_gy.end(), gy, gy + 3);
         centroid.push_back({(A.x + B.x + C.x) / 3, (A.y + B.y + C.y) / 3});
         area.push_back(0.5 * std::abs(det));
-        {
-          const double l2 = len(a, b) * len(a, b) + len(b, c) * len(b, c) + len(c, a) * len(c, a);
-          quality.push_back(4 * std::sqrt(3.0) * 0.5 * std::abs(det) / l2);
-        }
         const double longest = std::max({len(a, b), len(b, c), len(c, a)});
         sound.push_back(!(max_gap > 0 && longest > 2 * max_gap * spacing));
       }
@@ -282,21 +288,21 @@ FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec
   if (centroid.empty()) {  // no triangle (collinear dots): a far sentinel the index can hold
     centroid.push_back({x0 - 1e9, y0 - 1e9});
     sound.push_back(0);
-    quality.push_back(0);
   }
   const PointIndex tri_index(centroid);  // keeps a reference to `centroid`
   // Each triangle's weight in the recovery, besides the MLS weight of its centroid's distance:
-  // its area x its shape quality q = 4 sqrt(3) area / (sum of squared edges) (1 for an
-  // equilateral triangle, -> 0 for a sliver) x a taper that rises from 0 on the dots' convex
-  // hull to 1 a quarter of the point's support radius inside it. Area x q is area^2 / sum l^2, the
-  // inverse of the variance of the triangle's gradient (sigma^2 sum l^2 / (4 area^2) for
-  // independent vertex noise sigma), so slivers, whose gradient across them is noise over
-  // their small height, count for little; the taper keeps the recovery's fit off the hull's
-  // one-sided edge, where area-weighted gradients sum to the hull dots' displacements times
-  // the weight itself rather than its derivative. Measured on independent renders
-  // (`dct_quality fe-ratio`, docs/dct.md "FE"). A linear field is still recovered exactly
-  // (any weights do).
-  constexpr double kFeHullTaper = 0.25;  // of the point's support radius
+  // its area x a taper that rises from 0 on the dots' convex hull to 1 one support radius
+  // inside it. With area weights the recovered gradient sum_t c(x_t) A_t G_t is a quadrature of
+  // the integral of c grad u_h over the tiled hull, which integrates by parts to -integral
+  // u_h grad c: each dot's displacement enters through the smooth kernel's gradient times the
+  // dot's area, and the terms of neighbouring triangles cancel. Any factor that varies from
+  // triangle to triangle (a shape quality, a missing triangle) breaks that cancellation and
+  // leaves each dot's displacement times c itself, a noise that grows against the smooth part
+  // as the support widens; where c does not vanish on the hull the same term stays along it,
+  // hence the taper (over the whole support radius: a steeper one concentrates the kernel near
+  // the hull). Measured on independent renders (`dct_quality fe-sd`, `fe-ratio`; docs/dct.md
+  // "FE"). A linear field is still recovered exactly (any weights do).
+  constexpr double kFeHullTaper = 1.0;  // of the point's support radius
   std::vector<double> tri_weight(centroid.size(), 0.0), hull_dist(centroid.size(), 0.0);
   {
     std::vector<cv::Point2f> pts2, hull;
@@ -304,7 +310,7 @@ FeTable build_fe_table(const std::vector<Vec2>& reference, const std::vector<Vec
     cv::convexHull(pts2, hull);
     for (std::size_t k = 0; k < tri_weight.size(); ++k) {
       if (!sound[k]) continue;
-      tri_weight[k] = area[k] * quality[k];
+      tri_weight[k] = area[k];
       if (hull.size() >= 3)
         hull_dist[k] = cv::pointPolygonTest(
             hull, cv::Point2f(static_cast<float>(centroid[k].x), static_cast<float>(centroid[k].y)), true);

@@ -589,8 +589,22 @@ FrameShape estimated_shape(const wl::Config& c) {
     // The points spread over the dots' bounding box, which is about the area the dots are
     // thrown into (specimen_of): the expected dots within the radius of each, from the density.
     const double e = inset(g.radius);
-    s.support_entries = expected_entries_within(g.support_radius, e, e, static_cast<double>(g.w) - 1 - e,
-                                                static_cast<double>(g.h) - 1 - e, g.nx, g.ny, g.dots);
+    const double x0 = e, y0 = e, x1 = static_cast<double>(g.w) - 1 - e, y1 = static_cast<double>(g.h) - 1 - e;
+    if (g.interp == Interp::fe && g.nx >= 3 && g.ny >= 3) {
+      // FE: two triangles per dot within the radius, at the grid's inner points (its outer ring
+      // lies outside the dots' hull and reads none; counts.cpp, estimate_shape).
+      const double density = static_cast<double>(g.dots) / ((x1 - x0) * (y1 - y0));
+      double sum = 0;
+      for (std::int64_t j = 1; j + 1 < g.ny; ++j)
+        for (std::int64_t i = 1; i + 1 < g.nx; ++i) {
+          const double x = x0 + (x1 - x0) * static_cast<double>(i) / static_cast<double>(g.nx - 1);
+          const double y = y0 + (y1 - y0) * static_cast<double>(j) / static_cast<double>(g.ny - 1);
+          sum += std::min(static_cast<double>(g.dots), density * disc_area_inside(x, y, g.support_radius, x0, y0, x1, y1));
+        }
+      s.support_entries = 2 * std::llround(sum);
+    } else {
+      s.support_entries = expected_entries_within(g.support_radius, x0, y0, x1, y1, g.nx, g.ny, g.dots);
+    }
   }
   s.weight = g.weight;
   s.otsu = g.threshold == ThresholdMethod::otsu;

@@ -65,13 +65,13 @@ TEST(DctAccuracy, UniformTensionWithin20Microstrain) {
               e.e_rms * 1e6, e.e_max * 1e6, e.u_rms);
   EXPECT_LE(e.e_rms, 20e-6);
   EXPECT_LE(e.u_rms, 0.01);
-  // FE on the same frame: valid, and worse than MLS on strain (three dots per estimate).
+  // FE on the same frame: valid, its recovered strain (over the support's triangles) near MLS's.
   o.interp = Interp::fe;
   const FrameOutput fe = run_pipeline(s, o);
   const FieldErrors ef = errors_against(s, grid_points_over(s.reference_centres(), 16, 12, 60), fe.fields);
   std::printf("uniform 0.1%% FE: strain RMS error %.2f microstrain\n", ef.e_rms * 1e6);
   EXPECT_GT(ef.valid, 16 * 12 * 9 / 10);
-  EXPECT_LE(ef.e_rms, 300e-6);
+  EXPECT_LE(ef.e_rms, 2 * e.e_rms);
 }
 
 TEST(DctAccuracy, RigidMotionsAndBending) {

@@ -215,6 +215,11 @@ TEST(DctCounts, EstimateIsCloseToAMeasuredRun) {
   EXPECT_NEAR(static_cast<double>(e.window_pixels), static_cast<double>(m.window_pixels), 0.15 * static_cast<double>(m.window_pixels));
   EXPECT_NEAR(static_cast<double>(e.weighted_pixels), static_cast<double>(m.weighted_pixels), 0.15 * static_cast<double>(m.weighted_pixels));
   EXPECT_THROW(estimate_shape(0, 480, 1, 10, 8, 48, 30, Interp::mls), InputError);
+  // FE: two recovery triangles per support dot at the grid's inner points (a square grid's
+  // outer ring lies outside the dots' hull): 32x32 -> 30x30.
+  EXPECT_EQ(fe_inner_points(1024), 900);
+  EXPECT_EQ(fe_inner_points(4), 4);
+  EXPECT_EQ(estimate_shape(640, 480, 1, m.dots, 8, 1024, 30, Interp::fe).support_entries, 2 * 900 * 30);
 }
 
 }  // namespace
