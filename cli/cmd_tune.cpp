@@ -155,7 +155,7 @@ tune::Predicted predict_one(const Inputs& in, const workload::Backend& b, const 
   const CostCounts counts = b.counts(c, &in.machine.identity);
   const Variant wanted = cal ? cal->calibration.variant : chosen_variant(profile).value_or(b.model_variant());
   const Predicted p = predict_with_fallback(profile, counts, wanted);
-  const BasisError basis = cal ? cal->basis : basis_of(profile, counts, p.variant);
+  const BasisError basis = cal ? cal->basis : basis_of(profile, counts, p.variant, b.probe_only_error());
   const Interval iv = interval_of(p.prediction, profile, counts, basis);
   tune::Predicted out;
   out.seconds = p.prediction.total;

@@ -198,7 +198,10 @@ int run(const ValidateOptions& o) {
     const Stats* st = s.find(Component::total);
     if (!st || !(st->median > 0)) continue;
     const Prediction p = predict(profile, s.counts, variant);
-    const BasisError b = calibration_basis ? *calibration_basis : basis_of(profile, s.counts, variant);
+    const BasisError b = calibration_basis
+                             ? *calibration_basis
+                             : basis_of(profile, s.counts, variant,
+                                        workload::find(s.workload).backend(s.backend).probe_only_error());
     const Interval iv = interval_of(p, profile, s.counts, b);
     ++scored;
     bases[std::string(to_string(b.basis))] += 1;

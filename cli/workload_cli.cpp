@@ -168,6 +168,7 @@ PredictionProfile prediction_profile(const PredictArgs& args, const workload::Wo
     throw InputError("no --machine profile to predict with");
   }
   PredictionProfile out;
+  out.probe_only = b.probe_only_error();
   const MachineProfile machine = load_profile(args.machine);
   if (args.calibration.empty()) {
     out.profile = machine;
@@ -193,7 +194,7 @@ PredictionProfile prediction_profile(const PredictArgs& args, const workload::Wo
 
 Judged judge(const Predicted& p, const PredictionProfile& pp, const CostCounts& counts, std::optional<double> deadline) {
   Judged j;
-  j.basis = pp.calibration ? *pp.calibration : basis_of(pp.profile, counts, p.variant);
+  j.basis = pp.calibration ? *pp.calibration : basis_of(pp.profile, counts, p.variant, pp.probe_only);
   j.interval = interval_of(p.prediction, pp.profile, counts, j.basis);
   if (deadline) j.deadline = judge_deadline(p.prediction.total, j.interval, *deadline);
   return j;

@@ -87,6 +87,7 @@ struct Predicted {
 struct PredictionProfile {
   MachineProfile profile;
   std::optional<BasisError> calibration;  // the basis a --calibration gives (else judge() finds it)
+  std::optional<BasisError> probe_only;   // the backend's measured probe-only error, if it declares one
   std::vector<std::string> notes;  // for stderr: what a calibration carried as it is
 };
 // Throws InputError for a calibration of another workload, backend or host memory kind than the

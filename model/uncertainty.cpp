@@ -44,11 +44,17 @@ double normal_quantile(double p) {
   return 0.5 * (lo + hi);
 }
 
-BasisError basis_of(const MachineProfile& profile, const CostCounts& counts, Variant variant) {
+BasisError basis_of(const MachineProfile& profile, const CostCounts& counts, Variant variant,
+                    const std::optional<BasisError>& probe_only) {
   BasisError b;
   bool fitted = false;
   for (Param id : required_params(counts, variant, profile.identity.cpu_llc_bytes, has_staging(profile)))
     if (const Parameter* par = profile.find(id)) fitted = fitted || par->provenance == Provenance::fitted;
+  if (!fitted && probe_only) {
+    b = *probe_only;
+    b.basis = Basis::probe_only;
+    return b;
+  }
   if (!fitted) {
     b.basis = Basis::probe_only;
     b.sigma = on_device(counts) ? kProbeOnlySigma.gpu : kProbeOnlySigma.cpu;

@@ -11,6 +11,7 @@
 //                  same way on runs they were not fitted to (ErrorFigure::rms_log).
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "model/calibration.hpp"
@@ -49,7 +50,10 @@ inline constexpr BasisSigma kTransferSigma = {0.13, 1.3};
 // The basis of a prediction of `counts` with `variant` from a profile alone: `calibrated` when a
 // parameter the prediction uses was fitted (the profile's cross-validated error, metadata
 // fit_cv_rms_log, or failing that its fit's rms residual), else `probe_only`.
-BasisError basis_of(const MachineProfile& profile, const CostCounts& counts, Variant variant);
+// `probe_only`: the backend's own measured error of probe-only predictions, where it declares one
+// (workload::Backend::probe_only_error); else kProbeOnlySigma stands for it.
+BasisError basis_of(const MachineProfile& profile, const CostCounts& counts, Variant variant,
+                    const std::optional<BasisError>& probe_only = std::nullopt);
 // The basis of a prediction from `c` applied as `applied` (apply_calibration's basis).
 BasisError basis_of(const Calibration& c, Basis applied);
 

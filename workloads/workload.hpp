@@ -24,6 +24,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -35,6 +36,7 @@
 #include "model/errors.hpp"
 #include "model/predict.hpp"
 #include "model/profile.hpp"
+#include "model/uncertainty.hpp"
 
 namespace dtflop::workload {
 
@@ -128,6 +130,11 @@ class Backend {
   // docs/PERFORMANCE.md): memory for each CPU backend, latency for each GPU one. A backend whose
   // code overlaps its traffic with its arithmetic overrides it.
   virtual Variant model_variant() const { return needs_gpu() ? Variant::latency : Variant::memory; }
+  // The measured error of this backend's probe-only predictions (sigma: the rms of log(measured /
+  // predicted) over held-out sets on the machines it was measured on, source: which), where it has
+  // been measured with today's probes and counts; none (the default) leaves the interval to
+  // kProbeOnlySigma, the widest such error of any backend.
+  virtual std::optional<BasisError> probe_only_error() const { return std::nullopt; }
   // Why this backend cannot run on this machine, one line ending with what to do; empty when it
   // can (the default: a CPU backend always can; GPU backends say whether a CUDA device is usable).
   virtual std::string unavailable() const;

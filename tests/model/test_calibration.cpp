@@ -151,6 +151,18 @@ TEST(Uncertainty, TheIntervalIsTheBasisErrorAroundThePrediction) {
   cpu.N_C = 1000;
   EXPECT_DOUBLE_EQ(basis_of(m, cpu, Variant::seed).sigma, kProbeOnlySigma.cpu);
   EXPECT_NEAR(normal_quantile(0.95), z, 1e-12);
+  // A backend that declares its own measured probe-only error gets it instead.
+  BasisError own;
+  own.sigma = 0.3;
+  own.source = "measured";
+  const BasisError declared = basis_of(m, cpu, Variant::seed, own);
+  EXPECT_EQ(declared.basis, Basis::probe_only);
+  EXPECT_DOUBLE_EQ(declared.sigma, 0.3);
+  EXPECT_EQ(declared.source, "measured");
+  // A fitted parameter makes the prediction calibrated, whatever the backend declares.
+  MachineProfile fitted = m;
+  fitted.set(Param::V_C1_fp32, Parameter{100e9, Provenance::fitted, {}, {}, {}});
+  EXPECT_EQ(basis_of(fitted, cpu, Variant::seed, own).basis, Basis::calibrated);
 }
 
 TEST(Uncertainty, AParametersIntervalSpreadsTheTimeByItsElasticity) {

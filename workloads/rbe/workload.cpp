@@ -1,6 +1,7 @@
 #include "workloads/rbe/workload.hpp"
 
 #include <algorithm>
+#include <map>
 #include <random>
 
 #include <fmt/format.h>
@@ -116,6 +117,21 @@ class RbeBackend final : public workload::Backend {
   std::unique_ptr<workload::Run> prepare(const Config& c, std::int64_t steps) const override {
     if (steps < 1) throw InputError(fmt::format("rbe: steps per repetition must be at least 1, got {}", steps));
     return std::make_unique<RbeRun>(info_, c, steps);
+  }
+  // The largest rms of log error of each backend's probe-only predictions over held-out random:50
+  // sets (results/portability/probe-only-2026-11-24/vm, probe-only-chunks-2026-11-24/h100 and h200;
+  // docs/PERFORMANCE.md, Prediction portability). cuda-resident has none: no probe gives its B_GS
+  // and L_atomic.
+  std::optional<BasisError> probe_only_error() const override {
+    static const std::map<std::string, double> measured = {{"cpu-seq", 0.27}, {"cpu-par", 0.51}, {"cuda-seed", 0.25}};
+    const auto it = measured.find(name());
+    if (it == measured.end()) return std::nullopt;
+    BasisError e;
+    e.sigma = it->second;
+    e.source = fmt::format("measured error of {}'s probe-only predictions on the 2-vCPU VM, the H100 and the H200 "
+                           "machines (docs/PERFORMANCE.md, Prediction portability)",
+                           name());
+    return e;
   }
 
  private:
