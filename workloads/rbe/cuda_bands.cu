@@ -116,7 +116,7 @@ class CudaBands final : public Backend {
     const std::size_t G = plan_.bands.size(), ld = std::size_t(plan_.ld), nx = std::size_t(shape_.nx);
     const std::size_t hb = std::size_t(plan_.halo_before);
     const auto l = masked_likelihood(problem.likelihood, mask_, shape_.cells());
-    bands_.resize(G);
+    std::vector<BandState>(G).swap(bands_);  // (streams and events do not move)
     for (std::size_t b = 0; b < G; ++b) {
       BandState& s = bands_[b];
       s.device = placement.path == PeerPath::link ? int(b) : 0;
