@@ -9,6 +9,8 @@
 #include <cstdlib>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "cuda/check.hpp"
 #include "workloads/rbe/band_transport.hpp"
 
@@ -23,8 +25,8 @@ namespace {
 
 void check(ncclResult_t r, const char* call) {
   if (r == ncclSuccess) return;
-  throw cuda::Error(std::string("NCCL error in ") + call + ": " + ncclGetErrorString(r) +
-                    " (run with NCCL_DEBUG=WARN for NCCL's own account)");
+  throw cuda::Error(fmt::format("NCCL error in {}: {} (run with NCCL_DEBUG=WARN for NCCL's own account)", call,
+                                ncclGetErrorString(r)));
 }
 #define DTFLOP_NCCL(call) check((call), #call)
 
