@@ -299,13 +299,18 @@ class CudaBands final : public Backend {
     }
   }
 
-  // Frees everything, each band's resources on its own device, the transport first.
+  // Frees everything once the devices are idle: the transport (NCCL's communicators) first,
+  // then each band's resources on its own device.
   void release() {
+    for (auto& s : bands_) {
+      if (cudaSetDevice(s.device) != cudaSuccess) (void)cudaGetLastError();
+      if (s.compute) (void)cudaStreamSynchronize(s.compute->get());
+      if (s.comm) (void)cudaStreamSynchronize(s.comm->get());
+    }
+    (void)cudaGetLastError();
     transport_.reset();
     for (auto& s : bands_) {
       if (cudaSetDevice(s.device) != cudaSuccess) (void)cudaGetLastError();
-      if (s.compute) cudaStreamSynchronize(s.compute->get());
-      if (s.comm) cudaStreamSynchronize(s.comm->get());
       s.sweep.reset();
       s.ready.reset();
       s.sum_ready.reset();
