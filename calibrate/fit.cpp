@@ -43,6 +43,7 @@ double default_start(Param p) {
   if (p == Param::S_GC_staged) return 256.0 * 1024;  // the staging chunks of today's drivers
   if (p == Param::S_GC_flat) return 128.0 * 1024;
   if (p == Param::V_G_fp32 || p == Param::V_G_fp64) return 10e12;
+  if (p == Param::B_peer || p == Param::B_allreduce) return 100e9;  // GPUs of one host over NVLink
   if (p == Param::B_GG || p == Param::B_GG_copy || p == Param::B_GS) return 1e12;
   return 10e9;  // host bandwidths and CPU rates
 }

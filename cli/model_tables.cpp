@@ -27,6 +27,9 @@ void print_counts(const CostCounts& c) {
   t.row({"cpu_threads", fmt::format("{}", c.cpu_threads),
          fmt::format("the CPU work runs on {} thread{}", c.cpu_threads, c.cpu_threads == 1 ? "" : "s")});
   t.row({"host_memory", std::string(to_string(c.host_memory)), "host memory of the copies"});
+  if (c.peer_messages > 0 || c.N_peer > 0 || c.collectives > 0)
+    t.row({"peer_path", std::string(to_string(c.peer_path)),
+           c.peer_path == PeerPath::link ? "partitions on several GPUs (NCCL)" : "partitions on one GPU (copies)"});
   fmt::print("{}", t.str());
 }
 

@@ -27,6 +27,7 @@ configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/dtflopConfig.cmake.in
 write_basic_package_version_file(${PROJECT_BINARY_DIR}/dtflopConfigVersion.cmake
                                  VERSION ${PROJECT_VERSION} COMPATIBILITY SameMinorVersion)
 install(FILES ${PROJECT_BINARY_DIR}/dtflopConfig.cmake ${PROJECT_BINARY_DIR}/dtflopConfigVersion.cmake
+              ${PROJECT_SOURCE_DIR}/cmake/DtflopNccl.cmake
         DESTINATION ${DTFLOP_CMAKE_DIR})
 
 # The Debian package: cpack -G DEB in the build folder. Its dependencies are worked out from

@@ -52,4 +52,18 @@ int device_sms() {
 #endif
 }
 
+int device_count() {
+#ifdef DTFLOP_HAVE_CUDA
+  if (!unavailable_reason().empty()) return 0;
+  int n = 0;
+  if (cudaGetDeviceCount(&n) != cudaSuccess) {
+    cudaGetLastError();
+    return 0;
+  }
+  return n;
+#else
+  return 0;
+#endif
+}
+
 }  // namespace dtflop::cuda

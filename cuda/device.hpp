@@ -14,5 +14,7 @@ std::string unavailable_reason();
 std::string device_name();
 // Multiprocessors (SMs) of device 0 (132 on an H200); 0 without a usable device.
 int device_sms();
+// CUDA devices this process sees (CUDA_VISIBLE_DEVICES applies); 0 without a usable device or CUDA.
+int device_count();
 
 }  // namespace dtflop::cuda

@@ -10,6 +10,7 @@ namespace dtflop {
 
 std::string_view to_string(HostMemory m) { return m == HostMemory::pinned ? "pinned" : "pageable"; }
 std::string_view to_string(Precision p) { return p == Precision::fp64 ? "fp64" : "fp32"; }
+std::string_view to_string(PeerPath p) { return p == PeerPath::device ? "device" : "link"; }
 
 namespace {
 std::int64_t tree_depth(std::int64_t n) {
@@ -56,6 +57,10 @@ const std::vector<CountField>& count_fields() {
       {"net_messages", &C::net_messages, "messages", "sent by one process to others (MPI)"},
       {"net_bytes", &C::net_bytes, "bytes", "of those messages' payloads"},
       {"cpu_syncs", &C::cpu_syncs, "syncs", "of the CPU threads: forks, joins, barriers"},
+      {"peer_messages", &C::peer_messages, "messages", "of halo rows the busiest device sends to other partitions"},
+      {"N_peer", &C::N_peer, "values", "in those messages"},
+      {"collectives", &C::collectives, "all-reduces", "across the partitions of one grid"},
+      {"collective_bytes", &C::collective_bytes, "bytes", "each device contributes to them"},
       {"cpu_footprint", &C::cpu_footprint, "bytes", "of host memory the CPU work touches in one step (0: not counted)",
        A::max},
   };
@@ -96,6 +101,8 @@ void check_consistent(const CostCounts& c) {
 }
 
 CostCounts& CostCounts::operator+=(const CostCounts& o) {
+  // The messages between partitions travel one way in a computation: the one that has them says.
+  if (o.peer_messages > 0 || o.N_peer > 0 || o.collectives > 0) peer_path = o.peer_path;
   for (const CountField& f : count_fields())
     this->*f.member = f.accumulate == CountField::Accumulate::sum ? this->*f.member + o.*f.member
                                                                   : std::max(this->*f.member, o.*f.member);

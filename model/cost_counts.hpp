@@ -11,9 +11,15 @@ namespace dtflop {
 
 enum class HostMemory { pageable, pinned };
 enum class Precision { fp32, fp64 };
+// Where the messages between the partitions of one grid travel (peer_messages, N_peer and the
+// collectives): between GPUs (NCCL over NVLink or PCIe: L_peer, B_peer, L_allreduce,
+// B_allreduce), or inside one device, partitions that share a GPU (device-to-device copies and a
+// reduction kernel: L_launch, B_GG_copy, B_GG; docs/model.md 2.9).
+enum class PeerPath { link, device };
 
 std::string_view to_string(HostMemory m);
 std::string_view to_string(Precision p);
+std::string_view to_string(PeerPath p);
 
 // `count` copies of `bytes` bytes each.
 struct CopySize {
@@ -78,7 +84,15 @@ struct CostCounts {
                                   // (a parallel region's fork and join, a barrier)
   std::int64_t net_messages = 0;  // messages one process sends to others (MPI; L_net each)
   std::int64_t net_bytes = 0;     // payload bytes of those messages (over B_net)
+  std::int64_t peer_messages = 0;  // halo messages the busiest device sends to the partitions of the
+                                   // grid on other devices (or, on one device, copies between them)
+  std::int64_t N_peer = 0;         // values (P bytes each) in those messages
+  std::int64_t collectives = 0;    // all-reduces across the partitions (on one device: reduction
+                                   // kernels, one per partition)
+  std::int64_t collective_bytes = 0;  // bytes each all-reduce contributes per device (on one
+                                      // device: the reduction kernels' reads and writes)
   HostMemory host_memory = HostMemory::pageable;
+  PeerPath peer_path = PeerPath::link;  // where peer_messages, N_peer and the collectives travel
   int cpu_threads = 1;          // threads doing the CPU work
   std::vector<CopySize> copies_GC;  // the device->host copies by size (empty: not counted); their
                                    // bytes add up to P N_GC and their number to transfers_GC. A

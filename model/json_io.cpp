@@ -342,6 +342,7 @@ json to_json(const CostCounts& c) {
   json out = {{"P", c.P},
               {"precision", to_string(c.precision)},
               {"host_memory", to_string(c.host_memory)},
+              {"peer_path", to_string(c.peer_path)},
               {"cpu_threads", c.cpu_threads},
               {"copies_GC", copies}};
   for (const CountField& f : count_fields()) out[std::string(f.name)] = c.*f.member;
@@ -382,6 +383,10 @@ CostCounts counts_from_json(const json& j) {
   if (mem == "pinned") c.host_memory = HostMemory::pinned;
   else if (mem.empty() || mem == "pageable") c.host_memory = HostMemory::pageable;
   else bad("counts.host_memory", mem, "\"pinned\" or \"pageable\"");
+  const std::string path = get_string(j, "peer_path", "counts.", false);
+  if (path == "device") c.peer_path = PeerPath::device;
+  else if (path.empty() || path == "link") c.peer_path = PeerPath::link;
+  else bad("counts.peer_path", path, "\"link\" or \"device\"");
   if (j.contains("cpu_threads")) c.cpu_threads = static_cast<int>(get_i64(j, "cpu_threads", 1));
   return c;
 }

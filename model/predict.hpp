@@ -58,6 +58,10 @@ struct Prediction {
   double dt_GS = 0;      // shared-memory tile fills, P N_GS / B_GS (latency+; device component)
   double lat_net = 0;    // net_messages x L_net: messages between processes (latency+; total only)
   double dt_net = 0;     // net_bytes / B_net: their bytes (total only)
+  double dt_peer = 0;    // halo messages between partitions: peer_messages L_peer + P N_peer / B_peer
+                         // (on one device: L_launch, B_GG_copy) (latency+; device component)
+  double dt_allreduce = 0;  // all-reduces: collectives L_allreduce + collective_bytes / B_allreduce
+                            // (on one device: L_launch, B_GG) (latency+; device component)
   double total = 0;
 
   double dt_trans() const { return dt_CG + dt_GC + dt_GG; }  // eq. 3.4

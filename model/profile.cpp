@@ -64,6 +64,10 @@ const std::vector<ParamInfo>& all_params() {
       {Param::L_tree, "L_tree", "s", "one step of host k-d tree work: a point placed at one level, a level descended or a leaf point examined"},
       {Param::L_net, "L_net", "s", "one message between two processes (MPI ping-pong, half a round trip of a small message)"},
       {Param::B_net, "B_net", "B/s", "bandwidth of a message between two processes (MPI ping-pong of large messages)"},
+      {Param::L_peer, "L_peer", "s", "one point-to-point message between two GPUs (NCCL send/recv of a small message)"},
+      {Param::B_peer, "B_peer", "B/s", "bandwidth of a point-to-point message between two GPUs (NCCL send/recv of large messages)"},
+      {Param::L_allreduce, "L_allreduce", "s", "one all-reduce across the GPUs (NCCL, a small message)"},
+      {Param::B_allreduce, "B_allreduce", "B/s", "bytes per GPU per second of an all-reduce across the GPUs (NCCL, large messages)"},
   };
   return table;
 }

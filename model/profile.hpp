@@ -59,6 +59,10 @@ enum class Param {
   L_tree,          // one step of host k-d tree work (tree_steps)                          [s]
   L_net,           // one message between processes (MPI ping-pong: half a round trip)     [s]
   B_net,           // bytes per second of a message between processes (MPI ping-pong)      [B/s]
+  L_peer,          // one point-to-point message between two GPUs (NCCL send/recv)          [s]
+  B_peer,          // bandwidth of a point-to-point message between two GPUs (NCCL)         [B/s]
+  L_allreduce,     // one all-reduce across the GPUs (NCCL, a small message)                 [s]
+  B_allreduce,     // bytes per second an all-reduce moves per GPU (NCCL, large messages)    [B/s]
 };
 
 struct ParamInfo {

@@ -189,6 +189,46 @@ double net_seconds(const MachineProfile& m, const CostCounts& c, Variant, const 
   return static_cast<double>(c.net_bytes) / m.get(Param::B_net).value;
 }
 
+// dt_peer and dt_allreduce: the messages between the partitions of one grid (docs/model.md 2.9),
+// priced by where they travel. Between GPUs (PeerPath::link): L_peer per message and P N_peer over
+// B_peer; L_allreduce per all-reduce and its bytes over B_allreduce. Inside one device
+// (PeerPath::device): a halo message is a device-to-device copy, a launch's fixed cost and its
+// values read and written at the copy bandwidth B_GG_copy (read + write counted); an all-reduce
+// is a reduction kernel, a launch and its bytes (reads + writes) at B_GG.
+bool on_device(const CostCounts& c) { return c.peer_path == PeerPath::device; }
+bool peer_counted(const CostCounts& c) { return c.peer_messages > 0 || c.N_peer > 0; }
+std::vector<Param> peer_needs(const CostCounts& c, Variant, const Pricing&) {
+  std::vector<Param> out;
+  if (c.peer_messages > 0) out.push_back(on_device(c) ? Param::L_launch : Param::L_peer);
+  if (c.N_peer > 0) out.push_back(on_device(c) ? Param::B_GG_copy : Param::B_peer);
+  return out;
+}
+double peer_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing&) {
+  const double P = c.P;
+  double s = 0;
+  if (c.peer_messages > 0)
+    s += static_cast<double>(c.peer_messages) * m.get(on_device(c) ? Param::L_launch : Param::L_peer).value;
+  if (c.N_peer > 0)
+    s += on_device(c) ? 2 * P * static_cast<double>(c.N_peer) / m.get(Param::B_GG_copy).value
+                      : P * static_cast<double>(c.N_peer) / m.get(Param::B_peer).value;
+  return s;
+}
+bool allreduce_counted(const CostCounts& c) { return c.collectives > 0 || c.collective_bytes > 0; }
+std::vector<Param> allreduce_needs(const CostCounts& c, Variant, const Pricing&) {
+  std::vector<Param> out;
+  if (c.collectives > 0) out.push_back(on_device(c) ? Param::L_launch : Param::L_allreduce);
+  if (c.collective_bytes > 0) out.push_back(on_device(c) ? Param::B_GG : Param::B_allreduce);
+  return out;
+}
+double allreduce_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing&) {
+  double s = 0;
+  if (c.collectives > 0)
+    s += static_cast<double>(c.collectives) * m.get(on_device(c) ? Param::L_launch : Param::L_allreduce).value;
+  if (c.collective_bytes > 0)
+    s += static_cast<double>(c.collective_bytes) / m.get(on_device(c) ? Param::B_GG : Param::B_allreduce).value;
+  return s;
+}
+
 // The two simple shapes: P N / B, values moved over a bandwidth, and n L, events at a fixed cost.
 template <std::int64_t CostCounts::*N, Pick B>
 constexpr Price per_byte() {
@@ -251,6 +291,14 @@ const std::vector<Term>& terms() {
        "messages between processes: latency", per_event<&C::net_messages, only<Param::L_net>>()},
       {"dt_net", &P::dt_net, Phase::net, kEveryVariant, sum, "net_bytes (bytes)", "B_net",
        "messages between processes: bandwidth", {positive<&C::net_bytes>, needs_one<only<Param::B_net>>, net_seconds}},
+      {"dt_peer", &P::dt_peer, Phase::G, kLatencyVariants, overlap,
+       "peer_messages, P N_peer (peer_path)",
+       "L_peer, B_peer (link); L_launch, B_GG_copy with 2 P N_peer (device)",
+       "halo messages between partitions", {peer_counted, peer_needs, peer_seconds}},
+      {"dt_allreduce", &P::dt_allreduce, Phase::G, kLatencyVariants, sum,
+       "collectives, collective_bytes (bytes) (peer_path)",
+       "L_allreduce, B_allreduce (link); L_launch, B_GG (device)", "all-reduces across partitions",
+       {allreduce_counted, allreduce_needs, allreduce_seconds}},
   };
   return table;
 }

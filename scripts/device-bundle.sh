@@ -16,6 +16,11 @@
 #
 # On the other machine, from a copy of the repository with the bundle at the same place:
 #   export LD_LIBRARY_PATH=$PWD/.carry/lib; .carry/bin/dtflop probe
+# NCCL (cuda-bands between GPUs, the probe gpu-peer) is never bundled: libnccl.so.2 is ~218 MB,
+# far over what a bundle may hold. The executables need it by its soname, libnccl.so.2, so any
+# NCCL 2 on the other machine serves; where the toolkit there has none, point the loader at
+# PyTorch's bundled one too:
+#   export LD_LIBRARY_PATH=$PWD/.carry/lib:$(python3 -c 'import nvidia.nccl, os; print(os.path.join(nvidia.nccl.__path__[0], "lib"))')
 # The device scripts (benchmarks/rbe/device*.sh, benchmarks/calibrate/gpu.sh) take the bundle
 # folder as BUNDLE=FOLDER (default .carry).
 set -euo pipefail
@@ -44,12 +49,17 @@ fi
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDTFLOP_IMAGE_IO=OFF -DDTFLOP_WITH_MPI=OFF >/dev/null
 cmake --build "$build" -j "${JOBS:-$(nproc)}" --target "$@"
 rm -rf "$out" && mkdir -p "$out/bin" "$out/lib"
-# Libraries every Linux system has, and the driver's own: never bundled.
-system='^(linux-vdso|libc\.|libm\.|libstdc\+\+|libgcc_s|ld-linux|libpthread|libdl\.|librt\.|libcuda\.)'
+# Libraries every Linux system has, and the driver's own: never bundled. Nor NCCL (see above).
+system='^(linux-vdso|libc\.|libm\.|libstdc\+\+|libgcc_s|ld-linux|libpthread|libdl\.|librt\.|libcuda\.|libnccl\.)'
 for t in "$@"; do
   exe=$(find "$build" -type f -name "$t" -perm -u+x | head -n 1)
   [ -n "$exe" ] || { echo "device-bundle: no executable named $t in $build/; name a build target" >&2; exit 1; }
   cp "$exe" "$out/bin/"
+  # NCCL by its soname only (never a path), so that LD_LIBRARY_PATH on the other machine finds it.
+  if readelf -d "$exe" | grep -q 'NEEDED.*nccl' && ! readelf -d "$exe" | grep -q 'NEEDED.*\[libnccl\.so\.2\]'; then
+    echo "device-bundle: $t needs NCCL by another name than libnccl.so.2; it would not load on the other machine" >&2
+    exit 1
+  fi
   ldd "$exe" | awk '$3 ~ /^\// {print $1, $3}' | while read -r name path; do
     [[ "$name" =~ $system ]] && continue
     cp -nL "$path" "$out/lib/"

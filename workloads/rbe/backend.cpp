@@ -192,6 +192,10 @@ const std::vector<BackendInfo>& backends() {
        detail::make_cpu_par},
       {"cpu-seq", "float64 reference on one thread, written for clarity (separable or full 2D)", false,
        detail::make_cpu_seq},
+      {"cuda-bands",
+       "the grid in horizontal bands over several GPUs (or one): cuda-resident's kernel per band, NCCL halo "
+       "exchange overlapped with the inner rows, the sum by an all-reduce",
+       true, detail::make_cuda_bands},
       {"cuda-resident",
        "belief stays on the GPU: fused tile kernel, device-side sum, CUDA graph, one scalar per step",
        true, detail::make_cuda_resident},

@@ -103,6 +103,11 @@ struct BackendOptions {
   std::optional<Convolution> prediction;
   // cuda-resident: capture the step loop in a CUDA graph (default) or launch kernel by kernel.
   bool graph = true;
+  // cuda-bands: the grid in `partitions` horizontal bands (0: one per GPU) over `gpus` GPUs (0:
+  // every GPU this process sees). One band per GPU (halos and the sum over NCCL), or every band
+  // on one GPU (gpus 1: the same code, copies inside its memory); band_counts.hpp.
+  int partitions = 0;
+  int gpus = 0;
   // Fill every buffer a step writes with NaN at init, so that a cell a step fails to write
   // shows up as NaN in the belief (tests use it; it costs nothing per step).
   bool poison = false;
@@ -238,7 +243,7 @@ class Backend {
 // ---- Registry ---------------------------------------------------------------------------
 
 struct BackendInfo {
-  std::string name;         // "cpu-seq", "cpu-par", "cuda-seed", "cuda-resident"
+  std::string name;         // "cpu-seq", "cpu-par", "cuda-bands", "cuda-seed", "cuda-resident"
   std::string description;
   bool needs_gpu = false;
   // Makes the backend (no device needed: init() needs it). Throws InputError for options the

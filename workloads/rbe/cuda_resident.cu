@@ -34,6 +34,7 @@
 #include "workloads/rbe/fusion_counts.hpp"
 #include "workloads/rbe/detail.hpp"
 #include "workloads/rbe/resident_geometry.hpp"
+#include "workloads/rbe/resident_sweep.hpp"
 
 namespace dtflop::rbe::detail {
 namespace {
@@ -55,7 +56,9 @@ struct KernelArgs {
   const float* __restrict__ ky;  // flipped, zero-padded to ky_len
   const double* sum_in;        // S_{k-1}
   double* sum_out;             // S_k (zeroed before the step)
-  int nx, ny, Ix, Iy, hx, hy;  // hx, hy: halo before the cell (I - 1 - c)
+  int nx, ny, Ix, Iy, hx, hy;  // hx, hy: halo before the cell (I - 1 - c); ny: rows of the buffers
+  int y_begin, y_end;          // the correcting kernel's output rows [y_begin, y_end) (cuda-resident: 0,
+                               // ny; cuda-bands: a range of a band's own rows, its halo rows around them)
   int ld;                      // row pitch of q, l and u in floats: n_x rounded up to a multiple of 4
   int x_shift;                 // x-pass tiles start x_shift cells left of a multiple of their width
   int tma;                     // the tile is copied by the tensor memory accelerator (TileMaps,
@@ -164,7 +167,7 @@ __device__ __forceinline__ void load_likelihood(const KernelArgs& a, int gx, int
   const float* src = a.l + (std::ptrdiff_t(gy0) * a.ld + gx);
 #pragma unroll
   for (int j = 0; j < R; ++j) {
-    lv[j] = (col_in && gy0 + j < a.ny) ? __ldg(src) : 0.f;
+    lv[j] = (col_in && gy0 + j < a.y_end) ? __ldg(src) : 0.f;
     src += a.ld;
   }
 }
@@ -322,8 +325,10 @@ __device__ __forceinline__ void y_correct(const KernelArgs& a, const float* u, c
   float part = 0.f;
 #pragma unroll
   for (int j = 0; j < R; ++j) {
-    const float qv = lv[j] * (s * acc[j]);
-    if (col_in && gy0 + j < a.ny) *dst = qv;
+    // Rows past y_end add nothing, whatever their window read (cuda-bands: a halo still on its way).
+    const bool in = col_in && gy0 + j < a.y_end;
+    const float qv = in ? lv[j] * (s * acc[j]) : 0.f;
+    if (in) *dst = qv;
     dst += a.ld;
     part += qv;
   }
@@ -359,7 +364,7 @@ __global__ void __maxnreg__(resident::kFusedRegs) rbe_resident_fused(KernelArgs 
   auto* bar = reinterpret_cast<unsigned long long*>(red + 33);
   const int tx = threadIdx.x, ty = threadIdx.y, bx = blockDim.x, by = blockDim.y;
   const int tid = ty * bx + tx, T = bx * by;
-  const int x0 = blockIdx.x * bx - a.x_shift, y0 = blockIdx.y * by * R;
+  const int x0 = blockIdx.x * bx - a.x_shift, y0 = a.y_begin + blockIdx.y * by * R;
   const int gx0 = x0 - a.hx, gy0 = y0 - a.hy;  // gx0 is a multiple of 4
   if (a.tma) {
     if (tid == 0) tma_tile_start(in, maps, gx0, gy0, a.in_rows, a.in_pitch, bar);
@@ -433,7 +438,7 @@ __global__ void __maxnreg__(resident::kYpassRegs) rbe_resident_ypass(KernelArgs 
   auto* bar = reinterpret_cast<unsigned long long*>(red + 33);
   const int tx = threadIdx.x, ty = threadIdx.y, bx = blockDim.x, by = blockDim.y;
   const int tid = ty * bx + tx, T = bx * by;
-  const int x0 = blockIdx.x * bx, y0 = blockIdx.y * by * R;
+  const int x0 = blockIdx.x * bx, y0 = a.y_begin + blockIdx.y * by * R;
   if (a.tma) {
     if (tid == 0) tma_tile_start(u, maps, x0, y0 - a.hy, a.u_rows, a.u_pitch, bar);
   } else {
@@ -623,6 +628,8 @@ class CudaResident final : public Backend {
     args_.nx = int(shape_.nx);
     args_.ld = int(ld_);
     args_.ny = int(shape_.ny);
+    args_.y_begin = 0;
+    args_.y_end = int(shape_.ny);
     args_.Ix = int(shape_.Ix);
     args_.Iy = int(shape_.Iy);
     args_.hx = int(shape_.Ix - 1 - kernel_centre(shape_.Ix));
@@ -929,6 +936,99 @@ class CudaResident final : public Backend {
 };
 
 }  // namespace
+
+// ---- FusedSweep (resident_sweep.hpp) ---------------------------------------------------------
+
+struct FusedSweep::Impl {
+  Layout layout;
+  ResidentPlan plan;
+  KernelArgs args{};
+  TileMaps maps[2]{};
+  const float* q[2]{};
+  DeviceArray<float> kx, ky;
+};
+
+FusedSweep::FusedSweep(const Shape& shape, const Layout& layout, std::int64_t rows, const float* q0, const float* q1,
+                       const float* l, std::span<const double> kx_in, std::span<const double> ky_in, double cell_area)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  m.layout = layout;
+  int dev = 0, max_smem = 0;
+  DTFLOP_CUDA(cudaGetDevice(&dev));
+  DTFLOP_CUDA(cudaDeviceGetAttribute(&max_smem, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
+  m.plan = resident_plan(shape, layout, static_cast<std::size_t>(max_smem));
+  if (m.plan.passes != Layout::Passes::fused)
+    throw InputError("cuda-bands runs cuda-resident's fused kernel only, and layout " + to_string(layout) +
+                     " with a " + std::to_string(shape.Ix) + "x" + std::to_string(shape.Iy) +
+                     " kernel needs the split passes; use a layout whose fused tile fits, or cuda-resident");
+  const int R = layout.cells_per_thread;
+  void* fn = fused_kernel(R);
+  DTFLOP_CUDA(cudaFuncSetAttribute(fn, cudaFuncAttributeMaxDynamicSharedMemorySize, int(m.plan.smem_bytes)));
+  cudaFuncAttributes attr{};
+  DTFLOP_CUDA(cudaFuncGetAttributes(&attr, fn));
+  if (attr.maxThreadsPerBlock < m.plan.threads)
+    throw InputError("layout " + to_string(layout) + " is invalid on this device: the fused kernel runs at most " +
+                     std::to_string(attr.maxThreadsPerBlock) + " threads per block; use a smaller block");
+  const auto g = resident::fused_geometry(shape, layout);
+  std::vector<float> kx(static_cast<std::size_t>(g.kx_len), 0.f), ky(static_cast<std::size_t>(g.ky_len), 0.f);
+  for (std::int64_t a = 0; a < shape.Ix; ++a) kx[std::size_t(a)] = float(kx_in[std::size_t(shape.Ix - 1 - a)]);
+  for (std::int64_t b = 0; b < shape.Iy; ++b) ky[std::size_t(b)] = float(ky_in[std::size_t(shape.Iy - 1 - b)]);
+  m.kx = DeviceArray<float>(kx.size());
+  m.ky = DeviceArray<float>(ky.size());
+  m.kx.upload(kx);
+  m.ky.upload(ky);
+  m.q[0] = q0;
+  m.q[1] = q1;
+  KernelArgs& a = m.args;
+  a.l = l;
+  a.u = nullptr;
+  a.kx = m.kx.get();
+  a.ky = m.ky.get();
+  a.nx = int(shape.nx);
+  a.ld = int(resident::row_pitch(shape.nx));
+  a.ny = int(rows);
+  a.Ix = int(shape.Ix);
+  a.Iy = int(shape.Iy);
+  a.hx = int(shape.Ix - 1 - kernel_centre(shape.Ix));
+  a.hy = int(shape.Iy - 1 - kernel_centre(shape.Iy));
+  a.cell_area = cell_area;
+  a.x_shift = g.x_shift;
+  a.in_rows = g.in_rows;
+  a.in_cols = g.in_cols;
+  a.in_pitch = g.in_pitch;
+  a.u_rows = g.u_rows;
+  a.u_pitch = g.u_pitch;
+  a.kx_len = g.kx_len;
+  a.ky_len = g.ky_len;
+  std::memset(static_cast<void*>(m.maps), 0, sizeof(m.maps));
+  a.tma = tile_map_fits(a.in_pitch) && encode_tile_maps(m.maps[0], q0, a.nx, a.ld, a.ny, a.in_pitch, a.in_rows) &&
+          encode_tile_maps(m.maps[1], q1, a.nx, a.ld, a.ny, a.in_pitch, a.in_rows);
+}
+
+FusedSweep::~FusedSweep() = default;
+
+void FusedSweep::launch(int prev, std::int64_t begin, std::int64_t end, const double* sum_in, double* sum_out,
+                        cudaStream_t stream) const {
+  const Impl& m = *impl_;
+  if (end <= begin) return;
+  KernelArgs a = m.args;
+  a.q_prev = m.q[prev];
+  a.q_next = const_cast<float*>(m.q[prev ^ 1]);
+  a.sum_in = sum_in;
+  a.sum_out = sum_out;
+  a.y_begin = int(begin);
+  a.y_end = int(end);
+  const dim3 block(unsigned(m.layout.block_x), unsigned(m.layout.block_y));
+  const dim3 grid(unsigned(m.plan.blocks_x), unsigned(resident::ceil_div(end - begin, m.plan.tile_h)));
+  switch (m.layout.cells_per_thread) {
+    case 1: rbe_resident_fused<1><<<grid, block, m.plan.smem_bytes, stream>>>(a, m.maps[prev]); break;
+    case 2: rbe_resident_fused<2><<<grid, block, m.plan.smem_bytes, stream>>>(a, m.maps[prev]); break;
+    case 4: rbe_resident_fused<4><<<grid, block, m.plan.smem_bytes, stream>>>(a, m.maps[prev]); break;
+    case 8: rbe_resident_fused<8><<<grid, block, m.plan.smem_bytes, stream>>>(a, m.maps[prev]); break;
+    default: rbe_resident_fused<16><<<grid, block, m.plan.smem_bytes, stream>>>(a, m.maps[prev]); break;
+  }
+  DTFLOP_CUDA_LAUNCHED();
+}
 
 std::unique_ptr<Backend> make_cuda_resident(const BackendOptions& options) {
   return std::make_unique<CudaResident>(options);

@@ -1,6 +1,7 @@
 // The CUDA backends in a build without CUDA: listed, with their exact counts, but init()
 // throws DeviceUnavailable saying dtflop was built without CUDA.
 #include "workloads/rbe/backend_counts.hpp"
+#include "workloads/rbe/band_counts.hpp"
 #include "workloads/rbe/fusion_counts.hpp"
 #include "workloads/rbe/detail.hpp"
 
@@ -42,8 +43,40 @@ class CudaUnavailable final : public Backend {
   bool resident_;
 };
 
+// cuda-bands without CUDA: its counts, and init() says dtflop was built without CUDA.
+class CudaBandsUnavailable final : public Backend {
+ public:
+  explicit CudaBandsUnavailable(const BackendOptions& o) : options_(o) {
+    (void)resident_plan({1024, 1024, 1, 1}, o.layout);
+    if (o.gpus > 1 && o.partitions > 0) (void)band_placement(o.partitions, o.gpus);
+  }
+  std::string_view name() const override { return "cuda-bands"; }
+  std::string_view description() const override { return "unavailable: dtflop was built without CUDA"; }
+  bool needs_gpu() const override { return true; }
+  const BackendOptions& options() const override { return options_; }
+  CostCounts step_counts(const Shape& s, const BackendOptions& o) const override {
+    return cuda_bands_counts(s, o.layout, counted_gpu_sms(o), band_placement(o));
+  }
+  CostCounts run_counts(const Shape& s, const BackendOptions& o, std::int64_t steps) const override {
+    return cuda_bands_run_counts(s, o.layout, counted_gpu_sms(o), band_placement(o), steps, kBandSegment);
+  }
+  CostCounts fusion_counts(const Shape&, FusionRule, std::int64_t, const BackendOptions&) const override { fail(); }
+  CostCounts wire_counts(const Shape&, const BackendOptions&) const override { fail(); }
+  std::vector<float> wire_belief() override { fail(); }
+  void fuse(FusionRule, std::span<const std::span<const float>>, std::size_t) override { fail(); }
+  void init(const Problem&) override { fail(); }
+  RunResult run(std::int64_t) override { fail(); }
+  StepTimes step(std::span<const double>) override { fail(); }
+  std::vector<double> belief() override { fail(); }
+
+ private:
+  [[noreturn]] void fail() const { throw DeviceUnavailable("cuda-bands: " + cuda_unavailable_reason()); }
+  BackendOptions options_;
+};
+
 }  // namespace
 
+std::unique_ptr<Backend> make_cuda_bands(const BackendOptions& o) { return std::make_unique<CudaBandsUnavailable>(o); }
 std::unique_ptr<Backend> make_cuda_seed(const BackendOptions& o) { return std::make_unique<CudaUnavailable>(o, false); }
 std::unique_ptr<Backend> make_cuda_resident(const BackendOptions& o) {
   return std::make_unique<CudaUnavailable>(o, true);

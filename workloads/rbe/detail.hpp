@@ -85,5 +85,6 @@ std::unique_ptr<Backend> make_cpu_seq(const BackendOptions& options);
 std::unique_ptr<Backend> make_cpu_par(const BackendOptions& options);
 std::unique_ptr<Backend> make_cuda_seed(const BackendOptions& options);
 std::unique_ptr<Backend> make_cuda_resident(const BackendOptions& options);
+std::unique_ptr<Backend> make_cuda_bands(const BackendOptions& options);
 
 }  // namespace dtflop::rbe::detail

@@ -8,6 +8,7 @@
 
 #include "model/units.hpp"
 #include "workloads/rbe/backend.hpp"
+#include "workloads/rbe/band_counts.hpp"
 #include "workloads/rbe/estimate.hpp"
 
 namespace dtflop::rbe {
@@ -33,6 +34,8 @@ BackendOptions options_of(const Config& c, const MachineIdentity* target) {
     o.host_memory = workload::get_text(c, "host-memory") == "pinned" ? HostMemory::pinned : HostMemory::pageable;
   if (workload::has(c, "threads")) o.threads = static_cast<int>(workload::get_int(c, "threads"));
   if (workload::has(c, "layout")) o.layout = parse_layout(workload::get_text(c, "layout"));
+  if (workload::has(c, "partitions")) o.partitions = static_cast<int>(workload::get_int(c, "partitions"));
+  if (workload::has(c, "gpus")) o.gpus = static_cast<int>(workload::get_int(c, "gpus"));
   if (workload::has(c, "graph")) o.graph = workload::get_flag(c, "graph");
   if (workload::has(c, "prediction")) {
     const std::string p = workload::get_text(c, "prediction");
@@ -164,7 +167,13 @@ class RbeWorkload final : public workload::Workload {
          .min = 0, .max = 4096, .backends = {"cpu-par"}},
         {.name = "layout", .kind = Kind::text,
          .help = "Block layout BXxBY[xCELLS][:fused|:split] (docs/rbe.md)", .fallback = to_string(Layout{}),
-         .backends = {"cuda-resident"}},
+         .backends = {"cuda-resident", "cuda-bands"}},
+        {.name = "partitions", .kind = Kind::integer,
+         .help = "Horizontal bands the grid is split into (0: one per GPU; docs/rbe.md)", .fallback = 0, .min = 0,
+         .max = kMaxPartitions, .backends = {"cuda-bands"}},
+        {.name = "gpus", .kind = Kind::integer,
+         .help = "GPUs the bands run on: one band per GPU, or 1 (every band on one GPU); 0: every GPU",
+         .fallback = 0, .min = 0, .max = kMaxPartitions, .backends = {"cuda-bands"}},
         {.name = "graph", .kind = Kind::flag, .help = "Capture the step loop in a CUDA graph", .fallback = true,
          .backends = {"cuda-resident"}},
         {.name = "prediction", .kind = Kind::choice,
@@ -192,6 +201,12 @@ class RbeWorkload final : public workload::Workload {
     std::string extra;
     if (workload::has(c, "layout")) extra += ", layout " + workload::get_text(c, "layout");
     if (workload::has(c, "host-memory")) extra += ", " + workload::get_text(c, "host-memory") + " host memory";
+    if (workload::has(c, "partitions") || workload::has(c, "gpus"))
+      extra += fmt::format(", {} partitions on {} GPUs",
+                           workload::has(c, "partitions") && workload::get_int(c, "partitions") > 0
+                               ? std::to_string(workload::get_int(c, "partitions")) : std::string("one per GPU,"),
+                           workload::has(c, "gpus") && workload::get_int(c, "gpus") > 0
+                               ? std::to_string(workload::get_int(c, "gpus")) : std::string("all"));
     if (workload::has(c, "threads") && workload::get_int(c, "threads") > 0)
       extra += fmt::format(", {} threads", workload::get_int(c, "threads"));
     return fmt::format("rbe on {}: one step, grid {}x{}, kernel {}x{}{}", b.name(), s.nx, s.ny, s.Ix, s.Iy, extra);

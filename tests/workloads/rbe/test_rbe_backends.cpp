@@ -236,12 +236,12 @@ TEST(RbeProblem, InvalidProblemsAreRejectedWithAMessage) {
 TEST(RbeRegistry, ListsEveryBackendAndRejectsUnknownNames) {
   std::vector<std::string> names;
   for (const auto& b : backends()) names.push_back(b.name);
-  EXPECT_EQ(names, (std::vector<std::string>{"cpu-par", "cpu-seq", "cuda-resident", "cuda-seed"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"cpu-par", "cpu-seq", "cuda-bands", "cuda-resident", "cuda-seed"}));
   try {
     make_backend("cuda-fast");
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("cpu-par, cpu-seq, cuda-resident, cuda-seed"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("cpu-par, cpu-seq, cuda-bands, cuda-resident, cuda-seed"), std::string::npos);
   }
   // CUDA backends can be made (and counted) without a device; init() needs one.
   auto r = make_backend("cuda-resident");

@@ -44,7 +44,7 @@ TEST(RbeCli, BadInputIsOneLineAndExitStatus2) {
                        Case{"run rbe -b cpu-seq --grid 10x10 --kernel 11", "larger than the grid"},
                        Case{"run rbe -b cpu-seq --grid 0x10", "--grid"},
                        Case{"run rbe -b cuda-resident --layout 33x8", "multiple of 8"},
-                       Case{"run rbe -b cpu-seq --layout 32x8", "cuda-resident only"},
+                       Case{"run rbe -b cpu-seq --layout 32x8", "cuda-resident, cuda-bands only"},
                        Case{"run rbe -b cpu-seq --steps 0", "--steps"},
                        Case{"run rbe -b cpu-seq --reps 1", "--reps"},
                        Case{"run rbe -b cpu-seq --machine /nonexistent/m.json", "m.json"}}) {
