@@ -53,12 +53,12 @@ out, counts = sys.argv[1], [int(c) for c in sys.argv[2:]]
 def load(p, g):
     with open(os.path.join(out, f"run-P{p}-G{g}.json")) as f:
         return json.load(f)
-one = load(1, 1)["measured"]["total"]["median"]
+one = load(1, 1)["measured_per_step"]["total"]["median"]
 print(f"{'placement':<26} {'step':>10} {'speedup':>8} {'predicted/measured':>19}")
 rows = [(g, g) for g in counts] + [(2, 1), (4, 1)]
 for p, g in rows:
     j = load(p, g)
-    t = j["measured"]["total"]["median"]
+    t = j["measured_per_step"]["total"]["median"]
     pm = j.get("predicted_over_measured")
     where = f"{p} bands on {g} GPU{'s' if g > 1 else ''}"
     print(f"{where:<26} {t * 1e3:>8.3f} ms {one / t:>7.2f}x {pm if pm is None else f'{pm:.3f}':>19}")

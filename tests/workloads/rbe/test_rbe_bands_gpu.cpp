@@ -120,11 +120,12 @@ TEST(RbeCudaBands, RunsAcrossSegments) {
 TEST(RbeCudaBands, RefusesABandLowerThanTheKernelReaches) {
   DTFLOP_REQUIRE_GPU();
   BackendOptions o;
-  o.partitions = 2;
+  o.partitions = 3;
   o.gpus = 1;
   auto bands = make_backend("cuda-bands", o);
-  // 20 rows in two bands of 10; the 33-row kernel reaches 16 rows past a cell.
-  const Problem p = random_problem({64, 20, 9, 33}, 7);
+  // 60 rows in three bands of 20; the 49-row kernel reaches 24 rows past a cell. (A kernel taller
+  // than the grid is refused before the bands are planned.)
+  const Problem p = random_problem({64, 60, 9, 49}, 7);
   try {
     bands->init(p);
     FAIL() << "bands lower than the kernel's reach were accepted";
