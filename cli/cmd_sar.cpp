@@ -254,7 +254,11 @@ void predict_sar(const PredictSarArgs& a) {
                         {"grid", {t.shape.nx, t.shape.ny}},
                         {"kernel", {t.shape.Ix, t.shape.Iy}},
                         {"steps_per_period", t.steps},
-                        {"counts_per_period", {{"rbe", to_json(t.rbe)}, {"host", to_json(t.host)}, {"net", to_json(t.net)}}},
+                        {"counts_per_period",
+                         {{"rbe", to_json(t.rbe)},
+                          {"host", to_json(t.host)},
+                          {"summary", to_json(t.summary)},
+                          {"net", to_json(t.net)}}},
                         {"link_delay_per_step", link}};
   std::optional<double> total;
   nlohmann::json parts = nlohmann::json::object();
@@ -263,7 +267,7 @@ void predict_sar(const PredictSarArgs& a) {
     const Variant want = wanted_variant(a.predict, m);
     double sum = 0;
     for (const auto& [name, counts] : {std::pair<const char*, const CostCounts*>{"rbe", &t.rbe}, {"host", &t.host},
-                                       {"net", &t.net}}) {
+                                       {"summary", &t.summary}, {"net", &t.net}}) {
       if (std::string(name) == "net" && (!m.has(Param::B_net) || !m.has(Param::L_net))) {
         parts[name] = {{"missing", "the profile has no L_net and B_net: run `dtflop probe` (net-mpi) where dtflop has MPI"},
                        {"per_step", 0.0}};
@@ -294,8 +298,10 @@ void predict_sar(const PredictSarArgs& a) {
              t.shape.ny, t.shape.Ix, t.shape.Iy);
   fmt::print("\nCounts of one helicopter's period of {} step{}:\n  RBE ({}):\n", t.steps, t.steps == 1 ? "" : "s", s.backend);
   print_counts(t.rbe);
-  fmt::print("  host work (likelihoods, fusion, control, estimate):\n");
+  fmt::print("  host work (likelihoods, observation fusion):\n");
   print_counts(t.host);
+  fmt::print("  summary (the estimate and the control's sums, where the belief lives):\n");
+  print_counts(t.summary);
   fmt::print("  messages: {} messages, {} bytes\n", t.net.net_messages, t.net.net_bytes);
   fmt::print("\nThe link model adds {} per step of physical time (not priced by the machine profile).\n",
              format_duration(link));
@@ -304,9 +310,9 @@ void predict_sar(const PredictSarArgs& a) {
     return;
   }
   fmt::print("\nPredicted per team step on {}:\n", machine_name(load_profile(a.predict.machine)));
-  for (const char* name : {"rbe", "host", "net"})
-    fmt::print("  {:5} {}\n", name, format_duration(parts[name]["per_step"].get<double>()));
-  fmt::print("  total {} (with the link model's delay {})\n", format_duration(*total), format_duration(*total + link));
+  for (const char* name : {"rbe", "host", "summary", "net"})
+    fmt::print("  {:7} {}\n", name, format_duration(parts[name]["per_step"].get<double>()));
+  fmt::print("  total   {} (with the link model's delay {})\n", format_duration(*total), format_duration(*total + link));
 }
 
 }  // namespace

@@ -93,19 +93,30 @@ Record Platform::step(std::int64_t k, Transport& transport) {
       for (std::size_t i = 0; i < l.size(); ++i) l[i] *= lp[i];  // (4.13)
     }
   }
-  if (r.dt != current_dt_) reset(backend_->belief(), r.dt);
+  double t1 = now();
+  if (r.dt != current_dt_) {
+    reset(backend_->belief(), r.dt);
+    const double t2 = now();
+    r.wall_reset += t2 - t1;
+    t1 = t2;
+  }
   try {
     (void)backend_->step(l);
+    r.wall_rbe += now() - t1;
   } catch (const rbe::NumericalError&) {
     // The observation put the raft where the belief held nothing: start over from it.
     r.restarted = 1;
+    const double t2 = now();
     reset(l, r.dt);
+    r.wall_reset += now() - t2;
   }
   if (fuses_beliefs(s_, k) && team_ > 1) {
     // The belief is fused where it lives, by the backend (cuda-resident: on the device; only the
     // wire belief comes back to be sent, and the others go up).
+    const double w0 = now();
     const std::vector<float> mine = backend_->wire_belief();
     const double e0 = now();
+    r.wall_rbe += e0 - w0;
     if (s_.link_sleep) std::this_thread::sleep_for(std::chrono::duration<double>(r.link_delay));
     const auto got = transport.exchange(bytes_of(std::span<const float>(mine)), k);
     exchange += now() - e0;
@@ -121,6 +132,7 @@ Record Platform::step(std::int64_t k, Transport& transport) {
       wires.push_back(std::move(w));
     }
     const std::vector<std::span<const float>> others(wires.begin(), wires.end());
+    const double f0 = now();
     try {
       backend_->fuse(s_.rule == Rule::belief ? rbe::FusionRule::product : rbe::FusionRule::loglinear, others,
                      std::size_t(index_));
@@ -128,13 +140,19 @@ Record Platform::step(std::int64_t k, Transport& transport) {
     } catch (const rbe::NumericalError&) {
       r.fused = 0;  // the beliefs do not overlap: each keeps its own
     }
+    r.wall_rbe += now() - f0;
   }
-  const std::vector<double> b = backend_->belief();
-  r.estimate = rbe::estimate(grid_, b);
+  // The estimate and what the control reads, computed where the belief lives: only these numbers
+  // come back (the belief itself is read only for a snapshot, by the team).
+  const double s0 = now();
+  const std::vector<rbe::Point> at = lookahead_points(s_, heli_);
+  const rbe::Summary sum = backend_->summarize(detection_footprint(s_), at);
+  r.wall_summary = now() - s0;
+  r.estimate = sum.estimate;
   r.estimate.step = k;
   r.estimate.time = time_;
   r.estimate.detected = own.detected != 0 ? 1 : 0;
-  turn_ = choose_turn(s_, grid_, heli_, b);
+  turn_ = choose_turn(s_, heli_, sum.footprints, {sum.estimate.mean_x, sum.estimate.mean_y});
   r.heli = heli_;
   r.raft = raft_.position();
   r.distance = std::hypot(r.raft.x - heli_.x, r.raft.y - heli_.y);

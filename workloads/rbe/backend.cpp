@@ -298,6 +298,14 @@ void check_fusion_sum(double sum, std::size_t platforms, FusionRule rule, std::s
                                       backend, to_string(rule), platforms, std::isfinite(sum) ? "zero" : "not finite"));
 }
 
+Summary host_summary(const Grid& grid, std::span<const double> belief, const Footprint& f, std::span<const Point> at) {
+  check_footprint(f, at);
+  Summary r;
+  r.estimate = estimate(grid, belief);
+  r.footprints = footprint_sums(grid, belief, f, at);
+  return r;
+}
+
 void throw_not_ready(std::string_view backend, bool failed) {
   if (failed)
     throw NumericalError(-1, fmt::format("{}: the belief is in an error state after a failed correction; "

@@ -30,6 +30,7 @@
 #include "cuda/error.hpp"
 #include "model/errors.hpp"
 #include "workloads/rbe/counts.hpp"
+#include "workloads/rbe/estimate.hpp"
 #include "workloads/rbe/grid.hpp"
 #include "workloads/rbe/motion.hpp"
 
@@ -233,6 +234,17 @@ class Backend {
   virtual CostCounts fusion_counts(const Shape& shape, FusionRule rule, std::int64_t platforms,
                                    const BackendOptions& options) const = 0;
   virtual CostCounts wire_counts(const Shape& shape, const BackendOptions& options) const = 0;
+
+  // What the estimate and a search control read, computed where the belief lives
+  // (summary_counts.hpp declares the exact counts): the estimate of the belief (estimate.hpp;
+  // step, time and detected left at their defaults) and, for each point of `at`, the expected
+  // detection under footprint `f` (footprint_sums). The CPU backends and cuda-seed compute it on
+  // the host from their belief; cuda-resident on the device, bringing back only these numbers.
+  // Matches estimate(grid, belief()) and footprint_sums(grid, belief(), f, at) up to the order of
+  // the sums. Throws InputError for a bad footprint or point.
+  virtual Summary summarize(const Footprint& f, std::span<const Point> at) = 0;
+  virtual CostCounts summary_counts(const Grid& grid, const Footprint& f, std::span<const Point> at,
+                                    const BackendOptions& options) const = 0;
 };
 
 // ---- Registry ---------------------------------------------------------------------------

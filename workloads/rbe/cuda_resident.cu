@@ -30,6 +30,8 @@
 
 #include "workloads/rbe/backend_counts.hpp"
 #include "workloads/rbe/cuda_fusion.hpp"
+#include "workloads/rbe/cuda_summary.hpp"
+#include "workloads/rbe/summary_counts.hpp"
 #include "workloads/rbe/cuda_memory.hpp"
 #include "workloads/rbe/fusion_counts.hpp"
 #include "workloads/rbe/detail.hpp"
@@ -785,6 +787,17 @@ class CudaResident final : public Backend {
     return cuda_resident_wire_counts(s.cells(), counted_gpu_sms(o));
   }
 
+  // The summary where the belief lives: two reduction kernels, 9 + P doubles back
+  // (cuda_summary.hpp). Counts: cuda_resident_summary_counts().
+  Summary summarize(const Footprint& f, std::span<const Point> at) override {
+    check_ready();
+    return summary_.summarize(q_[cur_].get(), last_.get(), grid_, std::int64_t(ld_), f, at, stream_->get());
+  }
+  CostCounts summary_counts(const Grid& g, const Footprint& f, std::span<const Point> at,
+                            const BackendOptions& o) const override {
+    return cuda_resident_summary_counts(g, f, at, counted_gpu_sms(o));
+  }
+
   std::vector<float> wire_belief() override {
     check_ready();
     const cudaStream_t st = stream_->get();
@@ -916,6 +929,7 @@ class CudaResident final : public Backend {
   TileMaps maps_[2]{}, xmaps_[2]{}, umap_{};
   DeviceArray<float> q_[2], l_, u_, kx_, ky_, wire_;
   DeviceFusion fusion_;
+  DeviceSummary summary_;
   DeviceArray<double> sums_, last_;
   HostArray<double> host_sums_;
   std::optional<Stream> stream_;
