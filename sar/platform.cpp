@@ -75,7 +75,8 @@ Record Platform::step(std::int64_t k, Transport& transport) {
   raft_.advance(r.dt);
   fly(s_, heli_, turn_, r.dt);
   const Observation own = sense(s_, heli_, index_, raft_.position(), sensor_rng_);
-  std::vector<double> l = likelihood(s_, grid_, own);
+  // The likelihood as a window (only the window travels to a device-resident belief).
+  rbe::WindowedLikelihood l = likelihood_window(s_, grid_, own);
 
   if (s_.rule == Rule::observation && team_ > 1) {
     const double e0 = now();
@@ -89,8 +90,7 @@ Record Platform::step(std::int64_t k, Transport& transport) {
         throw std::runtime_error(fmt::format("platform {} sent {} bytes for an observation, expected {}", p,
                                              got[std::size_t(p)].size(), sizeof o));
       std::memcpy(&o, got[std::size_t(p)].data(), sizeof o);
-      const std::vector<double> lp = likelihood(s_, grid_, o);
-      for (std::size_t i = 0; i < l.size(); ++i) l[i] *= lp[i];  // (4.13)
+      l = rbe::multiply(l, likelihood_window(s_, grid_, o), grid_);  // (4.13)
     }
   }
   double t1 = now();
@@ -107,7 +107,7 @@ Record Platform::step(std::int64_t k, Transport& transport) {
     // The observation put the raft where the belief held nothing: start over from it.
     r.restarted = 1;
     const double t2 = now();
-    reset(l, r.dt);
+    reset(rbe::expand(l, grid_), r.dt);
     r.wall_reset += now() - t2;
   }
   if (fuses_beliefs(s_, k) && team_ > 1) {

@@ -58,12 +58,13 @@ Observation sense(const Scenario& s, const Helicopter& h, int platform, rbe::Poi
   return o;
 }
 
-std::vector<double> likelihood(const Scenario& s, const rbe::Grid& grid, const Observation& o) {
+rbe::WindowedLikelihood likelihood_window(const Scenario& s, const rbe::Grid& grid, const Observation& o) {
   // P_d is below 1e-13 of its peak beyond 7.7 spreads: cells farther than that from the sensor
   // take the value of P_d = 0 (1 without a detection, 0 with one), the rest are computed.
   const double reach = 7.7 * s.detection_spread;
   const bool hit = o.detected != 0;
-  std::vector<double> l(static_cast<std::size_t>(grid.cells()), hit ? 0.0 : 1.0);
+  rbe::WindowedLikelihood l;
+  l.outside = hit ? 0.0 : 1.0;
   const double two_s2 = 2 * s.detection_spread * s.detection_spread;
   const double sigma = s.noise_min + s.noise_per_km * std::hypot(o.observed_x - o.sensor_x, o.observed_y - o.sensor_y);
   const double norm = 1 / (2 * kPi * sigma * sigma);
@@ -72,6 +73,9 @@ std::vector<double> likelihood(const Scenario& s, const rbe::Grid& grid, const O
   const std::int64_t ix1 = std::min<std::int64_t>(grid.nx() - 1, first(o.sensor_x + reach, grid.x_min(), grid.dx()));
   const std::int64_t iy0 = std::max<std::int64_t>(0, first(o.sensor_y - reach, grid.y_min(), grid.dy()));
   const std::int64_t iy1 = std::min<std::int64_t>(grid.ny() - 1, first(o.sensor_y + reach, grid.y_min(), grid.dy()));
+  if (ix1 < ix0 || iy1 < iy0) return l;  // the sensor's reach misses the grid
+  l.window = {ix0, ix1, iy0, iy1};
+  l.values.reserve(static_cast<std::size_t>(l.window.cells()));
   for (std::int64_t iy = iy0; iy <= iy1; ++iy)
     for (std::int64_t ix = ix0; ix <= ix1; ++ix) {
       const rbe::Point c = grid.centre(ix, iy);
@@ -84,9 +88,13 @@ std::vector<double> likelihood(const Scenario& s, const rbe::Grid& grid, const O
       } else {
         v = 1 - pd;
       }
-      l[static_cast<std::size_t>(grid.index(ix, iy))] = v;
+      l.values.push_back(v);
     }
   return l;
+}
+
+std::vector<double> likelihood(const Scenario& s, const rbe::Grid& grid, const Observation& o) {
+  return rbe::expand(likelihood_window(s, grid, o), grid);
 }
 
 namespace {

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "sar/scenario.hpp"
+#include "workloads/rbe/backend.hpp"
 #include "workloads/rbe/estimate.hpp"
 #include "workloads/rbe/grid.hpp"
 
@@ -51,6 +52,9 @@ Observation sense(const Scenario& s, const Helicopter& h, int platform, rbe::Poi
 // Values are > 0 wherever detection_max < 1 (no detection). Cells beyond 7.7 spreads of the
 // sensor, where P_d < 1e-13 of its peak, take P_d = 0.
 std::vector<double> likelihood(const Scenario& s, const rbe::Grid& grid, const Observation& o);
+// The same likelihood as a window (the cells within 7.7 spreads of the sensor, clipped to the grid)
+// and the value beyond it: what a backend whose belief lives on a device needs to be sent.
+rbe::WindowedLikelihood likelihood_window(const Scenario& s, const rbe::Grid& grid, const Observation& o);
 
 // The search-and-track control: the turn command, among `control_turns` commands evenly spread
 // over [-max_turn, max_turn], whose path held for `control_lookahead` steps of `step_time`

@@ -129,6 +129,25 @@ struct Problem {
 // a prior with no mass (inside the mask), a kernel larger than the grid.
 void validate(const Problem& problem);
 
+// A likelihood that is `outside` on every cell but those of `window` (estimate.hpp), where it takes
+// `values`, row by row over the window: value (ix, iy) at [(iy - iy0) * width + (ix - ix0)]. A
+// sensor's likelihood is one (1 beyond its reach without a detection, 0 with one): a backend whose
+// belief lives on a device sends only the window (Backend::step(const WindowedLikelihood&)).
+struct WindowedLikelihood {
+  Window window;
+  double outside = 1;
+  std::vector<double> values;
+  double at(std::int64_t ix, std::int64_t iy) const;  // the value of cell (ix, iy)
+};
+// Throws InputError naming what is wrong: a window not inside the grid, values of another count,
+// a negative or non-finite value.
+void validate(const WindowedLikelihood& l, const Grid& grid);
+// The likelihood as a grid array (validated first).
+std::vector<double> expand(const WindowedLikelihood& l, const Grid& grid);
+// The product of two (observation fusion, 4.13): outside the product of the outsides, on the
+// smallest window holding both windows the product of the values (validated first).
+WindowedLikelihood multiply(const WindowedLikelihood& a, const WindowedLikelihood& b, const Grid& grid);
+
 // A reproducible synthetic problem for benchmarks and calibration: unit grid nx x ny, a
 // separable Gaussian kernel of size Ix x Iy (sigma = size / 6, slight drift), a random smooth
 // prior and a random positive likelihood drawn from `seed`.
@@ -212,6 +231,11 @@ class Backend {
   virtual RunResult run(std::int64_t steps) = 0;
   // One step with a new likelihood (a grid array; the mask is applied to it). Returns its times.
   virtual StepTimes step(std::span<const double> likelihood) = 0;
+  // The same step with a windowed likelihood: the same belief as step(expand(l, grid)), to the
+  // bit. cuda-resident sends only the window to the device (and resets the cells of the previous
+  // window, or the whole grid when `outside` changed, there); the others expand it. Throws
+  // InputError for an invalid likelihood (validate).
+  virtual StepTimes step(const WindowedLikelihood& likelihood) = 0;
   // The normalized belief (density: sum x A_c = 1) as float64, n_x n_y values.
   virtual std::vector<double> belief() = 0;
   // The options the backend was made with.

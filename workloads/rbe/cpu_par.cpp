@@ -257,6 +257,7 @@ class CpuPar final : public Backend {
     double sum = 0;
     return advance(sum);
   }
+  StepTimes step(const WindowedLikelihood& likelihood) override { return step(expand(likelihood, grid_)); }
 
   std::vector<double> belief() override {
     if (!ready_ || failed_) throw_not_ready(name(), failed_);

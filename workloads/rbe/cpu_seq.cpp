@@ -61,6 +61,8 @@ class CpuSeq final : public Backend {
     return advance(l, sum);
   }
 
+  StepTimes step(const WindowedLikelihood& likelihood) override { return step(expand(likelihood, grid_)); }
+
   std::vector<double> belief() override {
     if (!ready_ || failed_) throw_not_ready(name(), failed_);
     return p_;

@@ -477,6 +477,12 @@ void* ypass_kernel(int R) {
   }
 }
 
+// A rectangle of a pitched grid set to v (a windowed likelihood's reset, Backend::step).
+__global__ void rbe_resident_fill(float* __restrict__ g, int ld, int ix0, int iy0, int width, int rows, float v) {
+  const int x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x < width && y < rows) g[static_cast<std::size_t>(iy0 + y) * std::size_t(ld) + std::size_t(ix0 + x)] = v;
+}
+
 // cuTensorMapEncodeTiled, reached through the runtime (no link against the driver library);
 // null when the driver does not offer it.
 using EncodeTiled = CUresult (*)(CUtensorMap*, CUtensorMapDataType, cuuint32_t, void*, const cuuint64_t*,
@@ -761,6 +767,53 @@ class CudaResident final : public Backend {
     return t;
   }
 
+  // Only the window goes up: the cells of the previous window are reset to `outside` first (the
+  // whole grid when `outside` changed), by a kernel, then the window's rows are copied.
+  StepTimes step(const WindowedLikelihood& likelihood) override {
+    check_ready();
+    validate(likelihood, grid_);
+    if (!mask_.empty()) return step(expand(likelihood, grid_));
+    const Window& w = likelihood.window;
+    const float outside = static_cast<float>(likelihood.outside);
+    std::vector<float> f(likelihood.values.begin(), likelihood.values.end());
+    const cudaStream_t st = stream_->get();
+    StepTimes t;
+    const double t0 = seconds_now();
+    if (!l_outside_ || *l_outside_ != outside) {
+      launch_fill(0, 0, shape_.nx, shape_.ny, outside, st);
+    } else if (l_window_.cells() > 0) {
+      launch_fill(l_window_.ix0, l_window_.iy0, l_window_.ix1 - l_window_.ix0 + 1, l_window_.iy1 - l_window_.iy0 + 1,
+                  outside, st);
+    }
+    l_outside_ = outside;
+    l_window_ = w;
+    if (w.cells() > 0) {
+      const std::size_t width = static_cast<std::size_t>(w.ix1 - w.ix0 + 1), rows = static_cast<std::size_t>(w.iy1 - w.iy0 + 1);
+      float* dst = l_.get() + static_cast<std::size_t>(w.iy0) * ld_ + static_cast<std::size_t>(w.ix0);
+      DTFLOP_CUDA(cudaMemcpy2DAsync(dst, ld_ * sizeof(float), f.data(), width * sizeof(float), width * sizeof(float), rows,
+                                    cudaMemcpyHostToDevice, st));
+    }
+    stream_->sync();
+    const double t1 = seconds_now();
+    enqueue(1, 1, false);
+    stream_->sync();
+    const double t2 = seconds_now();
+    double S = 0;
+    DTFLOP_CUDA(cudaMemcpy(&S, sums_.get() + 1, sizeof(double), cudaMemcpyDeviceToHost));
+    const double t3 = seconds_now();
+    t.part(StepPart::to_device) = t1 - t0;
+    t.part(StepPart::device_step) = events_->seconds(0, 1);
+    t.part(StepPart::to_host) = t3 - t2;
+    t.total = t3 - t0;
+    cur_ ^= 1;
+    if (!(S > 0 && std::isfinite(S))) {
+      failed_ = true;
+      check_sum(S, steps_, name());
+    }
+    ++steps_;
+    return t;
+  }
+
   std::vector<double> belief() override {
     check_ready();
     stream_->sync();
@@ -850,8 +903,16 @@ class CudaResident final : public Backend {
   }
 
   void upload_likelihood(const std::vector<double>& l) {
+    l_outside_.reset();  // the whole grid is written: no window to reset
     std::vector<float> f(l.begin(), l.end());
     l_.upload_rows(f.data(), static_cast<std::size_t>(shape_.nx), static_cast<std::size_t>(shape_.ny), ld_);
+  }
+
+  void launch_fill(std::int64_t ix0, std::int64_t iy0, std::int64_t width, std::int64_t rows, float v, cudaStream_t s) {
+    const dim3 block(32, 8);
+    const dim3 grid(unsigned((width + 31) / 32), unsigned((rows + 7) / 8));
+    rbe_resident_fill<<<grid, block, 0, s>>>(l_.get(), int(ld_), int(ix0), int(iy0), int(width), int(rows), v);
+    DTFLOP_CUDA_LAUNCHED();
   }
 
   template <int R>
@@ -930,6 +991,9 @@ class CudaResident final : public Backend {
   DeviceArray<float> q_[2], l_, u_, kx_, ky_, wire_;
   DeviceFusion fusion_;
   DeviceSummary summary_;
+  // What l_ holds after a windowed step: `outside` but on the window (unset: anything).
+  std::optional<float> l_outside_;
+  Window l_window_;
   DeviceArray<double> sums_, last_;
   HostArray<double> host_sums_;
   std::optional<Stream> stream_;

@@ -122,6 +122,8 @@ class CudaSeed final : public Backend {
     return advance(sum);
   }
 
+  StepTimes step(const WindowedLikelihood& likelihood) override { return step(expand(likelihood, grid_)); }
+
   std::vector<double> belief() override {
     check_ready();
     std::vector<double> p(h_p_.size());

@@ -39,6 +39,7 @@ class CudaUnavailable final : public Backend {
   void init(const Problem&) override { fail(); }
   RunResult run(std::int64_t) override { fail(); }
   StepTimes step(std::span<const double>) override { fail(); }
+  StepTimes step(const WindowedLikelihood&) override { fail(); }
   std::vector<double> belief() override { fail(); }
 
  private:
