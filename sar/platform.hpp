@@ -58,8 +58,8 @@ struct Record {
   double wall_compute = 0;    // s: sensing, likelihoods, the RBE step, fusion arithmetic, control
   double wall_exchange = 0;   // s: in the transport (messages, waiting, the link's sleep)
   // Parts of wall_compute, s: the RBE backend's step, fusion and wire belief; its summary (the
-  // estimate and the control's footprint sums, Backend::summarize); re-initializing the backend
-  // when the step's length changes (the link's delay) or the belief restarts. The rest of
+  // estimate and the control's footprint sums, Backend::summarize); the kernel of a step of
+  // another length (the link's delay: Backend::set_kernel) or a restart of the belief. The rest of
   // wall_compute is the host's: sensing, likelihoods, the control's choice.
   double wall_rbe = 0;
   double wall_summary = 0;

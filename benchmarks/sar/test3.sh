@@ -15,6 +15,8 @@ dtflop=${DTFLOP:-build/dtflop}
 [ "$(id -u)" -eq 0 ] && export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 export OMP_NUM_THREADS=1
 mkdir -p "$out"
+# The machine may be shared: its load before and after the runs goes into HOW.txt.
+load_before=$(cut -d' ' -f1-3 /proc/loadavg)
 scenario=sar/scenarios/table-5.5.yaml
 [ -s "$out/machine.json" ] || "$dtflop" probe --quick -o "$out/machine.json" > "$out/probe.txt" 2>&1
 echo "series,rule,interval,cells,link,measured_step_s,predicted_step_s,predicted_link_s,relative_error" > "$out/test3.csv"
@@ -47,6 +49,7 @@ done
   echo "commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
   echo "machine: $(getconf _NPROCESSORS_ONLN) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'); 3 processes oversubscribed"
   echo "date: $(date -u +%Y-%m-%dT%H:%M:%SZ)"
+  echo "load average (1, 5, 15 min) before: $load_before; after: $(cut -d' ' -f1-3 /proc/loadavg)"
 } > "$out/HOW.txt"
 python3 - "$out" <<'PY'
 import csv, statistics, sys

@@ -236,6 +236,11 @@ class Backend {
   // window, or the whole grid when `outside` changed, there); the others expand it. Throws
   // InputError for an invalid likelihood (validate).
   virtual StepTimes step(const WindowedLikelihood& likelihood) = 0;
+  // Replaces the motion kernel (a step of another length) and keeps the belief. cuda-resident
+  // keeps it on the device (only what depends on the kernel is made again); the others init()
+  // again from belief() (float32 backends round it once more). Throws InputError for a kernel
+  // this backend cannot run (the backend then needs init()).
+  virtual void set_kernel(const MotionKernel& kernel) = 0;
   // The normalized belief (density: sum x A_c = 1) as float64, n_x n_y values.
   virtual std::vector<double> belief() = 0;
   // The options the backend was made with.

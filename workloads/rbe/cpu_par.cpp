@@ -258,6 +258,15 @@ class CpuPar final : public Backend {
     return advance(sum);
   }
   StepTimes step(const WindowedLikelihood& likelihood) override { return step(expand(likelihood, grid_)); }
+  // init() again from the belief (float32 x the pending scale, as float64) with the new kernel.
+  void set_kernel(const MotionKernel& kernel) override {
+    Problem p;
+    p.grid = grid_;
+    p.kernel = kernel;
+    p.prior = belief();
+    p.likelihood.assign(l_.begin(), l_.end());
+    init(p);  // the mask is already in the prior and the likelihood
+  }
 
   std::vector<double> belief() override {
     if (!ready_ || failed_) throw_not_ready(name(), failed_);

@@ -63,6 +63,16 @@ class CpuSeq final : public Backend {
 
   StepTimes step(const WindowedLikelihood& likelihood) override { return step(expand(likelihood, grid_)); }
 
+  void set_kernel(const MotionKernel& kernel) override {
+    if (!ready_ || failed_) throw_not_ready(name(), failed_);
+    Problem p;
+    p.grid = grid_;
+    p.kernel = kernel;
+    p.prior = p_;
+    p.likelihood = l_;
+    init(p);  // the mask is already in the prior and the likelihood
+  }
+
   std::vector<double> belief() override {
     if (!ready_ || failed_) throw_not_ready(name(), failed_);
     return p_;

@@ -571,110 +571,60 @@ class CudaResident final : public Backend {
     shape_ = problem.shape();
     grid_ = problem.grid;
     mask_ = problem.mask;
-    int dev = 0, max_smem = 0;
+    int dev = 0;
     DTFLOP_CUDA(cudaGetDevice(&dev));
-    DTFLOP_CUDA(cudaDeviceGetAttribute(&max_smem, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
-    plan_ = resident_plan(shape_, options_.layout, static_cast<std::size_t>(max_smem));
     // The counts (options()) are for this device's multiprocessors unless the caller chose.
     if (options_.gpu_sms <= 0) DTFLOP_CUDA(cudaDeviceGetAttribute(&options_.gpu_sms, cudaDevAttrMultiProcessorCount, dev));
-    prepare_kernels();
+    // The plan first (it throws for a kernel this layout cannot run), then the grids.
+    plan_ = plan_for(shape_);
 
-    graphs_.clear();
     // Pitched grids, every value zero to start with: the padding columns stay zero (no kernel
     // writes them, no copy touches them).
     ld_ = static_cast<std::size_t>(resident::row_pitch(shape_.nx));
     const std::size_t nx = static_cast<std::size_t>(shape_.nx), ny = static_cast<std::size_t>(shape_.ny);
-    const std::size_t n = ld_ * ny;
-    auto zeroed = [n](bool wanted) {
-      DeviceArray<float> a(wanted ? n : 0);
-      if (wanted) DTFLOP_CUDA(cudaMemset(a.get(), 0, n * sizeof(float)));
-      return a;
-    };
     q_[0] = zeroed(true);
     q_[1] = zeroed(true);
     l_ = zeroed(true);
-    u_ = zeroed(plan_.passes == Layout::Passes::split);
     sums_ = DeviceArray<double>(kSegment + 1);
     last_ = DeviceArray<double>(1);
     host_sums_ = HostArray<double>(kSegment, true);
     if (!stream_) stream_.emplace();
     if (!events_) events_.emplace(kSegment + 1);
 
-    // Flipped kernels, zero-padded to whole register groups.
-    const auto fused = resident::fused_geometry(shape_, options_.layout);
-    const int kx_len = fused.kx_len, ky_len = fused.ky_len;
-    std::vector<float> kx(static_cast<std::size_t>(kx_len), 0.f), ky(static_cast<std::size_t>(ky_len), 0.f);
-    for (std::int64_t a = 0; a < shape_.Ix; ++a)
-      kx[std::size_t(a)] = float(problem.kernel.kx()[std::size_t(shape_.Ix - 1 - a)]);
-    for (std::int64_t b = 0; b < shape_.Iy; ++b)
-      ky[std::size_t(b)] = float(problem.kernel.ky()[std::size_t(shape_.Iy - 1 - b)]);
-    kx_ = DeviceArray<float>(kx.size());
-    ky_ = DeviceArray<float>(ky.size());
-    kx_.upload(kx);
-    ky_.upload(ky);
-
     std::vector<float> p(prior.begin(), prior.end());
     q_[0].upload_rows(p.data(), nx, ny, ld_);
-    if (options_.poison) {  // all bits set: a NaN in every float of the grid the steps must overwrite
+    if (options_.poison)  // all bits set: a NaN in every float of the grid the steps must overwrite
       DTFLOP_CUDA(cudaMemset2D(q_[1].get(), ld_ * sizeof(float), 0xff, nx * sizeof(float), ny));
-      if (u_.get()) DTFLOP_CUDA(cudaMemset2D(u_.get(), ld_ * sizeof(float), 0xff, nx * sizeof(float), ny));
-    }
     const double last = 1.0 / grid_.cell_area();  // scale 1: the prior is normalized
     last_.upload(&last, 1);
     upload_likelihood(masked_likelihood(problem.likelihood, mask_, shape_.cells()));
-
-    args_ = KernelArgs{};
-    args_.l = l_.get();
-    args_.u = u_.get();
-    args_.kx = kx_.get();
-    args_.ky = ky_.get();
-    args_.nx = int(shape_.nx);
-    args_.ld = int(ld_);
-    args_.ny = int(shape_.ny);
-    args_.Ix = int(shape_.Ix);
-    args_.Iy = int(shape_.Iy);
-    args_.hx = int(shape_.Ix - 1 - kernel_centre(shape_.Ix));
-    args_.hy = int(shape_.Iy - 1 - kernel_centre(shape_.Iy));
-    args_.cell_area = grid_.cell_area();
-    const auto g = plan_.passes == Layout::Passes::fused ? fused : resident::ypass_geometry(shape_, options_.layout);
-    args_.x_shift = g.x_shift;
-    args_.in_rows = g.in_rows;
-    args_.in_cols = g.in_cols;
-    args_.in_pitch = g.in_pitch;
-    args_.u_rows = g.u_rows;
-    args_.u_pitch = g.u_pitch;
-    args_.kx_len = kx_len;
-    args_.ky_len = ky_len;
-    xargs_ = args_;
-    if (plan_.passes == Layout::Passes::split) {
-      const auto xg = resident::xpass_geometry(shape_, options_.layout);
-      xargs_.in_rows = xg.in_rows;
-      xargs_.in_cols = xg.in_cols;
-      xargs_.in_pitch = xg.in_pitch;
-      xargs_.x_shift = xg.x_shift;
-      xargs_.u_rows = 0;
-      xargs_.u_pitch = 0;
-      xargs_.ky_len = 0;
-    }
-    // Tile copies by the tensor memory accelerator where a tile's rows fit a box (else cp.async).
-    std::memset(static_cast<void*>(maps_), 0, sizeof(maps_));
-    std::memset(static_cast<void*>(xmaps_), 0, sizeof(xmaps_));
-    std::memset(static_cast<void*>(&umap_), 0, sizeof(umap_));
-    auto encode_q = [&](TileMaps (&maps)[2], int pitch, int rows) {
-      return encode_tile_maps(maps[0], q_[0].get(), args_.nx, args_.ld, args_.ny, pitch, rows) &&
-             encode_tile_maps(maps[1], q_[1].get(), args_.nx, args_.ld, args_.ny, pitch, rows);
-    };
-    if (plan_.passes == Layout::Passes::fused) {
-      args_.tma = tile_map_fits(args_.in_pitch) && encode_q(maps_, args_.in_pitch, args_.in_rows);
-    } else {
-      xargs_.tma = tile_map_fits(xargs_.in_pitch) && encode_q(xmaps_, xargs_.in_pitch, xargs_.in_rows);
-      args_.tma = tile_map_fits(args_.u_pitch) &&
-                  encode_tile_maps(umap_, u_.get(), args_.nx, args_.ld, args_.ny, args_.u_pitch, args_.u_rows);
-    }
+    configure(problem.kernel);
     DTFLOP_CUDA(cudaDeviceSynchronize());
     cur_ = 0;
     steps_ = 0;
     failed_ = false;
+    ready_ = true;
+  }
+
+  // A new motion kernel (a step of another length) for the belief that stays where it is: only
+  // the kernel, the plan and what depends on them are made again (no belief copied either way).
+  void set_kernel(const MotionKernel& kernel) override {
+    check_ready();
+    resolve_prediction(options_, kernel, false, name());
+    if (kernel.Ix() > shape_.nx || kernel.Iy() > shape_.ny)
+      throw InputError("a " + std::to_string(kernel.Ix()) + "x" + std::to_string(kernel.Iy()) +
+                       " kernel is larger than the " + std::to_string(shape_.nx) + "x" + std::to_string(shape_.ny) +
+                       " grid; give a smaller kernel");
+    Shape next = shape_;
+    next.Ix = kernel.Ix();
+    next.Iy = kernel.Iy();
+    const ResidentPlan plan = plan_for(next);  // throws before anything changes
+    stream_->sync();
+    ready_ = false;  // until the kernel is in place (configure may throw: then init() again)
+    shape_ = next;
+    plan_ = plan;
+    configure(kernel);
+    DTFLOP_CUDA(cudaDeviceSynchronize());
     ready_ = true;
   }
 
@@ -878,6 +828,93 @@ class CudaResident final : public Backend {
  private:
   void check_ready() const {
     if (!ready_ || failed_) throw_not_ready(name(), failed_);
+  }
+
+  DeviceArray<float> zeroed(bool wanted) const {
+    const std::size_t n = ld_ * static_cast<std::size_t>(shape_.ny);
+    DeviceArray<float> a(wanted ? n : 0);
+    if (wanted) DTFLOP_CUDA(cudaMemset(a.get(), 0, n * sizeof(float)));
+    return a;
+  }
+
+  ResidentPlan plan_for(const Shape& shape) const {
+    int dev = 0, max_smem = 0;
+    DTFLOP_CUDA(cudaGetDevice(&dev));
+    DTFLOP_CUDA(cudaDeviceGetAttribute(&max_smem, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
+    return resident_plan(shape, options_.layout, static_cast<std::size_t>(max_smem));
+  }
+
+  // What depends on the kernel (shape_ and plan_ set): the kernels' attributes, the split pass's
+  // grid, the flipped kernel taps, the kernel arguments and the tile maps; the step graphs go.
+  void configure(const MotionKernel& kernel) {
+    prepare_kernels();
+    graphs_.clear();
+    const std::size_t nx = static_cast<std::size_t>(shape_.nx), ny = static_cast<std::size_t>(shape_.ny);
+    u_ = zeroed(plan_.passes == Layout::Passes::split);
+    if (options_.poison && u_.get())
+      DTFLOP_CUDA(cudaMemset2D(u_.get(), ld_ * sizeof(float), 0xff, nx * sizeof(float), ny));
+
+    // Flipped kernels, zero-padded to whole register groups.
+    const auto fused = resident::fused_geometry(shape_, options_.layout);
+    const int kx_len = fused.kx_len, ky_len = fused.ky_len;
+    std::vector<float> kx(static_cast<std::size_t>(kx_len), 0.f), ky(static_cast<std::size_t>(ky_len), 0.f);
+    for (std::int64_t a = 0; a < shape_.Ix; ++a)
+      kx[std::size_t(a)] = float(kernel.kx()[std::size_t(shape_.Ix - 1 - a)]);
+    for (std::int64_t b = 0; b < shape_.Iy; ++b)
+      ky[std::size_t(b)] = float(kernel.ky()[std::size_t(shape_.Iy - 1 - b)]);
+    kx_ = DeviceArray<float>(kx.size());
+    ky_ = DeviceArray<float>(ky.size());
+    kx_.upload(kx);
+    ky_.upload(ky);
+
+    args_ = KernelArgs{};
+    args_.l = l_.get();
+    args_.u = u_.get();
+    args_.kx = kx_.get();
+    args_.ky = ky_.get();
+    args_.nx = int(shape_.nx);
+    args_.ld = int(ld_);
+    args_.ny = int(shape_.ny);
+    args_.Ix = int(shape_.Ix);
+    args_.Iy = int(shape_.Iy);
+    args_.hx = int(shape_.Ix - 1 - kernel_centre(shape_.Ix));
+    args_.hy = int(shape_.Iy - 1 - kernel_centre(shape_.Iy));
+    args_.cell_area = grid_.cell_area();
+    const auto g = plan_.passes == Layout::Passes::fused ? fused : resident::ypass_geometry(shape_, options_.layout);
+    args_.x_shift = g.x_shift;
+    args_.in_rows = g.in_rows;
+    args_.in_cols = g.in_cols;
+    args_.in_pitch = g.in_pitch;
+    args_.u_rows = g.u_rows;
+    args_.u_pitch = g.u_pitch;
+    args_.kx_len = kx_len;
+    args_.ky_len = ky_len;
+    xargs_ = args_;
+    if (plan_.passes == Layout::Passes::split) {
+      const auto xg = resident::xpass_geometry(shape_, options_.layout);
+      xargs_.in_rows = xg.in_rows;
+      xargs_.in_cols = xg.in_cols;
+      xargs_.in_pitch = xg.in_pitch;
+      xargs_.x_shift = xg.x_shift;
+      xargs_.u_rows = 0;
+      xargs_.u_pitch = 0;
+      xargs_.ky_len = 0;
+    }
+    // Tile copies by the tensor memory accelerator where a tile's rows fit a box (else cp.async).
+    std::memset(static_cast<void*>(maps_), 0, sizeof(maps_));
+    std::memset(static_cast<void*>(xmaps_), 0, sizeof(xmaps_));
+    std::memset(static_cast<void*>(&umap_), 0, sizeof(umap_));
+    auto encode_q = [&](TileMaps (&maps)[2], int pitch, int rows) {
+      return encode_tile_maps(maps[0], q_[0].get(), args_.nx, args_.ld, args_.ny, pitch, rows) &&
+             encode_tile_maps(maps[1], q_[1].get(), args_.nx, args_.ld, args_.ny, pitch, rows);
+    };
+    if (plan_.passes == Layout::Passes::fused) {
+      args_.tma = tile_map_fits(args_.in_pitch) && encode_q(maps_, args_.in_pitch, args_.in_rows);
+    } else {
+      xargs_.tma = tile_map_fits(xargs_.in_pitch) && encode_q(xmaps_, xargs_.in_pitch, xargs_.in_rows);
+      args_.tma = tile_map_fits(args_.u_pitch) &&
+                  encode_tile_maps(umap_, u_.get(), args_.nx, args_.ld, args_.ny, args_.u_pitch, args_.u_rows);
+    }
   }
 
   void prepare_kernels() {

@@ -123,6 +123,15 @@ class CudaSeed final : public Backend {
   }
 
   StepTimes step(const WindowedLikelihood& likelihood) override { return step(expand(likelihood, grid_)); }
+  // init() again from the host belief with the new kernel.
+  void set_kernel(const MotionKernel& kernel) override {
+    Problem p;
+    p.grid = grid_;
+    p.kernel = kernel;
+    p.prior = belief();
+    p.likelihood.assign(h_l_.get(), h_l_.get() + h_l_.size());
+    init(p);  // the mask is already in the prior and the likelihood
+  }
 
   std::vector<double> belief() override {
     check_ready();

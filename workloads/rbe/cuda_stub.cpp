@@ -40,6 +40,7 @@ class CudaUnavailable final : public Backend {
   RunResult run(std::int64_t) override { fail(); }
   StepTimes step(std::span<const double>) override { fail(); }
   StepTimes step(const WindowedLikelihood&) override { fail(); }
+  void set_kernel(const MotionKernel&) override { fail(); }
   std::vector<double> belief() override { fail(); }
 
  private:

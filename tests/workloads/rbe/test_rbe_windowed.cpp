@@ -1,7 +1,9 @@
-// A windowed likelihood (backend.hpp): its expansion and product against grids written out here,
-// and each backend's step with it against the same backend's step with the expanded grid, to the
-// bit (cuda-resident sends only the window and resets the previous one on the device: a cell it
-// fails to reset or to write shows up as a difference). Compiled twice: CPU backends (label unit)
+// The steps a team member takes (backend.hpp). A windowed likelihood: its expansion and product
+// against grids written out here, and each backend's step with it against the same backend's step
+// with the expanded grid, to the bit (cuda-resident sends only the window and resets the previous
+// one on the device: a cell it fails to reset or to write shows up as a difference). A new kernel
+// (Backend::set_kernel, a step of another length): the belief steps on as it would from init()
+// with that kernel and the same belief. Compiled twice: CPU backends (label unit)
 // and, with DTFLOP_WINDOWED_GPU, the CUDA backends (label gpu; skipped without a device).
 #include <gtest/gtest.h>
 
@@ -128,6 +130,46 @@ TEST_P(BackendWindowed, StepsAsWithTheExpandedLikelihoodToTheBit) {
     (void)full->step(expand(l, p.grid));
     ASSERT_EQ(windowed->belief(), full->belief());
   }
+}
+
+// Kernels of other sizes in turn (the plan changes with them); after each, a few steps against a
+// second backend made again by init() from the first one's belief and the new kernel.
+TEST_P(BackendWindowed, ANewKernelKeepsTheBelief) {
+#ifdef DTFLOP_WINDOWED_GPU
+  DTFLOP_REQUIRE_GPU();
+#endif
+  auto kept = make_backend(GetParam());
+  Problem p = synthetic_problem({90, 60, 5, 5}, 11);
+  kept->init(p);
+  (void)kept->run(2);
+  for (std::int64_t size : {41, 3, 9}) {
+    SCOPED_TRACE("kernel " + std::to_string(size));
+    const Problem q = synthetic_problem({90, 60, size, size}, 12);
+    const std::vector<double> before = kept->belief();
+    kept->set_kernel(q.kernel);
+    // The belief is kept: the same values (the CPU backends make it again from these: a float32
+    // one rounds them once more).
+    const std::vector<double> after = kept->belief();
+    double largest = 0;
+    for (double v : before) largest = std::max(largest, v);
+    for (std::size_t i = 0; i < before.size(); ++i) ASSERT_NEAR(after[i], before[i], 1e-6 * largest) << i;
+    auto fresh = make_backend(GetParam());
+    Problem r = p;
+    r.kernel = q.kernel;
+    r.prior = after;
+    fresh->init(r);
+    for (int k = 0; k < 3; ++k) {
+      (void)kept->step(p.likelihood);
+      (void)fresh->step(p.likelihood);
+    }
+    const std::vector<double> a = kept->belief(), b = fresh->belief();
+    largest = 0;
+    for (double v : b) largest = std::max(largest, v);
+    for (std::size_t i = 0; i < a.size(); ++i) ASSERT_NEAR(a[i], b[i], 1e-5 * largest) << i;
+  }
+  // A kernel wider than the grid is refused.
+  const MotionKernel wide = MotionKernel::separable(std::vector<double>(91, 1.0 / 91), {1.0});
+  EXPECT_THROW(kept->set_kernel(wide), InputError);
 }
 
 INSTANTIATE_TEST_SUITE_P(Here, BackendWindowed, ::testing::ValuesIn(backends_here()), [](const auto& info) {
