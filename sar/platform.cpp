@@ -34,7 +34,7 @@ std::span<const std::byte> bytes_of(std::span<const T> v) {
 std::uint64_t raft_seed(std::uint64_t seed) { return mix(seed * 2 + 1); }
 std::uint64_t sensor_seed(std::uint64_t seed, int platform) { return mix(mix(seed) + 1000003ULL * std::uint64_t(platform + 1)); }
 
-Platform::Platform(const Scenario& s, int index, int team)
+Platform::Platform(const Scenario& s, int index, int team, const rbe::BackendOptions& options)
     : s_(s), index_(index), team_(team), grid_(s.grid()), ones_(std::size_t(grid_.cells()), 1.0),
       raft_(s_, raft_seed(s.seed)), sensor_rng_(sensor_seed(s.seed, index)) {
   validate(s_);
@@ -42,7 +42,7 @@ Platform::Platform(const Scenario& s, int index, int team)
     throw InputError(fmt::format("platform {} does not exist: the scenario has {} helicopters", index,
                                  s_.helicopters.size()));
   heli_ = s_.helicopters[std::size_t(index)];
-  backend_ = rbe::make_backend(s_.backend);
+  backend_ = rbe::make_backend(s_.backend, options);
   reset(prior_belief(s_, grid_), s_.step_time);
 }
 

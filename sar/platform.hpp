@@ -69,7 +69,8 @@ struct Record {
 class Platform {
  public:
   // Throws InputError for a bad scenario or backend, DeviceUnavailable for a GPU backend here.
-  Platform(const Scenario& s, int index, int team);
+  // `options` go to the RBE backend (e.g. cpu-par's threads; default: the backend's own).
+  Platform(const Scenario& s, int index, int team, const rbe::BackendOptions& options = {});
   // Step k (1-based) of the team; every platform calls it for the same k.
   Record step(std::int64_t k, Transport& transport);
   std::vector<double> belief() { return backend_->belief(); }
