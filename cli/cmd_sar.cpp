@@ -59,6 +59,7 @@ struct SarArgs {
   bool check = false;
   // The exchange sweep (samples of the network term for `dtflop calibrate`).
   bool exchange_sweep = false;
+  int round = 1;
   std::vector<std::int64_t> sizes;
   std::string store;
   int exchanges = 20, repetitions = 5;
@@ -141,6 +142,7 @@ void exchange_sweep(const sar::Scenario& s, const SarArgs& a) {
       fmt::print(stderr, "dtflop sar: {} of {} sizes are in '{}' already; each is measured again as another "
                          "sample\n", already, sw.bytes.size(), store);
   };
+  const int round = a.round;
   auto sink = [=, &net, &mpi](const sar::ExchangeSample& x) {
     calib::Sample smp;
     smp.key = key(x.team, x.bytes, x.exchanges);
@@ -151,6 +153,7 @@ void exchange_sweep(const sar::Scenario& s, const SarArgs& a) {
     smp.parameters = config(x.team, x.bytes, x.exchanges);
     smp.counts = mpi.counts(smp.parameters, nullptr).scaled(x.exchanges);  // declared per exchange
     smp.steps = x.exchanges;
+    smp.round = round;
     smp.warmup = 1;
     smp.source = calib::TimingSource::host;
     smp.timing_note = "host clock: the slowest rank's wall time of the exchanges (each rank sends one message to "
@@ -384,6 +387,9 @@ void add_sar_command(CLI::App& root) {
       ->capture_default_str()->check(CLI::Range(1, 1000000));
   app->add_option("--repetitions", a->repetitions, "Exchange sweep: timed repetitions per size")
       ->capture_default_str()->check(CLI::Range(1, 10000));
+  app->add_option("--round", a->round,
+                  "Exchange sweep: the round its samples belong to (sweeps of the same sizes in one store: 1, 2, ...)")
+      ->capture_default_str()->check(CLI::Range(1, 1000000));
   app->callback([a] { run_sar(*a); });
 }
 

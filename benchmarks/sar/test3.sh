@@ -19,6 +19,7 @@ mkdir -p "$out"
 load_before=$(cut -d' ' -f1-3 /proc/loadavg)
 scenario=sar/scenarios/table-5.5.yaml
 [ -s "$out/machine.json" ] || "$dtflop" probe --quick -o "$out/machine.json" > "$out/probe.txt" 2>&1
+: > "$out/load.txt"
 echo "series,rule,interval,cells,link,measured_step_s,predicted_step_s,predicted_link_s,relative_error" > "$out/test3.csv"
 one() {  # SERIES RULE INTERVAL CELLS LINK
   local series=$1 rule=$2 k=$3 cells=$4 link=$5 dir="$out/runs/$1-$2-k$3-$4-$5"
@@ -35,6 +36,9 @@ link = p['link_delay_per_step'] if '$link' == 'sleep' else 0.0
 print(p['total_per_step'] + link, link)")
   python3 -c "m=$measured; p=$predicted; print('$series,$rule,$k,$cells,$link,%.6g,%.6g,%.6g,%.3f' % (m, p, $delay, (p - m) / m))" >> "$out/test3.csv"
   tail -n 1 "$out/test3.csv" >&2
+  # What else ran (a shared machine): the load and the busiest other processes after each run.
+  echo "$series,$rule,$k,$cells,$link: load $(cut -d' ' -f1 /proc/loadavg); $(ps -eo pcpu,comm --sort=-pcpu |
+    grep -v -e dtflop -e mpirun -e ' ps$' | sed -n 2,3p | tr -s ' ' | tr '\n' ';')" >> "$out/load.txt"
 }
 for link in sleep off; do
   for n in 45x20 90x40 180x80 360x160; do
