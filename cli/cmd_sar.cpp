@@ -54,6 +54,7 @@ struct SarArgs {
   std::vector<std::int64_t> snapshots;
   bool no_records = false;
   double peer_timeout = 60;
+  int threads = 0;
   std::string fail_at;
   bool quiet = false;
   bool check = false;
@@ -196,6 +197,7 @@ void run_sar(const SarArgs& a) {
       throw InputError(fmt::format("--snapshots: step {} is outside 0..{} (the run's steps)", k, s.steps));
   o.peer_timeout = a.peer_timeout;
   o.quiet = a.quiet;
+  o.threads = a.threads;
   if (!a.fail_at.empty()) {
     const auto colon = a.fail_at.find(':');
     try {
@@ -371,6 +373,9 @@ void add_sar_command(CLI::App& root) {
                                                "(0: the prior), e.g. --snapshots 0,50,200")
       ->delimiter(',');
   app->add_flag("--no-records", a->no_records, "Leave out the per-step records of each helicopter (heli-R.csv)");
+  app->add_option("--threads", a->threads,
+                  "cpu-par's threads in each process (0: every hardware thread; with more processes than cores, 1)")
+      ->capture_default_str()->check(CLI::Range(0, 4096));
   app->add_option("--peer-timeout", a->peer_timeout, "Seconds without a peer's message before it counts as lost")
       ->capture_default_str()->check(CLI::Range(0.01, 86400.0));
   app->add_option("--fail-at", a->fail_at, "Testing: RANK:STEP, that rank kills itself at that step (lost-rank handling)");

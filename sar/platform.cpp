@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <thread>
 
@@ -121,18 +122,25 @@ Record Platform::step(std::int64_t k, Transport& transport) {
     if (s_.link_sleep) std::this_thread::sleep_for(std::chrono::duration<double>(r.link_delay));
     const auto got = transport.exchange(bytes_of(std::span<const float>(mine)), k);
     exchange += now() - e0;
-    std::vector<std::vector<float>> wires;
+    // The others' beliefs are read where they arrived (a copy only for a misaligned buffer).
+    std::vector<std::vector<float>> copies;
+    copies.reserve(std::size_t(team_));  // no reallocation: the spans below point into it
+    std::vector<std::span<const float>> others;
     for (int p = 0; p < team_; ++p) {
       if (p == index_) continue;
       const auto& g = got[std::size_t(p)];
       if (g.size() != mine.size() * sizeof(float))
         throw std::runtime_error(fmt::format("platform {} sent {} bytes for a belief, expected {}", p, g.size(),
                                              mine.size() * sizeof(float)));
-      std::vector<float> w(mine.size());
-      std::memcpy(w.data(), g.data(), g.size());
-      wires.push_back(std::move(w));
+      if (reinterpret_cast<std::uintptr_t>(g.data()) % alignof(float) == 0) {
+        others.emplace_back(reinterpret_cast<const float*>(g.data()), mine.size());
+      } else {
+        std::vector<float> w(mine.size());
+        std::memcpy(w.data(), g.data(), g.size());
+        copies.push_back(std::move(w));
+        others.emplace_back(copies.back());
+      }
     }
-    const std::vector<std::span<const float>> others(wires.begin(), wires.end());
     const double f0 = now();
     try {
       backend_->fuse(s_.rule == Rule::belief ? rbe::FusionRule::product : rbe::FusionRule::loglinear, others,

@@ -233,7 +233,9 @@ int run_team(const Scenario& scenario, const TeamOptions& o) {
     double first_detection_time = -1, entropy_sum = 0;
     std::int64_t k = 0;
     try {
-      Platform platform(s, rank, size);
+      rbe::BackendOptions backend_options;
+      backend_options.threads = o.threads;
+      Platform platform(s, rank, size, backend_options);
       const double run_start = wall();
       if (std::find(o.snapshots.begin(), o.snapshots.end(), 0) != o.snapshots.end() && rank == 0)
         snap_beliefs.push_back(platform.belief());
