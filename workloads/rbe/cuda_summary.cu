@@ -74,7 +74,8 @@ __global__ void __launch_bounds__(T) rbe_summary_moments(const float* __restrict
     s[5] += wy * y;
     if (v > 0.f) s[6] += w * log(w);
     const unsigned long long k =
-        (static_cast<unsigned long long>(__float_as_uint(v)) << 32) | (0xffffffffull - static_cast<unsigned long long>(i));
+        (static_cast<unsigned long long>(v > 0.f ? __float_as_uint(v) : 0u) << 32) |  // -0 and 0 alike
+        (0xffffffffull - static_cast<unsigned long long>(i));
     key = k > key ? k : key;
   }
   __shared__ double red[kSums][T / 32];
