@@ -6,11 +6,11 @@
 # dtflop calibrate (latency variant: the seed variant has no latency term) and dtflop validate.
 # Beside it, the same sweep with 2 processes (one per core on a 2-core machine: what the
 # ping-pong probe measures), fitted on its own: the gap between the two is the third process.
-#   benchmarks/sar/netfit.sh [OUT]     (default results/sar/net-fit; about 2 minutes)
+#   benchmarks/sar/netfit.sh [OUT]     (default results/sar/net-fit; under a minute)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=${1:-results/sar/net-fit}
-rounds=${ROUNDS:-3}
+rounds=${ROUNDS:-5}
 dtflop=${DTFLOP:-build/dtflop}
 [ -x "$dtflop" ] || { echo "netfit: no $dtflop; build it (cmake --build build --target dtflop)" >&2; exit 2; }
 [ "$(id -u)" -eq 0 ] && export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
