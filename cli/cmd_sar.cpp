@@ -54,11 +54,13 @@ struct SarArgs {
   std::vector<std::int64_t> snapshots;
   bool no_records = false;
   double peer_timeout = 60;
+  int threads = 0;
   std::string fail_at;
   bool quiet = false;
   bool check = false;
   // The exchange sweep (samples of the network term for `dtflop calibrate`).
   bool exchange_sweep = false;
+  int round = 1;
   std::vector<std::int64_t> sizes;
   std::string store;
   int exchanges = 20, repetitions = 5;
@@ -141,6 +143,7 @@ void exchange_sweep(const sar::Scenario& s, const SarArgs& a) {
       fmt::print(stderr, "dtflop sar: {} of {} sizes are in '{}' already; each is measured again as another "
                          "sample\n", already, sw.bytes.size(), store);
   };
+  const int round = a.round;
   auto sink = [=, &net, &mpi](const sar::ExchangeSample& x) {
     calib::Sample smp;
     smp.key = key(x.team, x.bytes, x.exchanges);
@@ -151,6 +154,7 @@ void exchange_sweep(const sar::Scenario& s, const SarArgs& a) {
     smp.parameters = config(x.team, x.bytes, x.exchanges);
     smp.counts = mpi.counts(smp.parameters, nullptr).scaled(x.exchanges);  // declared per exchange
     smp.steps = x.exchanges;
+    smp.round = round;
     smp.warmup = 1;
     smp.source = calib::TimingSource::host;
     smp.timing_note = "host clock: the slowest rank's wall time of the exchanges (each rank sends one message to "
@@ -193,6 +197,7 @@ void run_sar(const SarArgs& a) {
       throw InputError(fmt::format("--snapshots: step {} is outside 0..{} (the run's steps)", k, s.steps));
   o.peer_timeout = a.peer_timeout;
   o.quiet = a.quiet;
+  o.threads = a.threads;
   if (!a.fail_at.empty()) {
     const auto colon = a.fail_at.find(':');
     try {
@@ -254,7 +259,11 @@ void predict_sar(const PredictSarArgs& a) {
                         {"grid", {t.shape.nx, t.shape.ny}},
                         {"kernel", {t.shape.Ix, t.shape.Iy}},
                         {"steps_per_period", t.steps},
-                        {"counts_per_period", {{"rbe", to_json(t.rbe)}, {"host", to_json(t.host)}, {"net", to_json(t.net)}}},
+                        {"counts_per_period",
+                         {{"rbe", to_json(t.rbe)},
+                          {"host", to_json(t.host)},
+                          {"summary", to_json(t.summary)},
+                          {"net", to_json(t.net)}}},
                         {"link_delay_per_step", link}};
   std::optional<double> total;
   nlohmann::json parts = nlohmann::json::object();
@@ -263,7 +272,7 @@ void predict_sar(const PredictSarArgs& a) {
     const Variant want = wanted_variant(a.predict, m);
     double sum = 0;
     for (const auto& [name, counts] : {std::pair<const char*, const CostCounts*>{"rbe", &t.rbe}, {"host", &t.host},
-                                       {"net", &t.net}}) {
+                                       {"summary", &t.summary}, {"net", &t.net}}) {
       if (std::string(name) == "net" && (!m.has(Param::B_net) || !m.has(Param::L_net))) {
         parts[name] = {{"missing", "the profile has no L_net and B_net: run `dtflop probe` (net-mpi) where dtflop has MPI"},
                        {"per_step", 0.0}};
@@ -294,8 +303,10 @@ void predict_sar(const PredictSarArgs& a) {
              t.shape.ny, t.shape.Ix, t.shape.Iy);
   fmt::print("\nCounts of one helicopter's period of {} step{}:\n  RBE ({}):\n", t.steps, t.steps == 1 ? "" : "s", s.backend);
   print_counts(t.rbe);
-  fmt::print("  host work (likelihoods, fusion, control, estimate):\n");
+  fmt::print("  host work (likelihoods, observation fusion):\n");
   print_counts(t.host);
+  fmt::print("  summary (the estimate and the control's sums, where the belief lives):\n");
+  print_counts(t.summary);
   fmt::print("  messages: {} messages, {} bytes\n", t.net.net_messages, t.net.net_bytes);
   fmt::print("\nThe link model adds {} per step of physical time (not priced by the machine profile).\n",
              format_duration(link));
@@ -304,9 +315,9 @@ void predict_sar(const PredictSarArgs& a) {
     return;
   }
   fmt::print("\nPredicted per team step on {}:\n", machine_name(load_profile(a.predict.machine)));
-  for (const char* name : {"rbe", "host", "net"})
-    fmt::print("  {:5} {}\n", name, format_duration(parts[name]["per_step"].get<double>()));
-  fmt::print("  total {} (with the link model's delay {})\n", format_duration(*total), format_duration(*total + link));
+  for (const char* name : {"rbe", "host", "summary", "net"})
+    fmt::print("  {:7} {}\n", name, format_duration(parts[name]["per_step"].get<double>()));
+  fmt::print("  total   {} (with the link model's delay {})\n", format_duration(*total), format_duration(*total + link));
 }
 
 }  // namespace
@@ -362,6 +373,9 @@ void add_sar_command(CLI::App& root) {
                                                "(0: the prior), e.g. --snapshots 0,50,200")
       ->delimiter(',');
   app->add_flag("--no-records", a->no_records, "Leave out the per-step records of each helicopter (heli-R.csv)");
+  app->add_option("--threads", a->threads,
+                  "cpu-par's threads in each process (0: every hardware thread; with more processes than cores, 1)")
+      ->capture_default_str()->check(CLI::Range(0, 4096));
   app->add_option("--peer-timeout", a->peer_timeout, "Seconds without a peer's message before it counts as lost")
       ->capture_default_str()->check(CLI::Range(0.01, 86400.0));
   app->add_option("--fail-at", a->fail_at, "Testing: RANK:STEP, that rank kills itself at that step (lost-rank handling)");
@@ -378,6 +392,9 @@ void add_sar_command(CLI::App& root) {
       ->capture_default_str()->check(CLI::Range(1, 1000000));
   app->add_option("--repetitions", a->repetitions, "Exchange sweep: timed repetitions per size")
       ->capture_default_str()->check(CLI::Range(1, 10000));
+  app->add_option("--round", a->round,
+                  "Exchange sweep: the round its samples belong to (sweeps of the same sizes in one store: 1, 2, ...)")
+      ->capture_default_str()->check(CLI::Range(1, 1000000));
   app->callback([a] { run_sar(*a); });
 }
 

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "sar/fusion.hpp"
+#include "sar/world.hpp"
 #include "workloads/rbe/likelihood.hpp"
 
 namespace dtflop::sar {
@@ -33,13 +34,13 @@ TeamCounts team_counts(const Scenario& s, std::int64_t team, const rbe::BackendO
     t.rbe += backend->fusion_counts(t.shape, rule, team, options);
     t.rbe += backend->wire_counts(t.shape, options);
   }
-  // Control: turns x look-ahead positions x the cells within 4 spreads of each.
-  const double reach_cells = (8 * s.detection_spread / g.dx() + 1) * (8 * s.detection_spread / g.dy() + 1);
-  const auto window = static_cast<std::int64_t>(std::min(double(cells), reach_cells));
-  h.N_C += t.steps * s.control_turns * s.control_lookahead * window * kControlFlopsPerCell;
-  h.N_C += t.steps * cells * kEstimateFlopsPerCell;
-  h.N_CC += t.steps * 2 * cells;
   t.host = h;
+  // The estimate and the control's footprint sums, once a step, by the backend.
+  const Helicopter centre{0.5 * (g.x_min() + g.x_max()), 0.5 * (g.y_min() + g.y_max()), 0.0};
+  const std::vector<rbe::Point> at = lookahead_points(s, centre);
+  t.summary = rbe::make_backend(s.backend, options)
+                  ->summary_counts(g, detection_footprint(s), at, options)
+                  .scaled(t.steps);
 
   for (std::int64_t j = 1; j <= t.steps; ++j) {
     const Traffic tr = traffic(s, team, periodic ? j : 1);

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <thread>
 
@@ -34,7 +35,7 @@ std::span<const std::byte> bytes_of(std::span<const T> v) {
 std::uint64_t raft_seed(std::uint64_t seed) { return mix(seed * 2 + 1); }
 std::uint64_t sensor_seed(std::uint64_t seed, int platform) { return mix(mix(seed) + 1000003ULL * std::uint64_t(platform + 1)); }
 
-Platform::Platform(const Scenario& s, int index, int team)
+Platform::Platform(const Scenario& s, int index, int team, const rbe::BackendOptions& options)
     : s_(s), index_(index), team_(team), grid_(s.grid()), ones_(std::size_t(grid_.cells()), 1.0),
       raft_(s_, raft_seed(s.seed)), sensor_rng_(sensor_seed(s.seed, index)) {
   validate(s_);
@@ -42,7 +43,7 @@ Platform::Platform(const Scenario& s, int index, int team)
     throw InputError(fmt::format("platform {} does not exist: the scenario has {} helicopters", index,
                                  s_.helicopters.size()));
   heli_ = s_.helicopters[std::size_t(index)];
-  backend_ = rbe::make_backend(s_.backend);
+  backend_ = rbe::make_backend(s_.backend, options);
   reset(prior_belief(s_, grid_), s_.step_time);
 }
 
@@ -75,7 +76,8 @@ Record Platform::step(std::int64_t k, Transport& transport) {
   raft_.advance(r.dt);
   fly(s_, heli_, turn_, r.dt);
   const Observation own = sense(s_, heli_, index_, raft_.position(), sensor_rng_);
-  std::vector<double> l = likelihood(s_, grid_, own);
+  // The likelihood as a window (only the window travels to a device-resident belief).
+  rbe::WindowedLikelihood l = likelihood_window(s_, grid_, own);
 
   if (s_.rule == Rule::observation && team_ > 1) {
     const double e0 = now();
@@ -89,38 +91,57 @@ Record Platform::step(std::int64_t k, Transport& transport) {
         throw std::runtime_error(fmt::format("platform {} sent {} bytes for an observation, expected {}", p,
                                              got[std::size_t(p)].size(), sizeof o));
       std::memcpy(&o, got[std::size_t(p)].data(), sizeof o);
-      const std::vector<double> lp = likelihood(s_, grid_, o);
-      for (std::size_t i = 0; i < l.size(); ++i) l[i] *= lp[i];  // (4.13)
+      l = rbe::multiply(l, likelihood_window(s_, grid_, o), grid_);  // (4.13)
     }
   }
-  if (r.dt != current_dt_) reset(backend_->belief(), r.dt);
+  double t1 = now();
+  if (r.dt != current_dt_) {  // a step of another length: its kernel, the belief kept where it is
+    backend_->set_kernel(kernel(r.dt));
+    current_dt_ = r.dt;
+    const double t2 = now();
+    r.wall_reset += t2 - t1;
+    t1 = t2;
+  }
   try {
     (void)backend_->step(l);
+    r.wall_rbe += now() - t1;
   } catch (const rbe::NumericalError&) {
     // The observation put the raft where the belief held nothing: start over from it.
     r.restarted = 1;
-    reset(l, r.dt);
+    const double t2 = now();
+    reset(rbe::expand(l, grid_), r.dt);
+    r.wall_reset += now() - t2;
   }
   if (fuses_beliefs(s_, k) && team_ > 1) {
     // The belief is fused where it lives, by the backend (cuda-resident: on the device; only the
     // wire belief comes back to be sent, and the others go up).
+    const double w0 = now();
     const std::vector<float> mine = backend_->wire_belief();
     const double e0 = now();
+    r.wall_rbe += e0 - w0;
     if (s_.link_sleep) std::this_thread::sleep_for(std::chrono::duration<double>(r.link_delay));
     const auto got = transport.exchange(bytes_of(std::span<const float>(mine)), k);
     exchange += now() - e0;
-    std::vector<std::vector<float>> wires;
+    // The others' beliefs are read where they arrived (a copy only for a misaligned buffer).
+    std::vector<std::vector<float>> copies;
+    copies.reserve(std::size_t(team_));  // no reallocation: the spans below point into it
+    std::vector<std::span<const float>> others;
     for (int p = 0; p < team_; ++p) {
       if (p == index_) continue;
       const auto& g = got[std::size_t(p)];
       if (g.size() != mine.size() * sizeof(float))
         throw std::runtime_error(fmt::format("platform {} sent {} bytes for a belief, expected {}", p, g.size(),
                                              mine.size() * sizeof(float)));
-      std::vector<float> w(mine.size());
-      std::memcpy(w.data(), g.data(), g.size());
-      wires.push_back(std::move(w));
+      if (reinterpret_cast<std::uintptr_t>(g.data()) % alignof(float) == 0) {
+        others.emplace_back(reinterpret_cast<const float*>(g.data()), mine.size());
+      } else {
+        std::vector<float> w(mine.size());
+        std::memcpy(w.data(), g.data(), g.size());
+        copies.push_back(std::move(w));
+        others.emplace_back(copies.back());
+      }
     }
-    const std::vector<std::span<const float>> others(wires.begin(), wires.end());
+    const double f0 = now();
     try {
       backend_->fuse(s_.rule == Rule::belief ? rbe::FusionRule::product : rbe::FusionRule::loglinear, others,
                      std::size_t(index_));
@@ -128,13 +149,19 @@ Record Platform::step(std::int64_t k, Transport& transport) {
     } catch (const rbe::NumericalError&) {
       r.fused = 0;  // the beliefs do not overlap: each keeps its own
     }
+    r.wall_rbe += now() - f0;
   }
-  const std::vector<double> b = backend_->belief();
-  r.estimate = rbe::estimate(grid_, b);
+  // The estimate and what the control reads, computed where the belief lives: only these numbers
+  // come back (the belief itself is read only for a snapshot, by the team).
+  const double s0 = now();
+  const std::vector<rbe::Point> at = lookahead_points(s_, heli_);
+  const rbe::Summary sum = backend_->summarize(detection_footprint(s_), at);
+  r.wall_summary = now() - s0;
+  r.estimate = sum.estimate;
   r.estimate.step = k;
   r.estimate.time = time_;
   r.estimate.detected = own.detected != 0 ? 1 : 0;
-  turn_ = choose_turn(s_, grid_, heli_, b);
+  turn_ = choose_turn(s_, heli_, sum.footprints, {sum.estimate.mean_x, sum.estimate.mean_y});
   r.heli = heli_;
   r.raft = raft_.position();
   r.distance = std::hypot(r.raft.x - heli_.x, r.raft.y - heli_.y);

@@ -57,12 +57,20 @@ struct Record {
   int restarted = 0;          // 1 when the belief lost its mass and restarted from the observation
   double wall_compute = 0;    // s: sensing, likelihoods, the RBE step, fusion arithmetic, control
   double wall_exchange = 0;   // s: in the transport (messages, waiting, the link's sleep)
+  // Parts of wall_compute, s: the RBE backend's step, fusion and wire belief; its summary (the
+  // estimate and the control's footprint sums, Backend::summarize); the kernel of a step of
+  // another length (the link's delay: Backend::set_kernel) or a restart of the belief. The rest of
+  // wall_compute is the host's: sensing, likelihoods, the control's choice.
+  double wall_rbe = 0;
+  double wall_summary = 0;
+  double wall_reset = 0;
 };
 
 class Platform {
  public:
   // Throws InputError for a bad scenario or backend, DeviceUnavailable for a GPU backend here.
-  Platform(const Scenario& s, int index, int team);
+  // `options` go to the RBE backend (e.g. cpu-par's threads; default: the backend's own).
+  Platform(const Scenario& s, int index, int team, const rbe::BackendOptions& options = {});
   // Step k (1-based) of the team; every platform calls it for the same k.
   Record step(std::int64_t k, Transport& transport);
   std::vector<double> belief() { return backend_->belief(); }

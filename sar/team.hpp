@@ -25,6 +25,7 @@ struct TeamOptions {
   int fail_rank = -1;                  // testing: this rank kills itself at fail_step
   std::int64_t fail_step = 0;
   bool quiet = false;
+  int threads = 0;                     // cpu-par's threads per process (0: every hardware thread)
 };
 
 // Whether this build has the MPI runtime (DTFLOP_WITH_MPI).

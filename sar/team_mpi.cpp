@@ -124,15 +124,17 @@ class MpiTransport final : public Transport {
 
 std::string record_header() {
   return "step,time,dt,link_delay,heli_x,heli_y,heli_heading,raft_x,raft_y,distance,detected,fused,restarted,"
-         "mean_x,mean_y,cov_xx,cov_xy,cov_yy,map_x,map_y,entropy,wall_compute,wall_exchange\n";
+         "mean_x,mean_y,cov_xx,cov_xy,cov_yy,map_x,map_y,entropy,wall_compute,wall_exchange,wall_rbe,wall_summary,"
+         "wall_reset\n";
 }
 std::string record_line(const Record& r) {
   const auto& e = r.estimate;
   return fmt::format("{},{:.6f},{:.9g},{:.9g},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{},{},{:.6f},{:.6f},{:.9g},{:.9g},"
-                     "{:.9g},{:.6f},{:.6f},{:.9g},{:.9g},{:.9g}\n",
+                     "{:.9g},{:.6f},{:.6f},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n",
                      e.step, e.time, r.dt, r.link_delay, r.heli.x, r.heli.y, r.heli.heading, r.raft.x, r.raft.y,
                      r.distance, e.detected, r.fused, r.restarted, e.mean_x, e.mean_y, e.cov_xx, e.cov_xy, e.cov_yy,
-                     e.map_x, e.map_y, e.entropy, r.wall_compute, r.wall_exchange);
+                     e.map_x, e.map_y, e.entropy, r.wall_compute, r.wall_exchange, r.wall_rbe, r.wall_summary,
+                     r.wall_reset);
 }
 
 // A new file for appending, never over a link or a non-regular file.
@@ -146,6 +148,7 @@ std::ofstream open_new(const std::filesystem::path& p) {
 
 // Per-step series every rank contributes to rank 0: distance, entropy, detected, x, y, time,
 constexpr int kSeries = 9;  // + raft x, y, and the estimate's error |mean - raft|
+constexpr int kWalls = 5;   // per step: compute, exchange, and of the compute rbe, summary, reset
 
 int finish(int status) {
   MPI_Finalize();
@@ -224,13 +227,15 @@ int run_team(const Scenario& scenario, const TeamOptions& o) {
       rec.flush();
     }
     std::vector<double> series(std::size_t(s.steps * kSeries));
-    std::vector<double> walls(std::size_t(s.steps * 2));
+    std::vector<double> walls(std::size_t(s.steps * kWalls));
     std::vector<std::vector<double>> snap_beliefs;
     std::int64_t first_detection = -1, detections = 0, fusions = 0, restarts = 0;
     double first_detection_time = -1, entropy_sum = 0;
     std::int64_t k = 0;
     try {
-      Platform platform(s, rank, size);
+      rbe::BackendOptions backend_options;
+      backend_options.threads = o.threads;
+      Platform platform(s, rank, size, backend_options);
       const double run_start = wall();
       if (std::find(o.snapshots.begin(), o.snapshots.end(), 0) != o.snapshots.end() && rank == 0)
         snap_beliefs.push_back(platform.belief());
@@ -250,8 +255,8 @@ int run_team(const Scenario& scenario, const TeamOptions& o) {
         row[0] = r.distance, row[1] = r.estimate.entropy, row[2] = r.estimate.detected, row[3] = r.heli.x,
         row[4] = r.heli.y, row[5] = r.estimate.time, row[6] = r.raft.x, row[7] = r.raft.y;
         row[8] = std::hypot(r.estimate.mean_x - r.raft.x, r.estimate.mean_y - r.raft.y);
-        walls[std::size_t(2 * (k - 1))] = r.wall_compute;
-        walls[std::size_t(2 * (k - 1) + 1)] = r.wall_exchange;
+        double* w = &walls[std::size_t(kWalls * (k - 1))];
+        w[0] = r.wall_compute, w[1] = r.wall_exchange, w[2] = r.wall_rbe, w[3] = r.wall_summary, w[4] = r.wall_reset;
         if (r.estimate.detected == 1) {
           ++detections;
           if (first_detection < 0) first_detection = k, first_detection_time = r.estimate.time;
@@ -289,14 +294,17 @@ int run_team(const Scenario& scenario, const TeamOptions& o) {
         }
         write_file_atomically(out / fmt::format("{}series.csv", tag), csv);
         // Wall time of a team step: the slowest rank's compute and exchange each step, median over steps.
-        std::vector<double> step_total, step_compute, step_exchange;
+        // The parts (rbe, summary, reset: of the compute) are the slowest rank's each, step by step.
+        std::vector<double> step_total, step_compute, step_exchange, step_rbe, step_summary, step_reset;
         for (std::int64_t j = 0; j < s.steps; ++j) {
-          double c = 0, e = 0;
+          double c = 0, e = 0, rb = 0, su = 0, re = 0;
           for (int p = 0; p < size; ++p) {
-            c = std::max(c, team_walls[std::size_t(p) * walls.size() + std::size_t(2 * j)]);
-            e = std::max(e, team_walls[std::size_t(p) * walls.size() + std::size_t(2 * j + 1)]);
+            const double* w = &team_walls[std::size_t(p) * walls.size() + std::size_t(kWalls * j)];
+            c = std::max(c, w[0]), e = std::max(e, w[1]), rb = std::max(rb, w[2]), su = std::max(su, w[3]),
+            re = std::max(re, w[4]);
           }
           step_compute.push_back(c), step_exchange.push_back(e), step_total.push_back(c + e);
+          step_rbe.push_back(rb), step_summary.push_back(su), step_reset.push_back(re);
         }
         auto median = [](std::vector<double> v) {
           std::sort(v.begin(), v.end());
@@ -329,6 +337,9 @@ int run_team(const Scenario& scenario, const TeamOptions& o) {
             {"messages_per_step", mt.messages}, {"bytes_per_step", mt.bytes},
             {"wall_step_median", median(step_total)}, {"wall_step_mean", mean(step_total)},
             {"wall_compute_mean", mean(step_compute)}, {"wall_exchange_mean", mean(step_exchange)},
+            {"wall_rbe_median", median(step_rbe)}, {"wall_summary_median", median(step_summary)},
+            {"wall_reset_mean", mean(step_reset)}, {"wall_compute_median", median(step_compute)},
+            {"wall_exchange_median", median(step_exchange)},
             {"wall_run", run_wall}, {"per_helicopter", per}};
         summary << line.dump() << "\n";
         summary.flush();

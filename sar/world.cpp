@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace dtflop::sar {
 namespace {
@@ -57,12 +58,13 @@ Observation sense(const Scenario& s, const Helicopter& h, int platform, rbe::Poi
   return o;
 }
 
-std::vector<double> likelihood(const Scenario& s, const rbe::Grid& grid, const Observation& o) {
+rbe::WindowedLikelihood likelihood_window(const Scenario& s, const rbe::Grid& grid, const Observation& o) {
   // P_d is below 1e-13 of its peak beyond 7.7 spreads: cells farther than that from the sensor
   // take the value of P_d = 0 (1 without a detection, 0 with one), the rest are computed.
   const double reach = 7.7 * s.detection_spread;
   const bool hit = o.detected != 0;
-  std::vector<double> l(static_cast<std::size_t>(grid.cells()), hit ? 0.0 : 1.0);
+  rbe::WindowedLikelihood l;
+  l.outside = hit ? 0.0 : 1.0;
   const double two_s2 = 2 * s.detection_spread * s.detection_spread;
   const double sigma = s.noise_min + s.noise_per_km * std::hypot(o.observed_x - o.sensor_x, o.observed_y - o.sensor_y);
   const double norm = 1 / (2 * kPi * sigma * sigma);
@@ -71,6 +73,9 @@ std::vector<double> likelihood(const Scenario& s, const rbe::Grid& grid, const O
   const std::int64_t ix1 = std::min<std::int64_t>(grid.nx() - 1, first(o.sensor_x + reach, grid.x_min(), grid.dx()));
   const std::int64_t iy0 = std::max<std::int64_t>(0, first(o.sensor_y - reach, grid.y_min(), grid.dy()));
   const std::int64_t iy1 = std::min<std::int64_t>(grid.ny() - 1, first(o.sensor_y + reach, grid.y_min(), grid.dy()));
+  if (ix1 < ix0 || iy1 < iy0) return l;  // the sensor's reach misses the grid
+  l.window = {ix0, ix1, iy0, iy1};
+  l.values.reserve(static_cast<std::size_t>(l.window.cells()));
   for (std::int64_t iy = iy0; iy <= iy1; ++iy)
     for (std::int64_t ix = ix0; ix <= ix1; ++ix) {
       const rbe::Point c = grid.centre(ix, iy);
@@ -83,39 +88,51 @@ std::vector<double> likelihood(const Scenario& s, const rbe::Grid& grid, const O
       } else {
         v = 1 - pd;
       }
-      l[static_cast<std::size_t>(grid.index(ix, iy))] = v;
+      l.values.push_back(v);
     }
   return l;
 }
 
-double choose_turn(const Scenario& s, const rbe::Grid& grid, const Helicopter& h, std::span<const double> belief) {
-  const double ac = grid.cell_area();
-  const double reach = 4 * s.detection_spread;
-  // Expected detection at a point: cells within 4 spreads only.
-  auto expected = [&](double px, double py) {
-    const auto ix0 = static_cast<std::int64_t>(std::floor((px - reach - grid.x_min()) / grid.dx()));
-    const auto ix1 = static_cast<std::int64_t>(std::floor((px + reach - grid.x_min()) / grid.dx()));
-    const auto iy0 = static_cast<std::int64_t>(std::floor((py - reach - grid.y_min()) / grid.dy()));
-    const auto iy1 = static_cast<std::int64_t>(std::floor((py + reach - grid.y_min()) / grid.dy()));
-    double e = 0;
-    for (std::int64_t iy = std::max<std::int64_t>(iy0, 0); iy <= std::min(iy1, grid.ny() - 1); ++iy)
-      for (std::int64_t ix = std::max<std::int64_t>(ix0, 0); ix <= std::min(ix1, grid.nx() - 1); ++ix) {
-        const rbe::Point c = grid.centre(ix, iy);
-        e += belief[static_cast<std::size_t>(grid.index(ix, iy))] * ac *
-             detection_probability(s, std::hypot(c.x - px, c.y - py));
-      }
-    return e;
-  };
-  double best = -1, best_turn = 0;
+std::vector<double> likelihood(const Scenario& s, const rbe::Grid& grid, const Observation& o) {
+  return rbe::expand(likelihood_window(s, grid, o), grid);
+}
+
+namespace {
+
+std::int64_t turn_count(const Scenario& s) { return std::max<std::int64_t>(s.control_turns, 0); }
+double turn_command(const Scenario& s, std::int64_t k) {
   const std::int64_t n = s.control_turns;
-  for (std::int64_t k = 0; k < n; ++k) {
-    const double turn = n == 1 ? 0.0 : -s.max_turn + 2 * s.max_turn * double(k) / double(n - 1);
+  return n == 1 ? 0.0 : -s.max_turn + 2 * s.max_turn * double(k) / double(n - 1);
+}
+
+}  // namespace
+
+std::vector<rbe::Point> lookahead_points(const Scenario& s, const Helicopter& h) {
+  std::vector<rbe::Point> at;
+  at.reserve(std::size_t(turn_count(s) * std::max<std::int64_t>(s.control_lookahead, 0)));
+  for (std::int64_t k = 0; k < turn_count(s); ++k) {
     Helicopter p = h;
-    double score = 0;
     for (std::int64_t j = 0; j < s.control_lookahead; ++j) {
-      fly(s, p, turn, s.step_time);
-      score += expected(p.x, p.y);
+      fly(s, p, turn_command(s, k), s.step_time);
+      at.push_back({p.x, p.y});
     }
+  }
+  return at;
+}
+
+rbe::Footprint detection_footprint(const Scenario& s) {
+  return {s.detection_max, s.detection_spread, 4 * s.detection_spread};
+}
+
+double choose_turn(const Scenario& s, const Helicopter& h, std::span<const double> footprints, rbe::Point mean) {
+  const std::int64_t n = turn_count(s), L = std::max<std::int64_t>(s.control_lookahead, 0);
+  if (static_cast<std::int64_t>(footprints.size()) != n * L)
+    throw std::invalid_argument("choose_turn: one footprint sum per look-ahead point is needed");
+  double best = -1, best_turn = 0;
+  for (std::int64_t k = 0; k < n; ++k) {
+    const double turn = turn_command(s, k);
+    double score = 0;
+    for (std::int64_t j = 0; j < L; ++j) score += footprints[std::size_t(k * L + j)];
     if (score > best + 1e-12 || (std::abs(score - best) <= 1e-12 && std::abs(turn) < std::abs(best_turn))) {
       best = score;
       best_turn = turn;
@@ -123,16 +140,16 @@ double choose_turn(const Scenario& s, const rbe::Grid& grid, const Helicopter& h
   }
   if (best >= 1e-6) return best_turn;
   // Out of reach: turn toward the belief's mean.
-  double m = 0, mx = 0, my = 0;
-  for (std::int64_t iy = 0; iy < grid.ny(); ++iy)
-    for (std::int64_t ix = 0; ix < grid.nx(); ++ix) {
-      const double p = belief[static_cast<std::size_t>(grid.index(ix, iy))];
-      const rbe::Point c = grid.centre(ix, iy);
-      m += p, mx += p * c.x, my += p * c.y;
-    }
-  if (!(m > 0)) return 0;
-  const double want = wrap(std::atan2(my / m - h.y, mx / m - h.x) - h.heading);
+  if (!std::isfinite(mean.x) || !std::isfinite(mean.y)) return 0;
+  const double want = wrap(std::atan2(mean.y - h.y, mean.x - h.x) - h.heading);
   return std::clamp(want / (s.step_time * s.turn_coefficient), -s.max_turn, s.max_turn);
+}
+
+double choose_turn(const Scenario& s, const rbe::Grid& grid, const Helicopter& h, std::span<const double> belief) {
+  const std::vector<rbe::Point> at = lookahead_points(s, h);
+  const std::vector<double> sums = rbe::footprint_sums(grid, belief, detection_footprint(s), at);
+  const rbe::Estimate e = rbe::estimate(grid, belief);
+  return choose_turn(s, h, sums, {e.mean_x, e.mean_y});
 }
 
 std::vector<double> prior_belief(const Scenario& s, const rbe::Grid& grid) {

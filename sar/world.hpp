@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "sar/scenario.hpp"
+#include "workloads/rbe/backend.hpp"
+#include "workloads/rbe/estimate.hpp"
 #include "workloads/rbe/grid.hpp"
 
 namespace dtflop::sar {
@@ -50,13 +52,24 @@ Observation sense(const Scenario& s, const Helicopter& h, int platform, rbe::Poi
 // Values are > 0 wherever detection_max < 1 (no detection). Cells beyond 7.7 spreads of the
 // sensor, where P_d < 1e-13 of its peak, take P_d = 0.
 std::vector<double> likelihood(const Scenario& s, const rbe::Grid& grid, const Observation& o);
+// The same likelihood as a window (the cells within 7.7 spreads of the sensor, clipped to the grid)
+// and the value beyond it: what a backend whose belief lives on a device needs to be sent.
+rbe::WindowedLikelihood likelihood_window(const Scenario& s, const rbe::Grid& grid, const Observation& o);
 
 // The search-and-track control: the turn command, among `control_turns` commands evenly spread
 // over [-max_turn, max_turn], whose path held for `control_lookahead` steps of `step_time`
 // collects the most expected detection sum_j sum_i p_i P_d(|c_i - pos_j|) under the current
-// belief (cell probabilities p_i); ties go to the smaller turn. Where no path comes within reach
-// of the belief (expected detection below 1e-6), it turns toward the belief's mean instead.
-// The same for every fusion rule.
+// belief (cell probabilities p_i, the cells within 4 spreads of pos_j along each axis); ties go to
+// the smaller turn. Where no path comes within reach of the belief (expected detection below
+// 1e-6), it turns toward the belief's mean instead. The same for every fusion rule.
+//
+// In three parts, so that the belief's sums are taken where it lives (rbe::Backend::summarize):
+// the look-ahead positions pos_j (turn-major: control_lookahead points per turn command), the
+// footprint of P_d they are weighed with, and the choice from the sums at those points.
+std::vector<rbe::Point> lookahead_points(const Scenario& s, const Helicopter& h);
+rbe::Footprint detection_footprint(const Scenario& s);
+double choose_turn(const Scenario& s, const Helicopter& h, std::span<const double> footprints, rbe::Point mean);
+// All three on a float64 belief on the host (rbe::footprint_sums, rbe::estimate's mean).
 double choose_turn(const Scenario& s, const rbe::Grid& grid, const Helicopter& h, std::span<const double> belief);
 
 // The prior belief: N(prior mean, diag(prior sigma^2)) sampled at the cell centres.

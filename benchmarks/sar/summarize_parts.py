@@ -58,14 +58,28 @@ def main():
         b = base.get((r["test"], r["nx"], r["Ix"]))
         if not b:
             continue
+        # A part the backend does not time apart (cuda-resident's prediction and correction run in
+        # one fused kernel: bench_sar_parts leaves them empty) or did not run (a CSV made before
+        # fusion ran on every backend: 0) has no time and no speedup: "fused" / "-", never nan.
+        def timed(row, key):
+            v = row.get(key)
+            return float(v) if v not in (None, "") and float(v) > 0 else None
         def ratio(key):
-            v = float(r.get(key) or 0)
-            return float(b.get(key) or 0) / v if v > 0 else float("nan")
-        ms = lambda key: f"{float(r.get(key) or 0) * 1e3:.3f} ms"
+            v, w = timed(r, key), timed(b, key)
+            return w / v if v and w else float("nan")
+        fused = timed(r, "predict_s") is None and timed(r, "correct_s") is None and timed(r, "step_s")
+        def blank(key):
+            return "fused" if key in ("predict_s", "correct_s") and fused else "-"
+        def ms(key):
+            v = timed(r, key)
+            return f"{v * 1e3:.3f} ms" if v else blank(key)
+        def x(key):
+            v = ratio(key)
+            return f"{v:.1f}x" if v == v else blank(key)
         md.append(f"| {r['test']} | {r['backend']} | {r['nx']}x{r['ny']} | {r['Ix']} | {ms('predict_s')} | "
-                  f"{ms('correct_s')} | {ms('step_s')} | {ratio('predict_s'):.1f}x | "
-                  f"{ratio('correct_s'):.1f}x | {ratio('step_s'):.1f}x | {ms('fusion_s')} | {ms('loglinear_s')} | "
-                  f"{ms('wire_s')} | {ratio('fusion_s'):.1f}x | {ratio('loglinear_s'):.1f}x |")
+                  f"{ms('correct_s')} | {ms('step_s')} | {x('predict_s')} | "
+                  f"{x('correct_s')} | {x('step_s')} | {ms('fusion_s')} | {ms('loglinear_s')} | "
+                  f"{ms('wire_s')} | {x('fusion_s')} | {x('loglinear_s')} |")
         if r["backend"] != "cpu-seq":
             x = float(r["Ix"]) if r["test"] == "1" else float(r["nx"])
             curves.setdefault((r["test"], r["backend"]), []).append((x, ratio("step_s")))

@@ -15,8 +15,11 @@ dtflop=${DTFLOP:-build/dtflop}
 [ "$(id -u)" -eq 0 ] && export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 export OMP_NUM_THREADS=1
 mkdir -p "$out"
+# The machine may be shared: its load before and after the runs goes into HOW.txt.
+load_before=$(cut -d' ' -f1-3 /proc/loadavg)
 scenario=sar/scenarios/table-5.5.yaml
 [ -s "$out/machine.json" ] || "$dtflop" probe --quick -o "$out/machine.json" > "$out/probe.txt" 2>&1
+: > "$out/load.txt"
 echo "series,rule,interval,cells,link,measured_step_s,predicted_step_s,predicted_link_s,relative_error" > "$out/test3.csv"
 one() {  # SERIES RULE INTERVAL CELLS LINK
   local series=$1 rule=$2 k=$3 cells=$4 link=$5 dir="$out/runs/$1-$2-k$3-$4-$5"
@@ -33,6 +36,9 @@ link = p['link_delay_per_step'] if '$link' == 'sleep' else 0.0
 print(p['total_per_step'] + link, link)")
   python3 -c "m=$measured; p=$predicted; print('$series,$rule,$k,$cells,$link,%.6g,%.6g,%.6g,%.3f' % (m, p, $delay, (p - m) / m))" >> "$out/test3.csv"
   tail -n 1 "$out/test3.csv" >&2
+  # What else ran (a shared machine): the load and the busiest other processes after each run.
+  echo "$series,$rule,$k,$cells,$link: load $(cut -d' ' -f1 /proc/loadavg); $(ps -eo pcpu,comm --sort=-pcpu |
+    grep -v -e dtflop -e mpirun -e ' ps$' | sed -n 2,3p | tr -s ' ' | tr '\n' ';')" >> "$out/load.txt"
 }
 for link in sleep off; do
   for n in 45x20 90x40 180x80 360x160; do
@@ -47,6 +53,7 @@ done
   echo "commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
   echo "machine: $(getconf _NPROCESSORS_ONLN) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'); 3 processes oversubscribed"
   echo "date: $(date -u +%Y-%m-%dT%H:%M:%SZ)"
+  echo "load average (1, 5, 15 min) before: $load_before; after: $(cut -d' ' -f1-3 /proc/loadavg)"
 } > "$out/HOW.txt"
 python3 - "$out" <<'PY'
 import csv, statistics, sys

@@ -8,6 +8,7 @@
 #include "model/predict.hpp"
 #include "sar/counts.hpp"
 #include "sar/world.hpp"
+#include "workloads/rbe/summary_counts.hpp"
 #include "sar/scenario.hpp"
 #include "tests/calibrate/synthetic.hpp"
 
@@ -81,6 +82,19 @@ TEST(SarModel, ATeamStepCountsItsMessagesPerFusionPeriod) {
   // Four steps and, once a period, the backend's own fusion of 3 beliefs of 2000 cells: 2
   // multiplications and an addition per cell, A_c x sum, a division per cell (fusion_counts.hpp).
   EXPECT_EQ(t.rbe.N_C, rbe::step_counts("cpu-seq", t.shape).scaled(4).N_C + 4 * 2000 + 1);
+  // The summary (the estimate and the control's 9 x 10 footprint sums) once a step, where the
+  // belief lives: for cpu-seq on the host, for a helicopter at the grid's centre. Its windows of
+  // 4 spreads (0.8 km) on 0.1 km cells hold 17 x 17 cells where the grid has them.
+  const rbe::Grid g = s.grid();
+  const std::vector<rbe::Point> at = lookahead_points(s, Helicopter{1.5, 0, 0});
+  ASSERT_EQ(at.size(), 90u);
+  EXPECT_EQ(t.summary, rbe::host_summary_counts(g, detection_footprint(s), at, rbe::BeliefCopy::in_place).scaled(4));
+  EXPECT_EQ(t.host.N_C, 4 * 2000 * kLikelihoodFlopsPerCell);  // one likelihood a step, nothing else
+  s.backend = "cuda-resident";
+  const TeamCounts gpu = team_counts(s, 3);
+  EXPECT_EQ(gpu.summary.N_C, 4 * (rbe::kDeviceSummaryFinish + 1 + 90));  // the host only finishes
+  EXPECT_GT(gpu.summary.N_G, 0);
+  s.backend = "cpu-seq";
   s.rule = Rule::observation;
   t = team_counts(s, 3);
   EXPECT_EQ(t.steps, 1);

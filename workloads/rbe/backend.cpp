@@ -226,6 +226,57 @@ CostCounts step_counts(std::string_view backend, const Shape& shape, const Backe
 
 // ---- Helpers shared by the backends -------------------------------------------------------
 
+double WindowedLikelihood::at(std::int64_t ix, std::int64_t iy) const {
+  if (ix < window.ix0 || ix > window.ix1 || iy < window.iy0 || iy > window.iy1) return outside;
+  const std::int64_t w = window.ix1 - window.ix0 + 1;
+  return values[static_cast<std::size_t>((iy - window.iy0) * w + (ix - window.ix0))];
+}
+
+void validate(const WindowedLikelihood& l, const Grid& grid) {
+  const Window& w = l.window;
+  const bool empty = w.cells() == 0;
+  if (!empty && (w.ix0 < 0 || w.iy0 < 0 || w.ix1 >= grid.nx() || w.iy1 >= grid.ny()))
+    throw InputError(fmt::format("a likelihood window of cells ({}, {}) .. ({}, {}) is not inside the {}x{} grid; "
+                                 "clip it to the grid",
+                                 w.ix0, w.iy0, w.ix1, w.iy1, grid.nx(), grid.ny()));
+  if (static_cast<std::int64_t>(l.values.size()) != w.cells())
+    throw InputError(fmt::format("a likelihood window of {} cells has {} values; give one value per cell", w.cells(),
+                                 l.values.size()));
+  if (!(l.outside >= 0) || !std::isfinite(l.outside))
+    throw InputError(fmt::format("the likelihood outside its window is {}; give a finite value >= 0", l.outside));
+  for (std::size_t i = 0; i < l.values.size(); ++i)
+    if (!(l.values[i] >= 0) || !std::isfinite(l.values[i]))
+      throw InputError(fmt::format("likelihood window value {} is {}; give finite values >= 0", i, l.values[i]));
+}
+
+std::vector<double> expand(const WindowedLikelihood& l, const Grid& grid) {
+  validate(l, grid);
+  std::vector<double> out(static_cast<std::size_t>(grid.cells()), l.outside);
+  const Window& w = l.window;
+  const std::int64_t width = w.ix1 - w.ix0 + 1;
+  for (std::int64_t iy = w.iy0; iy <= w.iy1 && w.cells() > 0; ++iy)
+    for (std::int64_t ix = w.ix0; ix <= w.ix1; ++ix)
+      out[static_cast<std::size_t>(grid.index(ix, iy))] =
+          l.values[static_cast<std::size_t>((iy - w.iy0) * width + (ix - w.ix0))];
+  return out;
+}
+
+WindowedLikelihood multiply(const WindowedLikelihood& a, const WindowedLikelihood& b, const Grid& grid) {
+  validate(a, grid);
+  validate(b, grid);
+  WindowedLikelihood r;
+  r.outside = a.outside * b.outside;
+  const bool ea = a.window.cells() == 0, eb = b.window.cells() == 0;
+  if (ea && eb) return r;
+  const Window& wa = ea ? b.window : a.window;
+  const Window& wb = eb ? a.window : b.window;
+  r.window = {std::min(wa.ix0, wb.ix0), std::max(wa.ix1, wb.ix1), std::min(wa.iy0, wb.iy0), std::max(wa.iy1, wb.iy1)};
+  r.values.reserve(static_cast<std::size_t>(r.window.cells()));
+  for (std::int64_t iy = r.window.iy0; iy <= r.window.iy1; ++iy)
+    for (std::int64_t ix = r.window.ix0; ix <= r.window.ix1; ++ix) r.values.push_back(a.at(ix, iy) * b.at(ix, iy));
+  return r;
+}
+
 namespace detail {
 
 std::vector<double> normalized_prior(const Problem& problem) {
@@ -300,6 +351,14 @@ void check_fusion_sum(double sum, std::size_t platforms, FusionRule rule, std::s
   throw NumericalError(0, fmt::format("{}: {} fusion of {} beliefs is {} everywhere (their beliefs do not overlap); "
                                       "the belief is kept as it was: fuse fewer platforms or fuse more often",
                                       backend, to_string(rule), platforms, std::isfinite(sum) ? "zero" : "not finite"));
+}
+
+Summary host_summary(const Grid& grid, std::span<const double> belief, const Footprint& f, std::span<const Point> at) {
+  check_footprint(f, at);
+  Summary r;
+  r.estimate = estimate(grid, belief);
+  r.footprints = footprint_sums(grid, belief, f, at);
+  return r;
 }
 
 void throw_not_ready(std::string_view backend, bool failed) {

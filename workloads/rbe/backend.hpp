@@ -30,6 +30,7 @@
 #include "cuda/error.hpp"
 #include "model/errors.hpp"
 #include "workloads/rbe/counts.hpp"
+#include "workloads/rbe/estimate.hpp"
 #include "workloads/rbe/grid.hpp"
 #include "workloads/rbe/motion.hpp"
 
@@ -133,6 +134,25 @@ struct Problem {
 // a prior with no mass (inside the mask), a kernel larger than the grid.
 void validate(const Problem& problem);
 
+// A likelihood that is `outside` on every cell but those of `window` (estimate.hpp), where it takes
+// `values`, row by row over the window: value (ix, iy) at [(iy - iy0) * width + (ix - ix0)]. A
+// sensor's likelihood is one (1 beyond its reach without a detection, 0 with one): a backend whose
+// belief lives on a device sends only the window (Backend::step(const WindowedLikelihood&)).
+struct WindowedLikelihood {
+  Window window;
+  double outside = 1;
+  std::vector<double> values;
+  double at(std::int64_t ix, std::int64_t iy) const;  // the value of cell (ix, iy)
+};
+// Throws InputError naming what is wrong: a window not inside the grid, values of another count,
+// a negative or non-finite value.
+void validate(const WindowedLikelihood& l, const Grid& grid);
+// The likelihood as a grid array (validated first).
+std::vector<double> expand(const WindowedLikelihood& l, const Grid& grid);
+// The product of two (observation fusion, 4.13): outside the product of the outsides, on the
+// smallest window holding both windows the product of the values (validated first).
+WindowedLikelihood multiply(const WindowedLikelihood& a, const WindowedLikelihood& b, const Grid& grid);
+
 // A reproducible synthetic problem for benchmarks and calibration: unit grid nx x ny, a
 // separable Gaussian kernel of size Ix x Iy (sigma = size / 6, slight drift), a random smooth
 // prior and a random positive likelihood drawn from `seed`.
@@ -216,6 +236,16 @@ class Backend {
   virtual RunResult run(std::int64_t steps) = 0;
   // One step with a new likelihood (a grid array; the mask is applied to it). Returns its times.
   virtual StepTimes step(std::span<const double> likelihood) = 0;
+  // The same step with a windowed likelihood: the same belief as step(expand(l, grid)), to the
+  // bit. cuda-resident sends only the window to the device (and resets the cells of the previous
+  // window, or the whole grid when `outside` changed, there); the others expand it. Throws
+  // InputError for an invalid likelihood (validate).
+  virtual StepTimes step(const WindowedLikelihood& likelihood) = 0;
+  // Replaces the motion kernel (a step of another length) and keeps the belief. cuda-resident
+  // keeps it on the device (only what depends on the kernel is made again); the others init()
+  // again from belief() (float32 backends round it once more). Throws InputError for a kernel
+  // this backend cannot run (the backend then needs init()).
+  virtual void set_kernel(const MotionKernel& kernel) = 0;
   // The normalized belief (density: sum x A_c = 1) as float64, n_x n_y values.
   virtual std::vector<double> belief() = 0;
   // The options the backend was made with.
@@ -238,6 +268,17 @@ class Backend {
   virtual CostCounts fusion_counts(const Shape& shape, FusionRule rule, std::int64_t platforms,
                                    const BackendOptions& options) const = 0;
   virtual CostCounts wire_counts(const Shape& shape, const BackendOptions& options) const = 0;
+
+  // What the estimate and a search control read, computed where the belief lives
+  // (summary_counts.hpp declares the exact counts): the estimate of the belief (estimate.hpp;
+  // step, time and detected left at their defaults) and, for each point of `at`, the expected
+  // detection under footprint `f` (footprint_sums). The CPU backends and cuda-seed compute it on
+  // the host from their belief; cuda-resident on the device, bringing back only these numbers.
+  // Matches estimate(grid, belief()) and footprint_sums(grid, belief(), f, at) up to the order of
+  // the sums. Throws InputError for a bad footprint or point.
+  virtual Summary summarize(const Footprint& f, std::span<const Point> at) = 0;
+  virtual CostCounts summary_counts(const Grid& grid, const Footprint& f, std::span<const Point> at,
+                                    const BackendOptions& options) const = 0;
 };
 
 // ---- Registry ---------------------------------------------------------------------------

@@ -16,6 +16,7 @@
 #include "kernels/vector_loops.hpp"
 #include "workloads/rbe/backend_counts.hpp"
 #include "workloads/rbe/fusion_counts.hpp"
+#include "workloads/rbe/summary_counts.hpp"
 #include "workloads/rbe/detail.hpp"
 
 namespace dtflop::rbe::detail {
@@ -256,6 +257,16 @@ class CpuPar final : public Backend {
     double sum = 0;
     return advance(sum);
   }
+  StepTimes step(const WindowedLikelihood& likelihood) override { return step(expand(likelihood, grid_)); }
+  // init() again from the belief (float32 x the pending scale, as float64) with the new kernel.
+  void set_kernel(const MotionKernel& kernel) override {
+    Problem p;
+    p.grid = grid_;
+    p.kernel = kernel;
+    p.prior = belief();
+    p.likelihood.assign(l_.begin(), l_.end());
+    init(p);  // the mask is already in the prior and the likelihood
+  }
 
   std::vector<double> belief() override {
     if (!ready_ || failed_) throw_not_ready(name(), failed_);
@@ -272,6 +283,18 @@ class CpuPar final : public Backend {
   }
   CostCounts wire_counts(const Shape& s, const BackendOptions&) const override {
     return cpu_par_wire_counts(s.cells(), threads_);
+  }
+
+  // The summary on the host from belief() (the float32 values x the pending scale, as float64).
+  // Counts: host_summary_counts(float32_scaled).
+  Summary summarize(const Footprint& f, std::span<const Point> at) override {
+    check_footprint(f, at);
+    const std::vector<double> b = belief();
+    return host_summary(grid_, b, f, at);
+  }
+  CostCounts summary_counts(const Grid& g, const Footprint& f, std::span<const Point> at,
+                            const BackendOptions&) const override {
+    return host_summary_counts(g, f, at, BeliefCopy::float32_scaled);
   }
 
   std::vector<float> wire_belief() override {

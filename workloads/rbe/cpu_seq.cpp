@@ -8,6 +8,7 @@
 
 #include "workloads/rbe/backend_counts.hpp"
 #include "workloads/rbe/fusion_counts.hpp"
+#include "workloads/rbe/summary_counts.hpp"
 #include "workloads/rbe/detail.hpp"
 #include "workloads/rbe/reference.hpp"
 
@@ -60,6 +61,18 @@ class CpuSeq final : public Backend {
     return advance(l, sum);
   }
 
+  StepTimes step(const WindowedLikelihood& likelihood) override { return step(expand(likelihood, grid_)); }
+
+  void set_kernel(const MotionKernel& kernel) override {
+    if (!ready_ || failed_) throw_not_ready(name(), failed_);
+    Problem p;
+    p.grid = grid_;
+    p.kernel = kernel;
+    p.prior = p_;
+    p.likelihood = l_;
+    init(p);  // the mask is already in the prior and the likelihood
+  }
+
   std::vector<double> belief() override {
     if (!ready_ || failed_) throw_not_ready(name(), failed_);
     return p_;
@@ -72,6 +85,16 @@ class CpuSeq final : public Backend {
     return cpu_seq_fusion_counts(s.cells(), rule, platforms);
   }
   CostCounts wire_counts(const Shape& s, const BackendOptions&) const override { return cpu_seq_wire_counts(s.cells()); }
+
+  // The summary from the float64 belief where it is. Counts: host_summary_counts(in_place).
+  Summary summarize(const Footprint& f, std::span<const Point> at) override {
+    if (!ready_ || failed_) throw_not_ready(name(), failed_);
+    return host_summary(grid_, p_, f, at);
+  }
+  CostCounts summary_counts(const Grid& g, const Footprint& f, std::span<const Point> at,
+                            const BackendOptions&) const override {
+    return host_summary_counts(g, f, at, BeliefCopy::in_place);
+  }
 
   std::vector<float> wire_belief() override {
     if (!ready_ || failed_) throw_not_ready(name(), failed_);

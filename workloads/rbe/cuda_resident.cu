@@ -30,6 +30,8 @@
 
 #include "workloads/rbe/backend_counts.hpp"
 #include "workloads/rbe/cuda_fusion.hpp"
+#include "workloads/rbe/cuda_summary.hpp"
+#include "workloads/rbe/summary_counts.hpp"
 #include "workloads/rbe/cuda_memory.hpp"
 #include "workloads/rbe/fusion_counts.hpp"
 #include "workloads/rbe/detail.hpp"
@@ -480,6 +482,12 @@ void* ypass_kernel(int R) {
   }
 }
 
+// A rectangle of a pitched grid set to v (a windowed likelihood's reset, Backend::step).
+__global__ void rbe_resident_fill(float* __restrict__ g, int ld, int ix0, int iy0, int width, int rows, float v) {
+  const int x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x < width && y < rows) g[static_cast<std::size_t>(iy0 + y) * std::size_t(ld) + std::size_t(ix0 + x)] = v;
+}
+
 // cuTensorMapEncodeTiled, reached through the runtime (no link against the driver library);
 // null when the driver does not offer it.
 using EncodeTiled = CUresult (*)(CUtensorMap*, CUtensorMapDataType, cuuint32_t, void*, const cuuint64_t*,
@@ -568,112 +576,60 @@ class CudaResident final : public Backend {
     shape_ = problem.shape();
     grid_ = problem.grid;
     mask_ = problem.mask;
-    int dev = 0, max_smem = 0;
+    int dev = 0;
     DTFLOP_CUDA(cudaGetDevice(&dev));
-    DTFLOP_CUDA(cudaDeviceGetAttribute(&max_smem, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
-    plan_ = resident_plan(shape_, options_.layout, static_cast<std::size_t>(max_smem));
     // The counts (options()) are for this device's multiprocessors unless the caller chose.
     if (options_.gpu_sms <= 0) DTFLOP_CUDA(cudaDeviceGetAttribute(&options_.gpu_sms, cudaDevAttrMultiProcessorCount, dev));
-    prepare_kernels();
+    // The plan first (it throws for a kernel this layout cannot run), then the grids.
+    plan_ = plan_for(shape_);
 
-    graphs_.clear();
     // Pitched grids, every value zero to start with: the padding columns stay zero (no kernel
     // writes them, no copy touches them).
     ld_ = static_cast<std::size_t>(resident::row_pitch(shape_.nx));
     const std::size_t nx = static_cast<std::size_t>(shape_.nx), ny = static_cast<std::size_t>(shape_.ny);
-    const std::size_t n = ld_ * ny;
-    auto zeroed = [n](bool wanted) {
-      DeviceArray<float> a(wanted ? n : 0);
-      if (wanted) DTFLOP_CUDA(cudaMemset(a.get(), 0, n * sizeof(float)));
-      return a;
-    };
     q_[0] = zeroed(true);
     q_[1] = zeroed(true);
     l_ = zeroed(true);
-    u_ = zeroed(plan_.passes == Layout::Passes::split);
     sums_ = DeviceArray<double>(kSegment + 1);
     last_ = DeviceArray<double>(1);
     host_sums_ = HostArray<double>(kSegment, true);
     if (!stream_) stream_.emplace();
     if (!events_) events_.emplace(kSegment + 1);
 
-    // Flipped kernels, zero-padded to whole register groups.
-    const auto fused = resident::fused_geometry(shape_, options_.layout);
-    const int kx_len = fused.kx_len, ky_len = fused.ky_len;
-    std::vector<float> kx(static_cast<std::size_t>(kx_len), 0.f), ky(static_cast<std::size_t>(ky_len), 0.f);
-    for (std::int64_t a = 0; a < shape_.Ix; ++a)
-      kx[std::size_t(a)] = float(problem.kernel.kx()[std::size_t(shape_.Ix - 1 - a)]);
-    for (std::int64_t b = 0; b < shape_.Iy; ++b)
-      ky[std::size_t(b)] = float(problem.kernel.ky()[std::size_t(shape_.Iy - 1 - b)]);
-    kx_ = DeviceArray<float>(kx.size());
-    ky_ = DeviceArray<float>(ky.size());
-    kx_.upload(kx);
-    ky_.upload(ky);
-
     std::vector<float> p(prior.begin(), prior.end());
     q_[0].upload_rows(p.data(), nx, ny, ld_);
-    if (options_.poison) {  // all bits set: a NaN in every float of the grid the steps must overwrite
+    if (options_.poison)  // all bits set: a NaN in every float of the grid the steps must overwrite
       DTFLOP_CUDA(cudaMemset2D(q_[1].get(), ld_ * sizeof(float), 0xff, nx * sizeof(float), ny));
-      if (u_.get()) DTFLOP_CUDA(cudaMemset2D(u_.get(), ld_ * sizeof(float), 0xff, nx * sizeof(float), ny));
-    }
     const double last = 1.0 / grid_.cell_area();  // scale 1: the prior is normalized
     last_.upload(&last, 1);
     upload_likelihood(masked_likelihood(problem.likelihood, mask_, shape_.cells()));
-
-    args_ = KernelArgs{};
-    args_.l = l_.get();
-    args_.u = u_.get();
-    args_.kx = kx_.get();
-    args_.ky = ky_.get();
-    args_.nx = int(shape_.nx);
-    args_.ld = int(ld_);
-    args_.ny = int(shape_.ny);
-    args_.y_begin = 0;
-    args_.y_end = int(shape_.ny);
-    args_.Ix = int(shape_.Ix);
-    args_.Iy = int(shape_.Iy);
-    args_.hx = int(shape_.Ix - 1 - kernel_centre(shape_.Ix));
-    args_.hy = int(shape_.Iy - 1 - kernel_centre(shape_.Iy));
-    args_.cell_area = grid_.cell_area();
-    const auto g = plan_.passes == Layout::Passes::fused ? fused : resident::ypass_geometry(shape_, options_.layout);
-    args_.x_shift = g.x_shift;
-    args_.in_rows = g.in_rows;
-    args_.in_cols = g.in_cols;
-    args_.in_pitch = g.in_pitch;
-    args_.u_rows = g.u_rows;
-    args_.u_pitch = g.u_pitch;
-    args_.kx_len = kx_len;
-    args_.ky_len = ky_len;
-    xargs_ = args_;
-    if (plan_.passes == Layout::Passes::split) {
-      const auto xg = resident::xpass_geometry(shape_, options_.layout);
-      xargs_.in_rows = xg.in_rows;
-      xargs_.in_cols = xg.in_cols;
-      xargs_.in_pitch = xg.in_pitch;
-      xargs_.x_shift = xg.x_shift;
-      xargs_.u_rows = 0;
-      xargs_.u_pitch = 0;
-      xargs_.ky_len = 0;
-    }
-    // Tile copies by the tensor memory accelerator where a tile's rows fit a box (else cp.async).
-    std::memset(static_cast<void*>(maps_), 0, sizeof(maps_));
-    std::memset(static_cast<void*>(xmaps_), 0, sizeof(xmaps_));
-    std::memset(static_cast<void*>(&umap_), 0, sizeof(umap_));
-    auto encode_q = [&](TileMaps (&maps)[2], int pitch, int rows) {
-      return encode_tile_maps(maps[0], q_[0].get(), args_.nx, args_.ld, args_.ny, pitch, rows) &&
-             encode_tile_maps(maps[1], q_[1].get(), args_.nx, args_.ld, args_.ny, pitch, rows);
-    };
-    if (plan_.passes == Layout::Passes::fused) {
-      args_.tma = tile_map_fits(args_.in_pitch) && encode_q(maps_, args_.in_pitch, args_.in_rows);
-    } else {
-      xargs_.tma = tile_map_fits(xargs_.in_pitch) && encode_q(xmaps_, xargs_.in_pitch, xargs_.in_rows);
-      args_.tma = tile_map_fits(args_.u_pitch) &&
-                  encode_tile_maps(umap_, u_.get(), args_.nx, args_.ld, args_.ny, args_.u_pitch, args_.u_rows);
-    }
+    configure(problem.kernel);
     DTFLOP_CUDA(cudaDeviceSynchronize());
     cur_ = 0;
     steps_ = 0;
     failed_ = false;
+    ready_ = true;
+  }
+
+  // A new motion kernel (a step of another length) for the belief that stays where it is: only
+  // the kernel, the plan and what depends on them are made again (no belief copied either way).
+  void set_kernel(const MotionKernel& kernel) override {
+    check_ready();
+    resolve_prediction(options_, kernel, false, name());
+    if (kernel.Ix() > shape_.nx || kernel.Iy() > shape_.ny)
+      throw InputError("a " + std::to_string(kernel.Ix()) + "x" + std::to_string(kernel.Iy()) +
+                       " kernel is larger than the " + std::to_string(shape_.nx) + "x" + std::to_string(shape_.ny) +
+                       " grid; give a smaller kernel");
+    Shape next = shape_;
+    next.Ix = kernel.Ix();
+    next.Iy = kernel.Iy();
+    const ResidentPlan plan = plan_for(next);  // throws before anything changes
+    stream_->sync();
+    ready_ = false;  // until the kernel is in place (configure may throw: then init() again)
+    shape_ = next;
+    plan_ = plan;
+    configure(kernel);
+    DTFLOP_CUDA(cudaDeviceSynchronize());
     ready_ = true;
   }
 
@@ -766,6 +722,53 @@ class CudaResident final : public Backend {
     return t;
   }
 
+  // Only the window goes up: the cells of the previous window are reset to `outside` first (the
+  // whole grid when `outside` changed), by a kernel, then the window's rows are copied.
+  StepTimes step(const WindowedLikelihood& likelihood) override {
+    check_ready();
+    validate(likelihood, grid_);
+    if (!mask_.empty()) return step(expand(likelihood, grid_));
+    const Window& w = likelihood.window;
+    const float outside = static_cast<float>(likelihood.outside);
+    std::vector<float> f(likelihood.values.begin(), likelihood.values.end());
+    const cudaStream_t st = stream_->get();
+    StepTimes t;
+    const double t0 = seconds_now();
+    if (!l_outside_ || *l_outside_ != outside) {
+      launch_fill(0, 0, shape_.nx, shape_.ny, outside, st);
+    } else if (l_window_.cells() > 0) {
+      launch_fill(l_window_.ix0, l_window_.iy0, l_window_.ix1 - l_window_.ix0 + 1, l_window_.iy1 - l_window_.iy0 + 1,
+                  outside, st);
+    }
+    l_outside_ = outside;
+    l_window_ = w;
+    if (w.cells() > 0) {
+      const std::size_t width = static_cast<std::size_t>(w.ix1 - w.ix0 + 1), rows = static_cast<std::size_t>(w.iy1 - w.iy0 + 1);
+      float* dst = l_.get() + static_cast<std::size_t>(w.iy0) * ld_ + static_cast<std::size_t>(w.ix0);
+      DTFLOP_CUDA(cudaMemcpy2DAsync(dst, ld_ * sizeof(float), f.data(), width * sizeof(float), width * sizeof(float), rows,
+                                    cudaMemcpyHostToDevice, st));
+    }
+    stream_->sync();
+    const double t1 = seconds_now();
+    enqueue(1, 1, false);
+    stream_->sync();
+    const double t2 = seconds_now();
+    double S = 0;
+    DTFLOP_CUDA(cudaMemcpy(&S, sums_.get() + 1, sizeof(double), cudaMemcpyDeviceToHost));
+    const double t3 = seconds_now();
+    t.part(StepPart::to_device) = t1 - t0;
+    t.part(StepPart::device_step) = events_->seconds(0, 1);
+    t.part(StepPart::to_host) = t3 - t2;
+    t.total = t3 - t0;
+    cur_ ^= 1;
+    if (!(S > 0 && std::isfinite(S))) {
+      failed_ = true;
+      check_sum(S, steps_, name());
+    }
+    ++steps_;
+    return t;
+  }
+
   std::vector<double> belief() override {
     check_ready();
     stream_->sync();
@@ -790,6 +793,17 @@ class CudaResident final : public Backend {
   }
   CostCounts wire_counts(const Shape& s, const BackendOptions& o) const override {
     return cuda_resident_wire_counts(s.cells(), counted_gpu_sms(o));
+  }
+
+  // The summary where the belief lives: two reduction kernels, 9 + P doubles back
+  // (cuda_summary.hpp). Counts: cuda_resident_summary_counts().
+  Summary summarize(const Footprint& f, std::span<const Point> at) override {
+    check_ready();
+    return summary_.summarize(q_[cur_].get(), last_.get(), grid_, std::int64_t(ld_), f, at, stream_->get());
+  }
+  CostCounts summary_counts(const Grid& g, const Footprint& f, std::span<const Point> at,
+                            const BackendOptions& o) const override {
+    return cuda_resident_summary_counts(g, f, at, counted_gpu_sms(o));
   }
 
   std::vector<float> wire_belief() override {
@@ -821,6 +835,95 @@ class CudaResident final : public Backend {
     if (!ready_ || failed_) throw_not_ready(name(), failed_);
   }
 
+  DeviceArray<float> zeroed(bool wanted) const {
+    const std::size_t n = ld_ * static_cast<std::size_t>(shape_.ny);
+    DeviceArray<float> a(wanted ? n : 0);
+    if (wanted) DTFLOP_CUDA(cudaMemset(a.get(), 0, n * sizeof(float)));
+    return a;
+  }
+
+  ResidentPlan plan_for(const Shape& shape) const {
+    int dev = 0, max_smem = 0;
+    DTFLOP_CUDA(cudaGetDevice(&dev));
+    DTFLOP_CUDA(cudaDeviceGetAttribute(&max_smem, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
+    return resident_plan(shape, options_.layout, static_cast<std::size_t>(max_smem));
+  }
+
+  // What depends on the kernel (shape_ and plan_ set): the kernels' attributes, the split pass's
+  // grid, the flipped kernel taps, the kernel arguments and the tile maps; the step graphs go.
+  void configure(const MotionKernel& kernel) {
+    prepare_kernels();
+    graphs_.clear();
+    const std::size_t nx = static_cast<std::size_t>(shape_.nx), ny = static_cast<std::size_t>(shape_.ny);
+    u_ = zeroed(plan_.passes == Layout::Passes::split);
+    if (options_.poison && u_.get())
+      DTFLOP_CUDA(cudaMemset2D(u_.get(), ld_ * sizeof(float), 0xff, nx * sizeof(float), ny));
+
+    // Flipped kernels, zero-padded to whole register groups.
+    const auto fused = resident::fused_geometry(shape_, options_.layout);
+    const int kx_len = fused.kx_len, ky_len = fused.ky_len;
+    std::vector<float> kx(static_cast<std::size_t>(kx_len), 0.f), ky(static_cast<std::size_t>(ky_len), 0.f);
+    for (std::int64_t a = 0; a < shape_.Ix; ++a)
+      kx[std::size_t(a)] = float(kernel.kx()[std::size_t(shape_.Ix - 1 - a)]);
+    for (std::int64_t b = 0; b < shape_.Iy; ++b)
+      ky[std::size_t(b)] = float(kernel.ky()[std::size_t(shape_.Iy - 1 - b)]);
+    kx_ = DeviceArray<float>(kx.size());
+    ky_ = DeviceArray<float>(ky.size());
+    kx_.upload(kx);
+    ky_.upload(ky);
+
+    args_ = KernelArgs{};
+    args_.l = l_.get();
+    args_.u = u_.get();
+    args_.kx = kx_.get();
+    args_.ky = ky_.get();
+    args_.nx = int(shape_.nx);
+    args_.ld = int(ld_);
+    args_.ny = int(shape_.ny);
+    args_.y_begin = 0;
+    args_.y_end = int(shape_.ny);
+    args_.Ix = int(shape_.Ix);
+    args_.Iy = int(shape_.Iy);
+    args_.hx = int(shape_.Ix - 1 - kernel_centre(shape_.Ix));
+    args_.hy = int(shape_.Iy - 1 - kernel_centre(shape_.Iy));
+    args_.cell_area = grid_.cell_area();
+    const auto g = plan_.passes == Layout::Passes::fused ? fused : resident::ypass_geometry(shape_, options_.layout);
+    args_.x_shift = g.x_shift;
+    args_.in_rows = g.in_rows;
+    args_.in_cols = g.in_cols;
+    args_.in_pitch = g.in_pitch;
+    args_.u_rows = g.u_rows;
+    args_.u_pitch = g.u_pitch;
+    args_.kx_len = kx_len;
+    args_.ky_len = ky_len;
+    xargs_ = args_;
+    if (plan_.passes == Layout::Passes::split) {
+      const auto xg = resident::xpass_geometry(shape_, options_.layout);
+      xargs_.in_rows = xg.in_rows;
+      xargs_.in_cols = xg.in_cols;
+      xargs_.in_pitch = xg.in_pitch;
+      xargs_.x_shift = xg.x_shift;
+      xargs_.u_rows = 0;
+      xargs_.u_pitch = 0;
+      xargs_.ky_len = 0;
+    }
+    // Tile copies by the tensor memory accelerator where a tile's rows fit a box (else cp.async).
+    std::memset(static_cast<void*>(maps_), 0, sizeof(maps_));
+    std::memset(static_cast<void*>(xmaps_), 0, sizeof(xmaps_));
+    std::memset(static_cast<void*>(&umap_), 0, sizeof(umap_));
+    auto encode_q = [&](TileMaps (&maps)[2], int pitch, int rows) {
+      return encode_tile_maps(maps[0], q_[0].get(), args_.nx, args_.ld, args_.ny, pitch, rows) &&
+             encode_tile_maps(maps[1], q_[1].get(), args_.nx, args_.ld, args_.ny, pitch, rows);
+    };
+    if (plan_.passes == Layout::Passes::fused) {
+      args_.tma = tile_map_fits(args_.in_pitch) && encode_q(maps_, args_.in_pitch, args_.in_rows);
+    } else {
+      xargs_.tma = tile_map_fits(xargs_.in_pitch) && encode_q(xmaps_, xargs_.in_pitch, xargs_.in_rows);
+      args_.tma = tile_map_fits(args_.u_pitch) &&
+                  encode_tile_maps(umap_, u_.get(), args_.nx, args_.ld, args_.ny, args_.u_pitch, args_.u_rows);
+    }
+  }
+
   void prepare_kernels() {
     const int R = options_.layout.cells_per_thread;
     const int T = plan_.threads;
@@ -844,8 +947,16 @@ class CudaResident final : public Backend {
   }
 
   void upload_likelihood(const std::vector<double>& l) {
+    l_outside_.reset();  // the whole grid is written: no window to reset
     std::vector<float> f(l.begin(), l.end());
     l_.upload_rows(f.data(), static_cast<std::size_t>(shape_.nx), static_cast<std::size_t>(shape_.ny), ld_);
+  }
+
+  void launch_fill(std::int64_t ix0, std::int64_t iy0, std::int64_t width, std::int64_t rows, float v, cudaStream_t s) {
+    const dim3 block(32, 8);
+    const dim3 grid(unsigned((width + 31) / 32), unsigned((rows + 7) / 8));
+    rbe_resident_fill<<<grid, block, 0, s>>>(l_.get(), int(ld_), int(ix0), int(iy0), int(width), int(rows), v);
+    DTFLOP_CUDA_LAUNCHED();
   }
 
   template <int R>
@@ -923,6 +1034,10 @@ class CudaResident final : public Backend {
   TileMaps maps_[2]{}, xmaps_[2]{}, umap_{};
   DeviceArray<float> q_[2], l_, u_, kx_, ky_, wire_;
   DeviceFusion fusion_;
+  DeviceSummary summary_;
+  // What l_ holds after a windowed step: `outside` but on the window (unset: anything).
+  std::optional<float> l_outside_;
+  Window l_window_;
   DeviceArray<double> sums_, last_;
   HostArray<double> host_sums_;
   std::optional<Stream> stream_;

@@ -13,6 +13,7 @@
 #include "workloads/rbe/cuda_fusion.hpp"
 #include "workloads/rbe/cuda_memory.hpp"
 #include "workloads/rbe/fusion_counts.hpp"
+#include "workloads/rbe/summary_counts.hpp"
 #include "workloads/rbe/detail.hpp"
 
 namespace dtflop::rbe::detail {
@@ -121,6 +122,17 @@ class CudaSeed final : public Backend {
     return advance(sum);
   }
 
+  StepTimes step(const WindowedLikelihood& likelihood) override { return step(expand(likelihood, grid_)); }
+  // init() again from the host belief with the new kernel.
+  void set_kernel(const MotionKernel& kernel) override {
+    Problem p;
+    p.grid = grid_;
+    p.kernel = kernel;
+    p.prior = belief();
+    p.likelihood.assign(h_l_.get(), h_l_.get() + h_l_.size());
+    init(p);  // the mask is already in the prior and the likelihood
+  }
+
   std::vector<double> belief() override {
     check_ready();
     std::vector<double> p(h_p_.size());
@@ -136,6 +148,18 @@ class CudaSeed final : public Backend {
     return cuda_seed_fusion_counts(s.cells(), rule, platforms, counted_gpu_sms(o));
   }
   CostCounts wire_counts(const Shape& s, const BackendOptions&) const override { return cuda_seed_wire_counts(s.cells()); }
+
+  // The belief lives on the host: the summary from belief() there. Counts:
+  // host_summary_counts(float32).
+  Summary summarize(const Footprint& f, std::span<const Point> at) override {
+    check_footprint(f, at);
+    const std::vector<double> b = belief();
+    return host_summary(grid_, b, f, at);
+  }
+  CostCounts summary_counts(const Grid& g, const Footprint& f, std::span<const Point> at,
+                            const BackendOptions&) const override {
+    return host_summary_counts(g, f, at, BeliefCopy::float32);
+  }
 
   std::vector<float> wire_belief() override {
     check_ready();

@@ -3,6 +3,7 @@
 #include "workloads/rbe/backend_counts.hpp"
 #include "workloads/rbe/band_counts.hpp"
 #include "workloads/rbe/fusion_counts.hpp"
+#include "workloads/rbe/summary_counts.hpp"
 #include "workloads/rbe/detail.hpp"
 
 namespace dtflop::rbe::detail {
@@ -28,11 +29,19 @@ class CudaUnavailable final : public Backend {
   CostCounts wire_counts(const Shape& s, const BackendOptions& o) const override {
     return resident_ ? cuda_resident_wire_counts(s.cells(), counted_gpu_sms(o)) : cuda_seed_wire_counts(s.cells());
   }
+  CostCounts summary_counts(const Grid& g, const Footprint& f, std::span<const Point> at,
+                            const BackendOptions& o) const override {
+    return resident_ ? cuda_resident_summary_counts(g, f, at, counted_gpu_sms(o))
+                     : host_summary_counts(g, f, at, BeliefCopy::float32);
+  }
+  Summary summarize(const Footprint&, std::span<const Point>) override { fail(); }
   std::vector<float> wire_belief() override { fail(); }
   void fuse(FusionRule, std::span<const std::span<const float>>, std::size_t) override { fail(); }
   void init(const Problem&) override { fail(); }
   RunResult run(std::int64_t) override { fail(); }
   StepTimes step(std::span<const double>) override { fail(); }
+  StepTimes step(const WindowedLikelihood&) override { fail(); }
+  void set_kernel(const MotionKernel&) override { fail(); }
   std::vector<double> belief() override { fail(); }
 
  private:

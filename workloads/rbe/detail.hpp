@@ -78,6 +78,8 @@ void check_others(std::span<const std::span<const float>> others, std::size_t po
                   std::string_view backend);
 // Throws NumericalError for a fusion whose sum (before A_c) is zero or not finite.
 void check_fusion_sum(double sum, std::size_t platforms, FusionRule rule, std::string_view backend);
+// Backend::summarize on the host: estimate() and footprint_sums() of `belief`.
+Summary host_summary(const Grid& grid, std::span<const double> belief, const Footprint& f, std::span<const Point> at);
 // The belief was left invalid by a NumericalError, or init() was never called.
 [[noreturn]] void throw_not_ready(std::string_view backend, bool failed);
 

@@ -1,5 +1,6 @@
 #include "workloads/rbe/estimate.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -59,6 +60,52 @@ Estimate estimate(const Grid& grid, std::span<const double> belief) {
   e.map_x = mc.x;
   e.map_y = mc.y;
   return e;
+}
+
+Window footprint_window(const Grid& grid, const Footprint& f, Point at) {
+  auto first = [](double v, double lo, double d) { return static_cast<std::int64_t>(std::floor((v - lo) / d)); };
+  Window w;
+  w.ix0 = std::max<std::int64_t>(0, first(at.x - f.reach, grid.x_min(), grid.dx()));
+  w.ix1 = std::min<std::int64_t>(grid.nx() - 1, first(at.x + f.reach, grid.x_min(), grid.dx()));
+  w.iy0 = std::max<std::int64_t>(0, first(at.y - f.reach, grid.y_min(), grid.dy()));
+  w.iy1 = std::min<std::int64_t>(grid.ny() - 1, first(at.y + f.reach, grid.y_min(), grid.dy()));
+  return w;
+}
+
+void check_footprint(const Footprint& f, std::span<const Point> at) {
+  if (!(std::isfinite(f.peak) && f.peak >= 0))
+    throw InputError(fmt::format("footprint peak {} is invalid; give a finite value >= 0", f.peak));
+  if (!(std::isfinite(f.spread) && f.spread > 0))
+    throw InputError(fmt::format("footprint spread {} is invalid; give a finite value > 0", f.spread));
+  if (!(std::isfinite(f.reach) && f.reach > 0))
+    throw InputError(fmt::format("footprint reach {} is invalid; give a finite value > 0", f.reach));
+  for (std::size_t j = 0; j < at.size(); ++j)
+    if (!std::isfinite(at[j].x) || !std::isfinite(at[j].y) || std::abs(at[j].x) > 1e15 || std::abs(at[j].y) > 1e15)
+      throw InputError(fmt::format("footprint point {} is ({}, {}); give finite coordinates within 1e15", j, at[j].x,
+                                   at[j].y));
+}
+
+std::vector<double> footprint_sums(const Grid& grid, std::span<const double> belief, const Footprint& f,
+                                   std::span<const Point> at) {
+  if (static_cast<std::int64_t>(belief.size()) != grid.cells())
+    throw InputError(fmt::format("footprints: the belief has {} values, the grid {} cells; give a belief of this grid",
+                                 belief.size(), grid.cells()));
+  check_footprint(f, at);
+  const double ac = grid.cell_area();
+  std::vector<double> out(at.size(), 0.0);
+  for (std::size_t j = 0; j < at.size(); ++j) {
+    const Window w = footprint_window(grid, f, at[j]);
+    double e = 0;
+    for (std::int64_t iy = w.iy0; iy <= w.iy1; ++iy)
+      for (std::int64_t ix = w.ix0; ix <= w.ix1; ++ix) {
+        const Point c = grid.centre(ix, iy);
+        const double d = std::hypot(c.x - at[j].x, c.y - at[j].y);
+        e += belief[static_cast<std::size_t>(grid.index(ix, iy))] * ac *
+             (f.peak * std::exp(-d * d / (2 * f.spread * f.spread)));
+      }
+    out[j] = e;
+  }
+  return out;
 }
 
 std::string estimates_csv(std::span<const Estimate> rows) {
