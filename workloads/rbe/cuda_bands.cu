@@ -29,6 +29,8 @@
 #include "workloads/rbe/band_counts.hpp"
 #include "workloads/rbe/band_transport.hpp"
 #include "workloads/rbe/cuda_memory.hpp"
+#include "workloads/rbe/estimate.hpp"
+#include "workloads/rbe/summary_counts.hpp"
 #include "workloads/rbe/detail.hpp"
 #include "workloads/rbe/resident_geometry.hpp"
 #include "workloads/rbe/resident_sweep.hpp"
@@ -275,6 +277,19 @@ class CudaBands final : public Backend {
   }
 
   // Belief fusion is not built for a grid in bands: the belief would have to be gathered first.
+  StepTimes step(const WindowedLikelihood& likelihood) override { return step(expand(likelihood, grid_)); }
+  void set_kernel(const MotionKernel&) override { no_fusion(); }  // only the SAR team swaps kernels
+  // On the host from the bands read back (as cuda-seed's): the team, which needs it every step,
+  // runs on cuda-resident.
+  Summary summarize(const Footprint& f, std::span<const Point> at) override {
+    check_footprint(f, at);
+    const std::vector<double> b = belief();
+    return host_summary(grid_, b, f, at);
+  }
+  CostCounts summary_counts(const Grid& g, const Footprint& f, std::span<const Point> at,
+                            const BackendOptions&) const override {
+    return host_summary_counts(g, f, at, BeliefCopy::float32);
+  }
   std::vector<float> wire_belief() override { no_fusion(); }
   void fuse(FusionRule, std::span<const std::span<const float>>, std::size_t) override { no_fusion(); }
   CostCounts fusion_counts(const Shape&, FusionRule, std::int64_t, const BackendOptions&) const override {
@@ -284,8 +299,8 @@ class CudaBands final : public Backend {
 
  private:
   [[noreturn]] static void no_fusion() {
-    throw InputError("cuda-bands does not fuse beliefs (its belief lies in bands over several GPUs); fuse on "
-                     "cuda-resident");
+    throw InputError("cuda-bands does not fuse beliefs or swap kernels (its belief lies in bands over several "
+                     "GPUs); run the search-and-rescue team and fusion on cuda-resident");
   }
   void check_ready() const {
     if (!ready_ || failed_) throw_not_ready(name(), failed_);

@@ -76,6 +76,13 @@ class CudaBandsUnavailable final : public Backend {
   void init(const Problem&) override { fail(); }
   RunResult run(std::int64_t) override { fail(); }
   StepTimes step(std::span<const double>) override { fail(); }
+  StepTimes step(const WindowedLikelihood&) override { fail(); }
+  void set_kernel(const MotionKernel&) override { fail(); }
+  CostCounts summary_counts(const Grid& g, const Footprint& f, std::span<const Point> at,
+                            const BackendOptions&) const override {
+    return host_summary_counts(g, f, at, BeliefCopy::float32);
+  }
+  Summary summarize(const Footprint&, std::span<const Point>) override { fail(); }
   std::vector<double> belief() override { fail(); }
 
  private:
