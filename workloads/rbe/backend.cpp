@@ -334,6 +334,27 @@ void check_sum(double sum, std::int64_t step, std::string_view backend) {
                         std::isfinite(sum) ? "" : "; or a value overflowed"));
 }
 
+void append_segment(RunResult& r, std::int64_t n, std::int64_t chunk,
+                    const std::function<double(std::size_t chunk)>& chunk_seconds, std::span<const double> host_sums,
+                    double cell_area, std::int64_t first_step, std::string_view backend, bool& failed) {
+  const std::int64_t chunks = (n + chunk - 1) / chunk;
+  for (std::int64_t c = 0; c < chunks; ++c) {
+    const std::int64_t m = std::min(chunk, n - c * chunk);
+    StepTimes t;
+    t.total = chunk_seconds(std::size_t(c)) / double(m);
+    t.part(StepPart::device_step) = t.total;
+    r.samples.push_back(t);
+  }
+  for (std::int64_t k = 0; k < n; ++k) {
+    const double S = host_sums[std::size_t(k)];
+    if (!(S > 0 && std::isfinite(S))) {
+      failed = true;
+      check_sum(S, first_step + k, backend);
+    }
+    r.sums.push_back(S * cell_area);
+  }
+}
+
 void check_others(std::span<const std::span<const float>> others, std::size_t position, std::int64_t cells,
                   std::string_view backend) {
   if (others.empty()) throw InputError(fmt::format("{}: belief fusion needs at least one other belief", backend));

@@ -206,22 +206,9 @@ class CudaBands final : public Backend {
       enqueue(n, true);
       sync_all();
       r.wall_seconds += seconds_now() - t0;
-      const std::int64_t chunks = (n + kChunk - 1) / kChunk;
-      for (std::int64_t c = 0; c < chunks; ++c) {
-        const std::int64_t m = std::min(kChunk, n - c * kChunk);
-        StepTimes t;
-        t.total = timing_->seconds(std::size_t(c), std::size_t(c + 1)) / double(m);
-        t.part(StepPart::device_step) = t.total;
-        r.samples.push_back(t);
-      }
-      for (std::int64_t k = 0; k < n; ++k) {
-        const double S = host_sums_[std::size_t(k)];
-        if (!(S > 0 && std::isfinite(S))) {
-          failed_ = true;
-          check_sum(S, steps_ + k, name());
-        }
-        r.sums.push_back(S * grid_.cell_area());
-      }
+      append_segment(
+          r, n, kChunk, [&](std::size_t c) { return timing_->seconds(c, c + 1); },
+          std::span<const double>(host_sums_.get(), std::size_t(n)), grid_.cell_area(), steps_, name(), failed_);
       cur_ ^= int(n & 1);
       steps_ += n;
       done += n;

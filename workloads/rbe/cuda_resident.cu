@@ -673,22 +673,9 @@ class CudaResident final : public Backend {
       stream_->sync();
       r.wall_seconds += seconds_now() - t0;
       // Timing samples: the mean step of each chunk, from the events between chunks.
-      const std::int64_t chunks = (n + chunk - 1) / chunk;
-      for (std::int64_t c = 0; c < chunks; ++c) {
-        const std::int64_t m = std::min(chunk, n - c * chunk);
-        StepTimes t;
-        t.total = events_->seconds(std::size_t(c), std::size_t(c + 1)) / double(m);
-        t.part(StepPart::device_step) = t.total;
-        r.samples.push_back(t);
-      }
-      for (std::int64_t k = 0; k < n; ++k) {
-        const double S = host_sums_[std::size_t(k)];
-        if (!(S > 0 && std::isfinite(S))) {
-          failed_ = true;
-          check_sum(S, steps_ + k, name());
-        }
-        r.sums.push_back(S * grid_.cell_area());
-      }
+      append_segment(
+          r, n, chunk, [&](std::size_t c) { return events_->seconds(c, c + 1); },
+          std::span<const double>(host_sums_.get(), std::size_t(n)), grid_.cell_area(), steps_, name(), failed_);
       cur_ ^= int(n & 1);
       steps_ += n;
       done += n;
@@ -699,27 +686,9 @@ class CudaResident final : public Backend {
   StepTimes step(std::span<const double> likelihood) override {
     check_ready();
     const auto l = masked_likelihood(likelihood, mask_, shape_.cells());
-    StepTimes t;
     const double t0 = seconds_now();
     upload_likelihood(l);
-    const double t1 = seconds_now();
-    enqueue(1, 1, false);
-    stream_->sync();
-    const double t2 = seconds_now();
-    double S = 0;
-    DTFLOP_CUDA(cudaMemcpy(&S, sums_.get() + 1, sizeof(double), cudaMemcpyDeviceToHost));
-    const double t3 = seconds_now();
-    t.part(StepPart::to_device) = t1 - t0;
-    t.part(StepPart::device_step) = events_->seconds(0, 1);
-    t.part(StepPart::to_host) = t3 - t2;
-    t.total = t3 - t0;
-    cur_ ^= 1;
-    if (!(S > 0 && std::isfinite(S))) {
-      failed_ = true;
-      check_sum(S, steps_, name());
-    }
-    ++steps_;
-    return t;
+    return finish_step(t0);
   }
 
   // Only the window goes up: the cells of the previous window are reset to `outside` first (the
@@ -732,7 +701,6 @@ class CudaResident final : public Backend {
     const float outside = static_cast<float>(likelihood.outside);
     std::vector<float> f(likelihood.values.begin(), likelihood.values.end());
     const cudaStream_t st = stream_->get();
-    StepTimes t;
     const double t0 = seconds_now();
     if (!l_outside_ || *l_outside_ != outside) {
       launch_fill(0, 0, shape_.nx, shape_.ny, outside, st);
@@ -749,24 +717,7 @@ class CudaResident final : public Backend {
                                     cudaMemcpyHostToDevice, st));
     }
     stream_->sync();
-    const double t1 = seconds_now();
-    enqueue(1, 1, false);
-    stream_->sync();
-    const double t2 = seconds_now();
-    double S = 0;
-    DTFLOP_CUDA(cudaMemcpy(&S, sums_.get() + 1, sizeof(double), cudaMemcpyDeviceToHost));
-    const double t3 = seconds_now();
-    t.part(StepPart::to_device) = t1 - t0;
-    t.part(StepPart::device_step) = events_->seconds(0, 1);
-    t.part(StepPart::to_host) = t3 - t2;
-    t.total = t3 - t0;
-    cur_ ^= 1;
-    if (!(S > 0 && std::isfinite(S))) {
-      failed_ = true;
-      check_sum(S, steps_, name());
-    }
-    ++steps_;
-    return t;
+    return finish_step(t0);
   }
 
   std::vector<double> belief() override {
@@ -840,6 +791,29 @@ class CudaResident final : public Backend {
     DeviceArray<float> a(wanted ? n : 0);
     if (wanted) DTFLOP_CUDA(cudaMemset(a.get(), 0, n * sizeof(float)));
     return a;
+  }
+
+  // One step after its likelihood went up (from t0, host clock): the step, its sum back, the times.
+  StepTimes finish_step(double t0) {
+    const double t1 = seconds_now();
+    enqueue(1, 1, false);
+    stream_->sync();
+    const double t2 = seconds_now();
+    double S = 0;
+    DTFLOP_CUDA(cudaMemcpy(&S, sums_.get() + 1, sizeof(double), cudaMemcpyDeviceToHost));
+    const double t3 = seconds_now();
+    StepTimes t;
+    t.part(StepPart::to_device) = t1 - t0;
+    t.part(StepPart::device_step) = events_->seconds(0, 1);
+    t.part(StepPart::to_host) = t3 - t2;
+    t.total = t3 - t0;
+    cur_ ^= 1;
+    if (!(S > 0 && std::isfinite(S))) {
+      failed_ = true;
+      check_sum(S, steps_, name());
+    }
+    ++steps_;
+    return t;
   }
 
   ResidentPlan plan_for(const Shape& shape) const {

@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -72,6 +73,13 @@ Convolution resolve_prediction(const BackendOptions& options, const MotionKernel
                               bool supports_full, std::string_view backend);
 // Throws NumericalError for a correction whose sum (of q, before A_c) is zero or not finite.
 void check_sum(double sum, std::int64_t step, std::string_view backend);
+// One segment of `n` steps of a GPU run timed in chunks of `chunk` steps: appends to `r` a sample
+// per chunk (its mean step, chunk_seconds(c) the device time of chunk c) and each step's sum
+// (host_sums[k] x cell_area), checking each (check_sum, steps numbered from first_step; `failed`
+// is set before it throws).
+void append_segment(RunResult& r, std::int64_t n, std::int64_t chunk,
+                    const std::function<double(std::size_t chunk)>& chunk_seconds, std::span<const double> host_sums,
+                    double cell_area, std::int64_t first_step, std::string_view backend, bool& failed);
 // Throws InputError unless there is at least one other belief, each has `cells` values and the
 // own belief's position is at most the number of others.
 void check_others(std::span<const std::span<const float>> others, std::size_t position, std::int64_t cells,
