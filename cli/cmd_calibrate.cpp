@@ -1,6 +1,7 @@
 // `dtflop calibrate`: fit the DTFLOP model's parameters to measured samples (Ceres), with 95%
 // intervals, a comparison with the probed values, and the model variant chosen by k-fold
 // cross-validation; writes the fitted machine profile.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -150,7 +151,35 @@ void run(const CalibrateOptions& o) {
                                      return t;
                                    }()));
   }
-  FitResult r = fit(samples, probed, fo);
+  FitResult r = [&] {
+    try {
+      return fit(samples, probed, fo);
+    } catch (const InputError& e) {
+      if (cv.size() < 2) throw;  // one variant, named by --variant: nothing else to fit
+      // The chosen variant fitted every fold but not all the samples at once (noisy samples can
+      // leave the extended fit's max() terms cycling): fit the next best variant that
+      // cross-validated, by its error, and say so, rather than lose the calibration.
+      std::vector<const CvResult*> rest;
+      for (const auto& c : cv)
+        if (c.variant != choice.chosen && c.failed_folds == 0 && c.held_out > 0) rest.push_back(&c);
+      std::sort(rest.begin(), rest.end(), [](const CvResult* a, const CvResult* b) { return a->mean_rel < b->mean_rel; });
+      for (const CvResult* c : rest) {
+        fo.variant = c->variant;
+        try {
+          FitResult next = fit(samples, probed, fo);
+          choice.reason += fmt::format("; but fitted on all the samples it failed ({}), so the next best variant "
+                                       "by cross-validated error, {}, was fitted",
+                                       e.what(), to_string(c->variant));
+          fmt::print(stderr, "dtflop: warning: the {} fit failed on all the samples ({}); fitted {} instead\n",
+                     to_string(choice.chosen), e.what(), to_string(c->variant));
+          choice.chosen = c->variant;
+          return next;
+        } catch (const InputError&) {
+        }
+      }
+      throw;
+    }
+  }();
   // The chosen variant's cross-validated error: what a prediction of this calibration carries.
   ErrorFigure error;
   for (const auto& c : cv)
