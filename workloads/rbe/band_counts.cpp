@@ -127,6 +127,11 @@ CostCounts device_step_counts(const Shape& s, const Layout& l, int sms, const Ba
   }
   const std::int64_t G = plan.partitions();
   if (G > 1) {
+    // Each band's scale kernel (the lagged normalization): one launch, reading T_k, E_k, T_{k-1},
+    // E_{k+1} and writing rho_k, E_{k+2}, six float64 values.
+    const auto n = static_cast<std::int64_t>(bands.size());
+    c.launches += n;
+    c.N_GG += n * 6 * 2;
     if (path == PeerPath::link) {
       c.collectives = 1;
       c.collective_bytes = 8;
@@ -182,6 +187,16 @@ CostCounts cuda_bands_run_counts(const Shape& s, const Layout& l, int sms, const
     const auto n = static_cast<std::int64_t>(bands.size());
     // Per band: zero each step's partial sum (2 values written), carry the total in and out.
     c.N_GG += n * (2 * steps + segments * 2 * (2 + 2));
+    if (plan.partitions() > 1) {
+      // Per band and segment of m steps: E_1 = T_0 carried in (one more copy), and the scale
+      // kernel launched m + 1 times, moving 6m - 1 float64 values (m >= 2: at k = 0 no rho_0,
+      // at k = m - 1 and m no E ahead) or 4 (m = 1), against the step counts' m launches and 6m.
+      const std::int64_t whole = steps / segment, rest = steps % segment;
+      auto fewer = [](std::int64_t m) { return m >= 2 ? 1 : 2; };  // float64 values short of 6m
+      const std::int64_t short_by = whole * fewer(segment) + (rest > 0 ? fewer(rest) : 0);
+      c.launches += n * segments;
+      c.N_GG += n * (segments * 2 * 2 - 2 * short_by);
+    }
     if (first) {  // device 0: band 0's totals to the host, one pinned copy per segment
       c.N_GC += 2 * steps;
       c.transfers_GC += segments;

@@ -97,6 +97,8 @@ CostCounts fused_rows_counts(const Shape& s, const Layout& layout, int sms, std:
 //   its bands' launches (fused_rows_counts of each range of band_launches());
 //   link: peer_messages, N_peer = halo_sends() of its band; collectives = 1 (G > 1),
 //         collective_bytes = 8 (the sum, one float64);
+//   G > 1: each band's scale kernel (the lagged normalization, cuda_bands.cu): launches 1,
+//         N_GG 12 (six float64 values);
 //   device (every band on one GPU): the launches of all bands; every band's halo_sends() (a
 //         device-to-device copy each); collectives = G reduction kernels (G > 1), each reading
 //         the G partial sums and writing the total: collective_bytes = 8 G (G + 1).
@@ -105,8 +107,10 @@ CostCounts fused_rows_counts(const Shape& s, const Layout& layout, int sms, std:
 CostCounts cuda_bands_counts(const Shape& s, const Layout& layout, int sms, const BandPlacement& placement);
 // A run of `steps` steps in segments of `segment` steps: per segment and band, the segment's
 // partial sums zeroed (2 n values) and two 8-byte device copies (the last total carried in and
-// out, 4 values each, read + write); band 0 copies the segment's totals to the host (one copy of
-// 2 n values, pinned) and the host waits once for the segment.
+// out, 4 values each, read + write); band 0 copies the segment's totals (G > 1: evidences) to
+// the host (one copy of 2 n values, pinned) and the host waits once for the segment. G > 1, per
+// segment of m steps and band: a third copy (E_1 = T_0, 4 values) and m + 1 scale kernels moving
+// 6m - 1 float64 values (4 for m = 1) where the steps count m kernels and 6m.
 CostCounts cuda_bands_run_counts(const Shape& s, const Layout& layout, int sms, const BandPlacement& placement,
                                  std::int64_t steps, std::int64_t segment = kBandSegment);
 

@@ -1,17 +1,40 @@
 // cuda-bands: one grid split into G horizontal bands (band_counts.hpp), each on its own GPU (or
 // all on one), each stepped by cuda-resident's fused kernel (resident_sweep.hpp). A band's
 // buffers hold its own rows with h_b halo rows above and h_a below (zeros at the grid's edges).
-// One step, per band, on two streams:
+// Step k, per band, on three streams:
 //
-//   message stream  [wait: the band's last step]  all-reduce of the last step's partial sums
-//                   -> total (record sum_ready)   halo exchange with the neighbours (record halo)
-//   compute stream  [wait sum_ready] inner rows (no halo needed)   [wait halo] edge rows
-//                   (record ready)
+//   message stream  [wait: the band's step k - 1]  halo exchange with the neighbours (record
+//                   halo[k])   all-reduce of step k - 1's partial sums -> T_{k-1}   scale kernel
+//                   (record sum_ready[k])
+//   edge stream     [wait sum_ready[k - 1], the neighbours' halo[k - 1], halo[k]]  edge rows
+//                   (record edges_done)
+//   compute stream  [wait sum_ready[k - 1], the neighbours' halo[k - 1]]  inner rows (no halo
+//                   needed)  [wait edges_done]  (record ready)
 //
-// so the halos travel while the inner rows are computed, and the next step's all-reduce waits
-// for every band's edges. The messages go through a BandTransport (band_transport.hpp): NCCL
-// between GPUs, copies and a reduction kernel where the bands share one GPU; the band, halo and
-// overlap code here is the same for both. One process and one host thread drive every GPU:
+// so the halos travel while the inner rows are computed, the edge rows run beside the inner
+// ones as soon as their halos are in (the edge stream has the device's greatest priority), and
+// no step waits for the all-reduce of the step just before it.
+//
+// Lagged normalization. The fused kernel divides step k's output by A_c E_k (resident_sweep.hpp:
+// sum_in); cuda-resident takes E_k = T_{k-1}, the total of the step's input, which here would put
+// an all-reduce and two cross-device waits between every two steps. cuda-bands takes
+//
+//   E_1 = T_0 (a segment's first step: the total of its input is known),
+//   E_k = T_{k-2} / (A_c E_{k-1}),  k >= 2,
+//
+// which needs only the all-reduce of step k - 2. With rho_k the evidence of step k (the mass of
+// l * (K * p) for the normalized belief p: cuda-resident's A_c T_k), output k's mass is
+// A_c T_k = rho_{k-1} rho_k, two steps' evidence instead of one, bounded however long the run
+// (float32 keeps its relative precision at any scale). Each step's evidence comes back exactly as
+// rho_k = A_c T_k E_k / T_{k-1}, and the belief as q / (A_c T). The scale kernel
+// (rbe_bands_scale) computes E and rho on the device from the all-reduced totals. The inner rows
+// of step k also wait for the neighbours' receipt of step k - 1's halos (halo[k - 1]): the buffer
+// they overwrite is the one those halos were read from. A single band (G = 1) is cuda-resident's
+// step: E_k = T_{k-1}, no messages, no scale kernel.
+//
+// The messages go through a BandTransport (band_transport.hpp): NCCL between GPUs, copies and a
+// reduction kernel where the bands share one GPU; the band, halo and overlap code here is the
+// same for both. One process and one host thread drive every GPU:
 // every call is asynchronous, NCCL's calls of a step go in one group over all communicators
 // (ncclCommInitAll), and the host stays ahead of the devices. No CUDA graph: the steps are
 // launched one by one (a graph over several devices and NCCL would be a later refinement).
@@ -40,6 +63,26 @@ namespace {
 
 constexpr std::int64_t kChunk = 10;  // steps per timing sample
 
+// The lagged normalization's bookkeeping (header), once T_k = total[k] is there: the evidence of
+// output k, rho[k] = T_k E_k / T_{k-1} (k >= 1; times A_c on the host), and the scale of output
+// k + 2, E_{k+2} = T_k / (A_c E_{k+1}) (k + 2 <= n). Launched for k = 0..n in a segment of n steps
+// (for n = 1, k = 0 has nothing to do).
+__global__ void rbe_bands_scale(const double* total, double* scale, double* rho, long long k, long long n,
+                                double area) {
+  if (threadIdx.x != 0 || blockIdx.x != 0) return;
+  const bool evidence = k >= 1, ahead = k + 2 <= n;
+  if (!evidence && !ahead) return;
+  const double t = total[k];  // read once (band_counts.hpp counts each value read and written)
+  if (evidence) rho[k] = t * scale[k] / total[k - 1];
+  if (ahead) scale[k + 2] = t / (area * scale[k + 1]);
+}
+
+void launch_bands_scale(const double* total, double* scale, double* rho, std::int64_t k, std::int64_t n, double area,
+                        cudaStream_t on) {
+  rbe_bands_scale<<<1, 32, 0, on>>>(total, scale, rho, static_cast<long long>(k), static_cast<long long>(n), area);
+  DTFLOP_CUDA_LAUNCHED();
+}
+
 // An event only for ordering (no timing).
 class SyncEvent {
  public:
@@ -61,9 +104,11 @@ struct BandState {
   Band band;
   BandLaunches launches;
   DeviceArray<float> q[2], l;
-  DeviceArray<double> partial, total, last;  // partial[k], total[k]: step k's sums (k = 1..n of a segment)
-  std::optional<Stream> compute, comm;
-  std::optional<SyncEvent> ready, sum_ready, halo;
+  // partial[k], total[k] = T_k: output k's sums (k = 1..n of a segment; total[0] its input's);
+  // scale[k] = E_k, rho[k] = rho_k / A_c (several bands only).
+  DeviceArray<double> partial, total, scale, rho, last;
+  std::optional<Stream> compute, comm, edge;
+  std::optional<SyncEvent> ready, edges_done, sum_ready[2], halo[2];
   std::unique_ptr<FusedSweep> sweep;
 };
 
@@ -90,7 +135,7 @@ class CudaBands final : public Backend {
   CostCounts run_counts(const Shape& s, const BackendOptions& o, std::int64_t steps) const override {
     return cuda_bands_run_counts(s, o.layout, counted_gpu_sms(o), band_placement(o), steps, kBandSegment);
   }
-  std::vector<std::string_view> kernel_names() const override { return {"rbe_resident_fused", "rbe_bands_reduce"}; }
+  std::vector<std::string_view> kernel_names() const override { return {"rbe_resident_fused", "rbe_bands_reduce", "rbe_bands_scale"}; }
 
   void init(const Problem& problem) override {
     ready_ = false;
@@ -151,14 +196,20 @@ class CudaBands final : public Backend {
       }
       s.partial = DeviceArray<double>(kBandSegment + 1);
       s.total = DeviceArray<double>(kBandSegment + 1);
+      if (G > 1) {
+        s.scale = DeviceArray<double>(kBandSegment + 1);
+        s.rho = DeviceArray<double>(kBandSegment + 1);
+      }
       s.last = DeviceArray<double>(1);
       const double last = 1.0 / grid_.cell_area();  // scale 1: the prior is normalized
       s.last.upload(&last, 1);
       s.compute.emplace();
       s.comm.emplace();
+      s.edge.emplace(Stream::Urgent{});
       s.ready.emplace();
-      s.sum_ready.emplace();
-      s.halo.emplace();
+      s.edges_done.emplace();
+      for (auto& e : s.sum_ready) e.emplace();
+      for (auto& e : s.halo) e.emplace();
       s.sweep = std::make_unique<FusedSweep>(shape_, options_.layout, std::int64_t(rows), s.q[0].get(), s.q[1].get(),
                                              s.l.get(), problem.kernel.kx(), problem.kernel.ky(), grid_.cell_area());
       DTFLOP_CUDA(cudaDeviceSynchronize());
@@ -298,6 +349,7 @@ class CudaBands final : public Backend {
       DTFLOP_CUDA(cudaSetDevice(s.device));
       s.compute->sync();
       s.comm->sync();
+      s.edge->sync();
     }
   }
 
@@ -308,6 +360,7 @@ class CudaBands final : public Backend {
       if (cudaSetDevice(s.device) != cudaSuccess) (void)cudaGetLastError();
       if (s.compute) (void)cudaStreamSynchronize(s.compute->get());
       if (s.comm) (void)cudaStreamSynchronize(s.comm->get());
+      if (s.edge) (void)cudaStreamSynchronize(s.edge->get());
     }
     (void)cudaGetLastError();
     transport_.reset();
@@ -315,15 +368,19 @@ class CudaBands final : public Backend {
       if (cudaSetDevice(s.device) != cudaSuccess) (void)cudaGetLastError();
       s.sweep.reset();
       s.ready.reset();
-      s.sum_ready.reset();
-      s.halo.reset();
+      s.edges_done.reset();
+      for (auto& e : s.sum_ready) e.reset();
+      for (auto& e : s.halo) e.reset();
       s.compute.reset();
       s.comm.reset();
+      s.edge.reset();
       s.q[0] = {};
       s.q[1] = {};
       s.l = {};
       s.partial = {};
       s.total = {};
+      s.scale = {};
+      s.rho = {};
       s.last = {};
     }
     if (!bands_.empty() && cudaSetDevice(bands_[0].device) != cudaSuccess) (void)cudaGetLastError();
@@ -346,7 +403,8 @@ class CudaBands final : public Backend {
 
   // n steps from q[cur_]: the partial sums zeroed, the last total carried in, the steps (a timing
   // event on band 0 after every kChunk), the last all-reduce, the total carried out, and
-  // (optionally) band 0's n totals to the host.
+  // (optionally) band 0's n evidences rho_k / A_c to the host (one band: T_k, the same). Several
+  // bands: the streams, events and lagged normalization of the header.
   void enqueue(std::int64_t n, bool sums_back) {
     const std::size_t G = bands_.size();
     const bool many = G > 1;
@@ -358,6 +416,9 @@ class CudaBands final : public Backend {
       double* acc = many ? s.partial.get() : s.total.get();  // what the kernels add to
       DTFLOP_CUDA(cudaMemsetAsync(acc + 1, 0, std::size_t(n) * sizeof(double), c));
       DTFLOP_CUDA(cudaMemcpyAsync(s.total.get(), s.last.get(), sizeof(double), cudaMemcpyDeviceToDevice, c));
+      if (many)  // E_1 = T_0
+        DTFLOP_CUDA(cudaMemcpyAsync(s.scale.get() + 1, s.last.get(), sizeof(double), cudaMemcpyDeviceToDevice, c));
+      DTFLOP_CUDA(cudaEventRecord(s.sum_ready[1]->get(), c));  // what step 0 waits for
     }
     DTFLOP_CUDA(cudaSetDevice(bands_[0].device));
     DTFLOP_CUDA(cudaEventRecord((*timing_)[0], bands_[0].compute->get()));
@@ -365,39 +426,65 @@ class CudaBands final : public Backend {
     std::vector<double*> partial(G), total(G);
     for (std::int64_t k = 0; k < n; ++k) {
       const int prev = cur_ ^ int(k & 1);
-      if (k > 0 && many) all_reduce(k, partial, total);
-      for (auto& s : bands_) {
-        DTFLOP_CUDA(cudaSetDevice(s.device));
-        DTFLOP_CUDA(cudaEventRecord(s.sum_ready->get(), s.comm->get()));
-      }
+      const std::size_t now = std::size_t(k & 1), before = std::size_t((k + 1) & 1);  // events of k, k - 1
       if (many) {
+        for (auto& s : bands_) {  // after the band's step k - 1 (also what the all-reduce waits for)
+          DTFLOP_CUDA(cudaSetDevice(s.device));
+          DTFLOP_CUDA(cudaStreamWaitEvent(s.comm->get(), s.ready->get(), 0));
+        }
         transport_->exchange(messages_[prev]);
         for (auto& s : bands_) {
           DTFLOP_CUDA(cudaSetDevice(s.device));
-          DTFLOP_CUDA(cudaEventRecord(s.halo->get(), s.comm->get()));
+          DTFLOP_CUDA(cudaEventRecord(s.halo[now]->get(), s.comm->get()));
         }
+        if (k > 0) all_reduce(k, partial, total);
+        scale(k, n);
       }
-      auto launch = [&](BandState& s, const RowRange& r) {
+      auto launch = [&](BandState& s, const RowRange& r, cudaStream_t on) {
         double* out = (many ? s.partial.get() : s.total.get()) + k + 1;
-        s.sweep->launch(prev, hb + r.begin, hb + r.end, s.total.get() + k, out, s.compute->get());
+        const double* in = (many ? s.scale.get() + 1 : s.total.get()) + k;
+        s.sweep->launch(prev, hb + r.begin, hb + r.end, in, out, on);
       };
-      for (auto& s : bands_) {  // the inner rows, while the halos travel
+      // Before band b writes its buffer of step k - 1: E_{k+1} is there (sum_ready of k - 1), and
+      // its neighbours have received step k - 1's halos, which were read from that buffer (with
+      // NCCL the band's own sends ordered that already; a same-device copy runs on the receiver's
+      // stream).
+      auto wait_inputs = [&](std::size_t b, cudaStream_t on) {
+        DTFLOP_CUDA(cudaStreamWaitEvent(on, bands_[b].sum_ready[before]->get(), 0));
+        if (!many || k == 0) return;
+        for (std::size_t a : {b - 1, b + 1})
+          if (a < G) DTFLOP_CUDA(cudaStreamWaitEvent(on, bands_[a].halo[before]->get(), 0));
+      };
+      for (std::size_t b = 0; b < G; ++b) {  // the edge rows, as soon as their halos are in
+        BandState& s = bands_[b];
+        if (!many || s.launches.edges.empty()) continue;
         DTFLOP_CUDA(cudaSetDevice(s.device));
-        DTFLOP_CUDA(cudaStreamWaitEvent(s.compute->get(), s.sum_ready->get(), 0));
-        for (const RowRange& r : s.launches.inner) launch(s, r);
+        const cudaStream_t on = s.edge->get();
+        wait_inputs(b, on);
+        DTFLOP_CUDA(cudaStreamWaitEvent(on, s.halo[now]->get(), 0));
+        for (const RowRange& r : s.launches.edges) launch(s, r, on);
+        DTFLOP_CUDA(cudaEventRecord(s.edges_done->get(), on));
       }
-      for (auto& s : bands_) {  // the edge rows, once the halos are in
+      for (std::size_t b = 0; b < G; ++b) {  // the inner rows, while the halos travel
+        BandState& s = bands_[b];
         DTFLOP_CUDA(cudaSetDevice(s.device));
-        if (many && !s.launches.edges.empty()) DTFLOP_CUDA(cudaStreamWaitEvent(s.compute->get(), s.halo->get(), 0));
-        for (const RowRange& r : s.launches.edges) launch(s, r);
-        DTFLOP_CUDA(cudaEventRecord(s.ready->get(), s.compute->get()));
+        const cudaStream_t on = s.compute->get();
+        if (many || k == 0) wait_inputs(b, on);
+        for (const RowRange& r : s.launches.inner) launch(s, r, on);
+        if (many && !s.launches.edges.empty()) DTFLOP_CUDA(cudaStreamWaitEvent(on, s.edges_done->get(), 0));
+        else if (!many)
+          for (const RowRange& r : s.launches.edges) launch(s, r, on);
+        DTFLOP_CUDA(cudaEventRecord(s.ready->get(), on));
       }
       if ((k + 1) % kChunk == 0 || k + 1 == n) {
         DTFLOP_CUDA(cudaSetDevice(bands_[0].device));
         DTFLOP_CUDA(cudaEventRecord((*timing_)[e++], bands_[0].compute->get()));
       }
     }
-    if (many) all_reduce(n, partial, total);
+    if (many) {
+      all_reduce(n, partial, total);
+      scale(n, n);
+    }
     for (auto& s : bands_) {
       DTFLOP_CUDA(cudaSetDevice(s.device));
       const cudaStream_t c = s.comm->get();
@@ -405,9 +492,19 @@ class CudaBands final : public Backend {
       DTFLOP_CUDA(cudaMemcpyAsync(s.last.get(), s.total.get() + n, sizeof(double), cudaMemcpyDeviceToDevice, c));
     }
     if (sums_back) {
-      DTFLOP_CUDA(cudaSetDevice(bands_[0].device));
-      DTFLOP_CUDA(cudaMemcpyAsync(host_sums_.get(), bands_[0].total.get() + 1, std::size_t(n) * sizeof(double),
-                                  cudaMemcpyDeviceToHost, bands_[0].comm->get()));
+      BandState& s = bands_[0];
+      DTFLOP_CUDA(cudaSetDevice(s.device));
+      DTFLOP_CUDA(cudaMemcpyAsync(host_sums_.get(), (many ? s.rho.get() : s.total.get()) + 1,
+                                  std::size_t(n) * sizeof(double), cudaMemcpyDeviceToHost, s.comm->get()));
+    }
+  }
+
+  // On every band's message stream, once T_k is there: rho_k (k >= 1) and E_{k+2} (k + 2 <= n).
+  void scale(std::int64_t k, std::int64_t n) {
+    for (auto& s : bands_) {
+      DTFLOP_CUDA(cudaSetDevice(s.device));
+      launch_bands_scale(s.total.get(), s.scale.get(), s.rho.get(), k, n, grid_.cell_area(), s.comm->get());
+      DTFLOP_CUDA(cudaEventRecord(s.sum_ready[std::size_t(k & 1)]->get(), s.comm->get()));
     }
   }
 
@@ -416,7 +513,7 @@ class CudaBands final : public Backend {
     for (std::size_t b = 0; b < bands_.size(); ++b) {
       BandState& s = bands_[b];
       DTFLOP_CUDA(cudaSetDevice(s.device));
-      DTFLOP_CUDA(cudaStreamWaitEvent(s.comm->get(), s.ready->get(), 0));
+      DTFLOP_CUDA(cudaStreamWaitEvent(s.comm->get(), s.ready->get(), 0));  // (the last step's: after the loop)
       partial[b] = s.partial.get() + k;
       total[b] = s.total.get() + k;
     }

@@ -88,6 +88,14 @@ class HostArray {
 class Stream {
  public:
   Stream() { DTFLOP_CUDA(cudaStreamCreateWithFlags(&s_, cudaStreamNonBlocking)); }
+  // A stream whose blocks the scheduler starts before those of normal streams, as soon as a
+  // multiprocessor has room (the device's greatest priority).
+  struct Urgent {};
+  explicit Stream(Urgent) {
+    int least = 0, greatest = 0;
+    DTFLOP_CUDA(cudaDeviceGetStreamPriorityRange(&least, &greatest));
+    DTFLOP_CUDA(cudaStreamCreateWithPriority(&s_, cudaStreamNonBlocking, greatest));
+  }
   ~Stream() {
     if (s_) cudaStreamDestroy(s_);
   }

@@ -165,11 +165,12 @@ TEST(RbeBands, TwoGpusByHand) {
   const std::int64_t W = 32, H = 64, S = 132;
   const std::int64_t per_block = 2 * 33 * W * (H + 32) + 2 * 33 * W * H + 3 * W * H + 2;
   const auto c = cuda_bands_counts(s, l, 132, band_placement(2, 2));
-  EXPECT_EQ(c.launches, 2);
+  // Two launches of the fused kernel and one of the scale kernel (6 float64 values, 12 of 4 bytes).
+  EXPECT_EQ(c.launches, 2 + 1);
   EXPECT_EQ(c.waves, 2 + 1);
   EXPECT_EQ(c.atomics, 256 + 32);
   EXPECT_EQ(c.N_G, (2 + 1) * S * per_block);
-  EXPECT_EQ(c.N_GG, 3 * 500 * 1000 + 2 * (33 + 33 + 2) + 2 * (256 + 32));
+  EXPECT_EQ(c.N_GG, 3 * 500 * 1000 + 2 * (33 + 33 + 2) + 2 * (256 + 32) + 12);
   // Tile fills: 3 blocks at once per SM; 2 waves fill in 1 round, 1 wave in 1.
   EXPECT_EQ(c.N_GS, 2 * S * (96 * 72 + 40 + 40));
   EXPECT_EQ(c.peer_path, PeerPath::link);
@@ -182,17 +183,23 @@ TEST(RbeBands, TwoGpusByHand) {
   // of two partial sums each (reads 2 x 8 bytes, writes 8).
   const auto d = cuda_bands_counts(s, l, 132, band_placement(2, 1));
   EXPECT_EQ(d.peer_path, PeerPath::device);
-  EXPECT_EQ(d.launches, 4);
+  EXPECT_EQ(d.launches, 2 * (2 + 1));
   EXPECT_EQ(d.N_G, 2 * c.N_G);
   EXPECT_EQ(d.N_GG, 2 * c.N_GG);
   EXPECT_EQ(d.peer_messages, 2);
   EXPECT_EQ(d.N_peer, 2 * 16 * 1000);
   EXPECT_EQ(d.collectives, 2);
   EXPECT_EQ(d.collective_bytes, 2 * (2 * 8 + 8));
-  // A run of 2500 steps in segments of 1000: per segment and band the partial sums zeroed and
-  // the total carried in and out; band 0 sends its totals to the host.
+  // A run of 2500 steps in segments of 1000: per segment and band the partial sums zeroed, the
+  // total carried in and out and E_1 carried in (3 copies of 4 values); band 0 sends its
+  // evidences to the host. The scale kernel runs m + 1 times in a segment of m steps: at k = 0
+  // it reads T_0, E_1 and writes E_2 (3 float64), at 1 <= k <= m - 2 six values, at k = m - 1 and
+  // m it reads T_k, E_k, T_{k-1} and writes rho_k (4 each): 3 + 6 (m - 2) + 8 = 6m - 1 values.
   const auto r = cuda_bands_run_counts(s, l, 132, band_placement(2, 2), 2500, 1000);
-  EXPECT_EQ(r.N_GG, 2500 * c.N_GG + 2 * 2500 + 3 * 8);
+  const std::int64_t scale_1000 = 2 * (3 + 6 * 998 + 8), scale_500 = 2 * (3 + 6 * 498 + 8);
+  const std::int64_t fused = c.N_GG - 12;  // the step's counts without its scale kernel
+  EXPECT_EQ(r.N_GG, 2500 * fused + 2 * 2500 + 3 * 12 + 2 * scale_1000 + scale_500);
+  EXPECT_EQ(r.launches, 2500 * 2 + 2 * 1001 + 501);
   EXPECT_EQ(r.N_GC, 2 * 2500);
   EXPECT_EQ(r.transfers_GC, 3);
   EXPECT_EQ(r.copies_GC, (std::vector<CopySize>{{8000, 2}, {4000, 1}}));
@@ -200,22 +207,27 @@ TEST(RbeBands, TwoGpusByHand) {
   EXPECT_EQ(r.peer_messages, 2500);
   EXPECT_EQ(r.collectives, 2500);
   const auto rd = cuda_bands_run_counts(s, l, 132, band_placement(2, 1), 2500, 1000);
-  EXPECT_EQ(rd.N_GG, 2500 * d.N_GG + 2 * (2 * 2500 + 3 * 8));
+  EXPECT_EQ(rd.N_GG, 2 * (2500 * fused + 2 * 2500 + 3 * 12 + 2 * scale_1000 + scale_500));
+  EXPECT_EQ(rd.launches, 2 * (2500 * 2 + 2 * 1001 + 501));
+  // A last segment of one step: its k = 0 does nothing, k = 1 reads 3 values and writes rho_1.
+  const auto r1 = cuda_bands_run_counts(s, l, 132, band_placement(2, 2), 1001, 1000);
+  EXPECT_EQ(r1.N_GG, 1001 * fused + 2 * 1001 + 2 * 12 + scale_1000 + 2 * 4);
+  EXPECT_EQ(r1.launches, 1001 * 2 + 1001 + 2);
   EXPECT_NO_THROW(check_consistent(r));
   EXPECT_NO_THROW(check_consistent(rd));
 }
 
 TEST(RbeBands, BusiestDeviceTakesEachCountsLargest) {
   // Three bands of 334, 333 and 333 rows: the top one moves the most rows, the middle one sends
-  // two messages and launches three kernels.
+  // two messages and launches three fused kernels (and, as every band, one scale kernel).
   const Shape s{1000, 1000, 33, 33};
   const Layout l = parse_layout("32x8x8");
   const auto c = cuda_bands_counts(s, l, 132, band_placement(3, 3));
-  EXPECT_EQ(c.launches, 3);
+  EXPECT_EQ(c.launches, 3 + 1);
   EXPECT_EQ(c.peer_messages, 2);
   EXPECT_EQ(c.N_peer, 2 * 16 * 1000);
   // Top band: 318 inner rows (5 rows of tiles, 160 blocks) and 16 edge rows (32 blocks).
-  EXPECT_EQ(c.N_GG, 3 * 334 * 1000 + 2 * 68 + 2 * (160 + 32));
+  EXPECT_EQ(c.N_GG, 3 * 334 * 1000 + 2 * 68 + 2 * (160 + 32) + 12);
   // Middle band: 301 inner rows (5 rows of tiles) and two edges of 16: 224 blocks.
   EXPECT_EQ(c.atomics, 160 + 32 + 32);
 }

@@ -58,7 +58,8 @@ void expect_bands_match(const BackendOptions& o, const RandomProblem& r, std::ui
   const auto b = bands->belief();
   EXPECT_EQ(test::count_nan(b), 0u);
   // The same kernel and tiles over the same rows: equal to cuda-resident but for the order in
-  // which the float64 sum adds the blocks' shares (the scale may differ in its last float bit).
+  // which the float64 sum adds the blocks' shares and, with several bands, the lagged
+  // normalization (each step's output scaled by another factor: its float32 roundings differ).
   EXPECT_LT(relative_l1(b, resident->belief()), 1e-6);
   EXPECT_LT(relative_l1(b, ref->belief()), 1e-5);
   EXPECT_NEAR(test::mass(b, p.grid), 1.0, 1e-5);
@@ -69,7 +70,9 @@ void expect_bands_match(const BackendOptions& o, const RandomProblem& r, std::ui
   }
   if (!p.mask.empty()) {
     for (std::size_t i = 0; i < b.size(); ++i) {
-      if (!p.mask[i]) ASSERT_EQ(b[i], 0.0) << "belief outside the target space at cell " << i;
+      if (!p.mask[i]) {
+        ASSERT_EQ(b[i], 0.0) << "belief outside the target space at cell " << i;
+      }
     }
   }
   // A step with a new likelihood, on both.
@@ -156,8 +159,8 @@ TEST(RbeCudaBands, NcclOnePartitionPerGpuMatchesCudaResident) {
     o.partitions = G;
     o.gpus = G;
     o.poison = true;
-    try {
-      for (const auto& r : cases()) expect_bands_match(o, r, seed);
+    try {  // 40 steps: the lagged normalization's scales well away from cuda-resident's
+      for (const auto& r : cases()) expect_bands_match(o, r, seed, 40);
     } catch (const InputError& e) {
       if (std::string(e.what()).find("without NCCL") != std::string::npos) GTEST_SKIP() << e.what();
       throw;
