@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <optional>
@@ -176,24 +177,32 @@ tune::Predicted predict_one(const Inputs& in, const workload::Backend& b, const 
 
 // Seconds per step of a configuration: from the store when it holds the configuration (measured
 // on this machine: a store of another is refused when opened), else measured by the protocol of
-// its backend and appended to the store before it is used.
+// its backend and appended to the store before it is used. A replay of another machine's store
+// (--replay with --no-measure) reads the samples of the profile's machine and measures nothing.
 class StoreMeasurer {
  public:
   StoreMeasurer(const Inputs& in, const TuneOptions& o, std::string store) : in_(in), o_(o), store_(std::move(store)) {
+    if (o.no_measure && !std::filesystem::is_regular_file(store_))
+      throw InputError(fmt::format("store '{}' is not a file: --replay with --no-measure replays a store measured on "
+                                   "the machine of --machine (decompress a .xz store first)",
+                                   store_));
     const calib::StoreContents contents = calib::read_store(store_);
     for (const auto& warning : contents.warnings) fmt::print(stderr, "dtflop: warning: {}\n", warning);
+    const MachineIdentity& owner = o.no_measure ? in.machine.identity : in.here;
     for (const auto& sm : contents.samples) {
       std::string why;
-      if (!same_machine(sm.machine, in.here, &why))
-        throw InputError(fmt::format("store '{}' holds samples of {} ({}); a tuning measures this machine: use "
-                                     "another --store",
-                                     store_, describe(sm.machine), why));
+      if (!same_machine(sm.machine, owner, &why))
+        throw InputError(fmt::format("store '{}' holds samples of {} ({}); {}: use another --store", store_,
+                                     describe(sm.machine), why,
+                                     o.no_measure ? fmt::format("the replay is of the machine of '{}'", in.machine_file)
+                                                  : std::string("a tuning measures this machine")));
       const Stats* total = sm.find(calib::Component::total);
       if (sm.round == 1 && total && sm.steps > 0) stored_[sm.key] = total->median / static_cast<double>(sm.steps);
     }
   }
   tune::Measurement operator()(const tune::Candidate& c) {
     if (auto it = stored_.find(c.key); it != stored_.end()) return {it->second, true};
+    if (o_.no_measure) throw std::logic_error("tune: a replay of a store asked to measure " + c.label);
     const workload::Workload& w = *in_.w;
     const std::string plan = "tune:" + in_.s.name;
     auto pit = protocols_.find(c.backend->name());
@@ -211,6 +220,7 @@ class StoreMeasurer {
     stored_[c.key] = seconds;
     return {seconds, false};
   }
+  bool holds(const std::string& key) const { return stored_.count(key) > 0; }
   int measured_now() const { return measured_now_; }
   const std::string& store() const { return store_; }
   const std::vector<std::string>& warnings() const { return warnings_; }
@@ -429,8 +439,12 @@ void run(const TuneOptions& o) {
   if (o.budget == 0)
     throw InputError("--budget 0 measures nothing: give a budget of at least 1, or --no-measure to rank by "
                      "prediction alone");
-  if (o.no_measure && !o.replay.empty())
-    throw InputError("--replay replays measurements; it cannot go with --no-measure");
+  // --replay with --no-measure: the strategies replayed on a store another machine measured (the
+  // machine of --machine), measuring nothing here.
+  const bool replay_only = o.no_measure && !o.replay.empty();
+  if (replay_only && o.store.empty())
+    throw InputError("--replay with --no-measure replays a store measured on the machine of --machine: give it with "
+                     "--store");
   const tune::StrategyInfo& strategy_info = tune::find_strategy(o.strategy);
   const std::vector<std::size_t> replay_budgets = o.replay.empty() ? std::vector<std::size_t>{} : parse_budgets(o.replay);
   const Inputs in = load_inputs(o);
@@ -449,7 +463,7 @@ void run(const TuneOptions& o) {
                                                 : "tune where it runs, or rank for such a machine with --no-measure"));
   }
   std::optional<StoreMeasurer> measurer;
-  if (!o.no_measure) measurer.emplace(in, o, o.store.empty() ? s.name + ".samples.jsonl" : o.store);
+  if (!o.no_measure || replay_only) measurer.emplace(in, o, o.store.empty() ? s.name + ".samples.jsonl" : o.store);
   std::FILE* progress = o.quiet ? nullptr : stderr;
 
   const std::unique_ptr<tune::AccuracyModel> accuracy = tune::make_accuracy_model(w.name(), s.accuracy);
@@ -458,7 +472,10 @@ void run(const TuneOptions& o) {
       [&](const workload::Backend& b, const workload::Config& c) { return predict_one(in, b, c); }, progress);
   if (progress) {
     fmt::print(stderr, "tune: scenario {} ({}), {} on {}{}\n", s.name, o.scenario, w.name(),
-               describe(in.machine.identity), o.no_measure ? " (not measured: ranked by prediction alone)" : "");
+               describe(in.machine.identity),
+               replay_only       ? " (replayed from the store: nothing measured here)"
+               : o.no_measure    ? " (not measured: ranked by prediction alone)"
+                                 : "");
     fmt::print(stderr, "tune: {} valid configurations of {} enumerated", space.valid.size(), space.enumerated);
     for (const auto& [c, n] : space.removed) fmt::print(stderr, "; {} removed by {}", n, c);
     fmt::print(stderr, "\n");
@@ -466,8 +483,30 @@ void run(const TuneOptions& o) {
 
   Outcome r;
   r.space = &space;
-  r.by_measure = !o.no_measure;
-  r.strategy = o.no_measure ? "none (--no-measure)" : replay_budgets.empty() ? o.strategy : "exhaustive";
+  r.by_measure = !o.no_measure || replay_only;
+  r.strategy = !r.by_measure ? "none (--no-measure)" : replay_budgets.empty() ? o.strategy : "exhaustive";
+  if (replay_only) {
+    // A store measured before the space grew (a constraint relaxed since) lacks configurations
+    // that are valid now: the replay is of the space the store holds, and says what it left out.
+    std::vector<tune::Candidate> kept;
+    for (auto& c : space.valid) {
+      if (measurer->holds(c.key)) {
+        kept.push_back(std::move(c));
+        continue;
+      }
+      space.remove("store", fmt::format("{}: not in the store", c.label));
+    }
+    space.valid = std::move(kept);
+    if (space.valid.empty())
+      throw InputError(fmt::format("store '{}' holds none of the {} valid configurations: replay the store of this "
+                                   "scenario, or run `dtflop tune --replay` on that machine to measure them",
+                                   o.store, space.removed["store"]));
+    if (space.removed.count("store"))
+      fmt::print(stderr,
+                 "dtflop: warning: the store '{}' lacks {} of the configurations valid now; the replay is of the {} it "
+                 "holds\n",
+                 o.store, space.removed["store"], space.valid.size());
+  }
   if (measurer) {
     tune::StrategyOptions so;
     so.seed = o.seed;
@@ -539,7 +578,8 @@ void add_tune_command(CLI::App& root) {
   app->add_option("--replay", o->replay,
                   "Benchmark the strategies: measure every valid configuration, then replay model and random on "
                   "the stored times at these budgets (e.g. 5,10,20,50) and report the fraction of the optimum each "
-                  "reached (median over --replay-seeds)");
+                  "reached (median over --replay-seeds); with --no-measure and --store, replay a store measured on "
+                  "the machine of --machine, measuring nothing");
   app->add_option("--replay-seeds", o->replay_seeds, "Seeds per strategy and budget for --replay")
       ->capture_default_str()
       ->check(number_in(1, 1000, true));

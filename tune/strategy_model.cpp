@@ -1,8 +1,9 @@
 // The `model` strategy (docs/tune.md): rank every valid configuration by its prediction; first
 // measure the best-ranked of each group (Candidate::group: a backend with its choices, whose
 // predictions share one bias), so every group's predictions can be corrected by a measurement of
-// it; then measure the best by corrected prediction, correct, re-rank, until the measured best
-// stops improving or nothing left can beat it.
+// it; then give each group whose correction rests on that one measurement a second look where the
+// model cannot rank its configurations (they tie); then measure the best by corrected prediction,
+// correct, re-rank, until the measured best stops improving or nothing left can beat it.
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -17,6 +18,19 @@ namespace dtflop::tune {
 namespace {
 
 double normal_cdf(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
+
+// Two predictions the model cannot separate: within 0.1% of each other, the same counts up to a few
+// operations (a block layout changes no count; the weight functions differ by a few FLOPs per dot).
+constexpr double kTie = 1e-3;
+bool ties(double a, double b) { return std::abs(std::log(a / b)) < kTie; }
+
+// How many of a configuration's parameters differ from another's.
+int differences(const workload::Config& a, const workload::Config& b) {
+  int n = 0;
+  for (auto it = a.begin(); it != a.end(); ++it)
+    if (!b.contains(it.key()) || b[it.key()] != it.value()) ++n;
+  return n;
+}
 
 // Rank by prediction corrected by what was measured of the candidate's group; stop when the
 // measured best has not improved by 1% over `patience` measurements, or when no unmeasured
@@ -44,6 +58,46 @@ class ModelStrategy final : public Strategy {
       for (const auto& [g, i] : first)
         if (!pick || s.candidates[i].predicted.seconds < s.candidates[*pick].predicted.seconds) pick = i;
       if (pick) {
+        explored_ = s.measured.size() + 1;
+        return pick;
+      }
+    }
+    // Phase 2: a group's correction from one measurement cannot tell the group's bias from that
+    // configuration's own deviation in what the model does not price (a block layout, say). A group
+    // whose best-ranked configurations tie gets a second look: the tied configuration that differs
+    // most from the one measured. Groups in the order of their corrected predictions.
+    {
+      std::map<std::string, std::vector<std::size_t>> ran;
+      for (std::size_t i : s.measured)
+        if (s.candidates[i].measured) ran[s.candidates[i].group].push_back(i);
+      std::optional<std::size_t> pick;
+      double pick_score = INFINITY;
+      for (const auto& [g, v] : ran) {
+        if (v.size() != 1 || looked_.count(g)) continue;
+        const Candidate& first = s.candidates[v[0]];
+        std::optional<std::size_t> look;
+        int look_diff = -1;
+        for (std::size_t i = 0; i < s.candidates.size(); ++i) {
+          const Candidate& c = s.candidates[i];
+          if (c.group != g || c.done() || !ties(c.predicted.seconds, first.predicted.seconds)) continue;
+          const int d = differences(c.config, first.config);
+          if (d > look_diff || (d == look_diff && c.predicted.seconds < s.candidates[*look].predicted.seconds)) {
+            look = i;
+            look_diff = d;
+          }
+        }
+        if (!look) {
+          looked_.insert(g);  // nothing ties with what was measured: the ranking separates the rest
+          continue;
+        }
+        const double score = s.candidates[*look].predicted.seconds * corr.at(g).factor;
+        if (score < pick_score) {
+          pick = look;
+          pick_score = score;
+        }
+      }
+      if (pick) {
+        looked_.insert(s.candidates[*pick].group);
         explored_ = s.measured.size() + 1;
         return pick;
       }
@@ -94,14 +148,47 @@ class ModelStrategy final : public Strategy {
                             100 * o_.min_chance);
       return std::nullopt;
     }
-    return pick;
+    if (!pick) return pick;
+    // Configurations that tie with the best-ranked one are the same to the model: measure the one
+    // whose parameter values were measured least in its group, so the measurements spread over what
+    // the model cannot separate instead of walking through the ties in the order they were listed.
+    std::map<std::string, std::set<std::string>> seen;  // group -> "parameter=value" measured
+    for (std::size_t i : s.measured)
+      if (s.candidates[i].measured)
+        for (auto it = s.candidates[i].config.begin(); it != s.candidates[i].config.end(); ++it)
+          seen[s.candidates[i].group].insert(it.key() + "=" + it.value().dump());
+    auto novelty = [&](const Candidate& c) {
+      int n = 0;
+      const auto it = seen.find(c.group);
+      for (auto p = c.config.begin(); p != c.config.end(); ++p)
+        if (it == seen.end() || !it->second.count(p.key() + "=" + p.value().dump())) ++n;
+      return n;
+    };
+    std::size_t chosen = *pick;
+    int chosen_novelty = novelty(s.candidates[chosen]);
+    double chosen_score = pick_score;
+    for (std::size_t i = 0; i < s.candidates.size(); ++i) {
+      const Candidate& c = s.candidates[i];
+      if (i == *pick || c.done() || failed.count(c.group)) continue;
+      double score = c.predicted.seconds;
+      if (auto it = corr.find(c.group); it != corr.end()) score *= it->second.factor;
+      if (!ties(score, pick_score)) continue;
+      const int n = novelty(c);
+      if (n > chosen_novelty || (n == chosen_novelty && score < chosen_score)) {
+        chosen = i;
+        chosen_novelty = n;
+        chosen_score = score;
+      }
+    }
+    return chosen;
   }
   std::string stop_reason() const override { return reason_.empty() ? Strategy::stop_reason() : reason_; }
 
  private:
   StrategyOptions o_;
   std::string reason_;
-  std::size_t explored_ = 0;  // measurements of phase 1
+  std::size_t explored_ = 0;  // measurements of phases 1 and 2
+  std::set<std::string> looked_;  // groups given their second look (or with nothing to look at)
 };
 
 }  // namespace

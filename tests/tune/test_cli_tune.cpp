@@ -139,6 +139,18 @@ TEST_F(CliTune, BadInputIsOneLineExitTwoAndNothingIsOverwritten) {
   sample["machine"]["cpu_model"] = "Another CPU";
   write("other.jsonl", sample.dump() + "\n");
   bad("--scenario s.yaml --budget 1 --store other.jsonl", "another --store");
+  // Replaying another machine's store: it needs the store, which must be that machine's.
+  bad("--scenario s.yaml --machine h200.json --no-measure --replay 5", "--store");
+  bad("--scenario s.yaml --machine h200.json --no-measure --replay 5 --store absent.jsonl", "not a file");
+  bad("--scenario s.yaml --machine h200.json --no-measure --replay 5 --store mine.jsonl", "another --store");
+  // The machine's own store replayed without measuring: the one configuration it holds, the others
+  // counted under `store`, nothing appended.
+  const std::string mine = slurp(dir_ / "mine.jsonl");
+  const CliResult replayed = tune("--scenario s.yaml --no-measure --replay 1 --replay-seeds 2 --store mine.jsonl -q");
+  EXPECT_EQ(replayed.status, 0) << replayed.err;
+  EXPECT_NE(replayed.out.find("replayed on the 1 measured configurations"), std::string::npos) << replayed.out;
+  EXPECT_NE(replayed.out.find("removed by store"), std::string::npos) << replayed.out;
+  EXPECT_EQ(slurp(dir_ / "mine.jsonl"), mine);
   if (!gpu_unavailable_reason().empty()) {  // a scenario for a backend this machine cannot run
     write("gpu.yaml", "name: g\nworkload: rbe\nmachine: here.json\nspace: {backend: [cuda-seed]}\n");
     bad("--scenario gpu.yaml", "cuda-seed");
