@@ -177,7 +177,15 @@ class Run final : public wl::Run {
               {"points", pipe_->points().size()},
               {"support_entries", shape_.support_entries},
               {"window_pixels", shape_.window_pixels},
-              {"components", shape_.components}};
+              {"components", shape_.components},
+              // The rest of the declared shape, for reading a store's costs apart (docs/dct.md).
+              {"shape", {{"roi_pixels", shape_.roi_pixels},
+                         {"bytes_per_pixel", shape_.bytes_per_pixel},
+                         {"foreground_pixels", shape_.foreground_pixels},
+                         {"ring_pixels", shape_.ring_pixels},
+                         {"weighted_pixels", shape_.weighted_pixels},
+                         {"scanned_pixels", shape_.scanned_pixels},
+                         {"tree_steps", shape_.tree_steps}}}};
     if (ran_) {
       std::int64_t valid = 0;
       for (const auto& f : last_.fields) valid += f.status == PointStatus::ok;
