@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # DCT calibration on this (CPU) machine, cpu-seq and cpu-par: a probe for start values, the
-# training set (seed-support, seed-points, image-sizes and random:30 drawn with seed 7) and the
+# training set (seed-support, seed-points, image-sizes, image-kinds and random:30 drawn with seed 7) and the
 # held-out set (random:50, the default seed: none of its configurations is in the training
 # set), measured round by round; then the fit and the held-out validation per backend, with the
 # rounds combined by their median and by the fastest (docs/calibration.md, "Rounds").
@@ -16,7 +16,7 @@ log="$O/log.txt"
 say() { echo "== $* ($(date -u +%H:%M:%S), load $(cut -d' ' -f1-3 /proc/loadavg))" | tee -a "$log"; }
 sweep_round() {  # backend round
   local b=$1 r=$2
-  for plan in seed-support seed-points image-sizes; do
+  for plan in seed-support seed-points image-sizes image-kinds; do
     $D sweep dct --backend "$b" --plan "$plan" --rounds "$r" --store "$O/fit.jsonl" --quiet 2>&1 | tee -a "$log"
   done
   $D sweep --seed 7 dct --backend "$b" --plan random:30 --rounds "$r" --store "$O/fit.jsonl" --quiet 2>&1 | tee -a "$log"
