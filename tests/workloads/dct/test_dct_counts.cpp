@@ -38,12 +38,14 @@ TEST(DctCounts, CpuMatchesFormulas) {
   // 14 ring + 11 weighted + (44 + 4) per dot + 2 per dot + 341 per support entry + 207 per point.
   EXPECT_EQ(c.N_C, 14LL * 2'000'000 + 11LL * 4'500'000 + 48LL * 1600 + 2LL * 1600 + 341LL * 2048 * 60 + 221LL * 2048);
   // Bytes: Otsu 1 + threshold 2 + labelling 13 per analysed pixel, 10 per window pixel, a byte
-  // per ring or weighted pixel, 8 per field value.
-  EXPECT_EQ(c.N_CC, (16LL * 20'000'000 + 10LL * 7'000'000 + 6'500'000 + 8 * (5LL * 2048 * 60 + 8LL * 2048)) / 8);
+  // per ring or weighted pixel, 8 per field value streamed: a support entry's dot index, a
+  // point's position, radius and 5 outputs (the dots' positions and displacements are gathered
+  // from the caches).
+  EXPECT_EQ(c.N_CC, (16LL * 20'000'000 + 10LL * 7'000'000 + 6'500'000 + 8 * (1LL * 2048 * 60 + 8LL * 2048)) / 8);
   // Scalar pixel steps: Otsu's histogram and the labelling, a step each per analysed pixel; one
   // per window pixel classified; the 5 x 5 labels read around each scanned pixel (margin 2).
   EXPECT_EQ(c.pixel_steps, 2LL * 20'000'000 + 7'000'000 + 25LL * 2'500'000);
-  EXPECT_EQ(c.cpu_footprint, 6LL * 20'000'000 + 8 * (5LL * 2048 * 60 + 8LL * 2048));
+  EXPECT_EQ(c.cpu_footprint, 6LL * 20'000'000 + 8 * (1LL * 2048 * 60 + 8LL * 2048));
   EXPECT_EQ(c.P, 8);
   EXPECT_EQ(c.precision, Precision::fp64);
   EXPECT_EQ(c.cpu_threads, 16);
@@ -92,6 +94,15 @@ TEST(DctCounts, CudaMatchesFormulas) {
   // scaling (5), the Green-Lagrange strain (16).
   EXPECT_EQ(f.N_G, 14LL * 2'000'000 + 11LL * 4'500'000 + 50LL * 1600 + 29LL * 2048 * 90 + 31LL * 2048);
   EXPECT_EQ(f.host_memory, HostMemory::pageable);
+  // On the CPU, FE streams a recovery triangle's index and coefficient per support entry and a
+  // point's 3 triangle dots, 3 shape functions and 8 outputs; the triangles' dots, gradients and
+  // displacements are gathered from the caches. (On the device every value goes through global
+  // memory: 17 per entry, 20 per point, in N_GG.)
+  const CostCounts fc = cpu_counts(s, 1);
+  EXPECT_EQ(fc.N_CC, (2LL * 20'000'000 + 13LL * 20'000'000 + 10LL * 7'000'000 + 6'500'000 +
+                      8 * (2LL * 2048 * 90 + 14LL * 2048)) / 8);
+  EXPECT_EQ(f.N_GG, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + 2 * 7'000'000 + 2 * 4'500'000 +
+                        6 * 1600 + 17 * 2048 * 90 + 20 * 2048);
   // 16-bit frames: twice the bytes uploaded.
   s.bytes_per_pixel = 2;
   EXPECT_EQ(cuda_counts(s, HostMemory::pinned).N_CG, 20'000'000 / 2 + 1600);
@@ -133,7 +144,7 @@ TEST(DctCounts, ThresholdMethodsArePriced) {
   const std::int64_t roi = 20'000'000;
   // The rest of the frame's bytes (hand_shape, CpuMatchesFormulas): labelling 13 per analysed
   // pixel, 10 per window pixel, the ring and weighted pixels, the fields.
-  const std::int64_t rest = 13LL * roi + 10LL * 7'000'000 + 6'500'000 + 8 * (5LL * 2048 * 60 + 8LL * 2048);
+  const std::int64_t rest = 13LL * roi + 10LL * 7'000'000 + 6'500'000 + 8 * (1LL * 2048 * 60 + 8LL * 2048);
   const std::int64_t flops = cpu_counts(otsu, 1).N_C;
   // Otsu: histogram 1 + threshold 2 bytes per pixel.
   EXPECT_EQ(cpu_counts(otsu, 1).N_CC, (3 * roi + rest) / 8);
@@ -160,7 +171,7 @@ TEST(DctCounts, ThresholdMethodsArePriced) {
   wide.bytes_per_pixel = 2;
   EXPECT_EQ(cpu_counts(wide, 1).N_CC, (16 * roi + rest + 6'500'000) / 8);
   EXPECT_EQ(cpu_counts(wide, 1).N_C, flops + 6 * roi);
-  EXPECT_EQ(cpu_counts(wide, 1).cpu_footprint, roi * (2 + 1 + 4 + 2) + 8 * (5LL * 2048 * 60 + 8LL * 2048));
+  EXPECT_EQ(cpu_counts(wide, 1).cpu_footprint, roi * (2 + 1 + 4 + 2) + 8 * (1LL * 2048 * 60 + 8LL * 2048));
   // cuda: a fixed threshold drops the histogram and Otsu kernels, the histogram's read and the
   // threshold's copy back.
   const CostCounts g = cuda_counts(otsu, HostMemory::pinned), f = cuda_counts(fixed, HostMemory::pinned);
