@@ -105,8 +105,7 @@ bool fitted_only(Param p) {
     case Param::L_atomic:
     case Param::B_GC_staged:
     case Param::S_GC_staged:
-    case Param::S_GC_flat:
-    case Param::L_pixel: return true;
+    case Param::S_GC_flat: return true;
     default: return false;
   }
 }
