@@ -1,8 +1,6 @@
 #include "workloads/dct/analysis.hpp"
 
 #include <algorithm>
-#include <array>
-#include <cmath>
 #include <mutex>
 
 #include <fmt/format.h>
@@ -104,33 +102,24 @@ void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuff
     return;
   }
   if (o.method == ThresholdMethod::otsu) {
-    // The histogram over stripes of rows on OpenCV's threads (one stripe with cv::setNumThreads(1),
-    // as analyze() sets for one thread), each into its own bins, added up at the end.
     std::vector<std::int64_t> h(256, 0);
-    std::mutex merge;
-    cv::parallel_for_(cv::Range(0, image.rows), [&](const cv::Range& rows) {
-      std::array<std::int64_t, 256> local{};
-      for (int i = rows.start; i < rows.end; ++i) {
-        if (wide) {
-          const auto* p = image.ptr<std::uint16_t>(i);
-          for (int j = 0; j < image.cols; ++j) ++local[p[j] / 257];
-        } else {
-          const auto* p = image.ptr<std::uint8_t>(i);
-          for (int j = 0; j < image.cols; ++j) ++local[p[j]];
-        }
+    for (int i = 0; i < image.rows; ++i) {
+      if (wide) {
+        const auto* p = image.ptr<std::uint16_t>(i);
+        for (int j = 0; j < image.cols; ++j) ++h[p[j] / 257];
+      } else {
+        const auto* p = image.ptr<std::uint8_t>(i);
+        for (int j = 0; j < image.cols; ++j) ++h[p[j]];
       }
-      const std::lock_guard<std::mutex> lock(merge);
-      for (int b = 0; b < 256; ++b) h[b] += local[b];
-    });
+    }
     const double t = otsu_threshold(h);
     T = wide ? t * 257 + 256 : t;
   } else {
     T = wide ? std::floor(o.threshold * 257) : std::floor(o.threshold);
   }
   if (wide) {
-    // Straight to an 8-bit mask, one pass (what cv::threshold and a conversion of its 16-bit mask
-    // give, pixel for pixel: dark dots v <= T, light dots v > T; T is a whole grey level).
-    cv::compare(image, cv::Scalar(std::floor(T)), mask, dark ? cv::CMP_LE : cv::CMP_GT);
+    cv::threshold(image, buf.wide, T, 255, dark ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
+    buf.wide.convertTo(mask, CV_8U);
   } else {
     cv::threshold(image, mask, T, 255, dark ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
   }

@@ -70,8 +70,8 @@ std::int64_t field_flops(const FrameShape& s);
 //            and a subtract each, and its scale: integer arithmetic, counted with the FLOPs)
 //            [16-bit: + 1 roi, the scale of the conversion to 8 bits]
 //   N_CC = the bytes the stages read and write, / 8 (rounded up), b bytes per pixel:
-//          Otsu histogram b roi; threshold (b + 1) roi (the frame read, the 8-bit mask
-//          written; 16-bit frames by one comparison) | adaptive 13 roi (box filter: image read, 4-byte row sums written
+//          Otsu histogram b roi; threshold (b + 1) roi (16-bit: a 16-bit mask converted to
+//          8 bits, 2b + 3) | adaptive 13 roi (box filter: image read, 4-byte row sums written
 //          and read, the mean written; then image and mean read, mask written) [16-bit: + 3 roi,
 //          the image converted to 8 bits first]; labelling with statistics 13 roi (mask read, labels written,
 //          read and written again); centroids 10 window (label read twice, class written
@@ -85,8 +85,8 @@ std::int64_t field_flops(const FrameShape& s);
 //          read: [Otsu: roi, the histogram's counts] + roi (labelling: each pixel's label
 //          decided) + window (each window pixel classified) + (2 margin + 1)^2 scanned (the
 //          labels of a background window pixel's neighbourhood; in the caches, so not in N_CC)
-//   cpu_footprint = roi (b + 1 + 4) [adaptive: + 1 roi, the mean, + 1 roi for the 16-bit
-//          image's 8-bit copy] + the fields' bytes: the frame, the
+//   cpu_footprint = roi (b + 1 + 4) [+ 2 roi for the 16-bit mask | adaptive: + 1 roi, the
+//          mean, + 1 roi for the 16-bit image's 8-bit copy] + the fields' bytes: the frame, the
 //          mask and the labels, the working set the model weighs against the cache
 CostCounts cpu_counts(const FrameShape& s, int threads);
 
