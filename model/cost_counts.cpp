@@ -54,6 +54,7 @@ const std::vector<CountField>& count_fields() {
       {"N_CS", &C::N_CS, "FLOPs", "of N_C, of one serial chain of dependent additions (a plain sum)", A::sum, &C::N_C},
       {"N_CC", &C::N_CC, "values", "through host memory by CPU work"},
       {"tree_steps", &C::tree_steps, "steps", "of host k-d tree builds and searches"},
+      {"pixel_steps", &C::pixel_steps, "steps", "of host scalar pixel loops: pixels visited, neighbourhood labels read"},
       {"net_messages", &C::net_messages, "messages", "sent by one process to others (MPI)"},
       {"net_bytes", &C::net_bytes, "bytes", "of those messages' payloads"},
       {"cpu_syncs", &C::cpu_syncs, "syncs", "of the CPU threads: forks, joins, barriers"},

@@ -80,6 +80,11 @@ struct CostCounts {
   std::int64_t tree_steps = 0;    // steps of the CPU's k-d tree work (a point placed at one level of a build,
                                   // a level descended or a leaf point examined by a search): irregular
                                   // host work that no FLOP rate prices (latency+, L_tree each)
+  std::int64_t pixel_steps = 0;   // steps of the CPU's scalar pixel work, one per pixel a scalar loop
+                                  // visits (a histogram's count, a label decided, a window pixel
+                                  // classified) and per label a neighbourhood scan reads: branchy
+                                  // work on data in the caches that no FLOP rate or bandwidth prices
+                                  // (latency+, L_pixel each)
   std::int64_t cpu_syncs = 0;     // times the CPU threads start together or wait for each other
                                   // (a parallel region's fork and join, a barrier)
   std::int64_t net_messages = 0;  // messages one process sends to others (MPI; L_net each)

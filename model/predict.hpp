@@ -55,6 +55,7 @@ struct Prediction {
   double lat_atomic = 0;  // atomics x one serialized atomic update (device component)
   double lat_wait = 0;   // host_waits x host round trip to the device (in the total only)
   double lat_tree = 0;   // tree_steps x one step of host k-d tree work (CPU component, latency+)
+  double lat_pixel = 0;  // pixel_steps x one step of host scalar pixel work (CPU component, latency+)
   double dt_GS = 0;      // shared-memory tile fills, P N_GS / B_GS (latency+; device component)
   double lat_net = 0;    // net_messages x L_net: messages between processes (latency+; total only)
   double dt_net = 0;     // net_bytes / B_net: their bytes (total only)

@@ -68,6 +68,7 @@ const std::vector<ParamInfo>& all_params() {
       {Param::B_peer, "B_peer", "B/s", "bandwidth of a point-to-point message between two GPUs (NCCL send/recv of large messages)"},
       {Param::L_allreduce, "L_allreduce", "s", "one all-reduce across the GPUs (NCCL, a small message)"},
       {Param::B_allreduce, "B_allreduce", "B/s", "bytes per GPU per second of an all-reduce across the GPUs (NCCL, large messages)"},
+      {Param::L_pixel, "L_pixel", "s", "one step of host scalar pixel work: a pixel counted into a histogram, labelled, classified, or a label of its neighbourhood read"},
   };
   return table;
 }
@@ -118,6 +119,7 @@ bool device_param(Param p) {
     case Param::K_CW_all:
     case Param::K_CA_all:
     case Param::L_tree:
+    case Param::L_pixel:
     case Param::L_net:
     case Param::B_net:
       return false;

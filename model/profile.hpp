@@ -63,6 +63,7 @@ enum class Param {
   B_peer,          // bandwidth of a point-to-point message between two GPUs (NCCL)         [B/s]
   L_allreduce,     // one all-reduce across the GPUs (NCCL, a small message)                 [s]
   B_allreduce,     // bytes per second an all-reduce moves per GPU (NCCL, large messages)    [B/s]
+  L_pixel,         // one step of host scalar pixel work (pixel_steps)                      [s]
 };
 
 struct ParamInfo {

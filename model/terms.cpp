@@ -285,6 +285,8 @@ const std::vector<Term>& terms() {
        per_event<&C::cpu_syncs, only<Param::L_sync>>()},
       {"lat_tree", &P::lat_tree, Phase::C, kLatencyVariants, sum, "tree_steps", "L_tree", "host k-d tree steps",
        per_event<&C::tree_steps, only<Param::L_tree>>()},
+      {"lat_pixel", &P::lat_pixel, Phase::C, kLatencyVariants, sum, "pixel_steps", "L_pixel",
+       "host scalar pixel steps", per_event<&C::pixel_steps, only<Param::L_pixel>>()},
       {"lat_wait", &P::lat_wait, Phase::wait, kLatencyVariants, sum, "host_waits", "L_wait",
        "host waits for the device", per_event<&C::host_waits, only<Param::L_wait>>()},
       {"lat_net", &P::lat_net, Phase::net, kLatencyVariants, sum, "net_messages", "L_net",

@@ -330,6 +330,48 @@ TEST(Predict, ThreadSyncsWavesAndHostWaitsAreFixedCostsOfTheLatencyVariants) {
   }
 }
 
+TEST(Predict, PixelAndTreeStepsAreFixedCostsOfTheCpuPhaseInTheLatencyVariants) {
+  auto m = test::round_profile();
+  m.set(Param::L_pixel, {1.5e-9, Provenance::fitted, {}, {}, ""});
+  m.set(Param::L_tree, {40e-9, Provenance::fitted, {}, {}, ""});
+  CostCounts c;
+  c.P = 8;
+  c.precision = Precision::fp64;
+  c.N_C = 1'000'000;
+  c.pixel_steps = 2'000'000;  // 2e6 x 1.5 ns = 3 ms
+  c.tree_steps = 50'000;      // 5e4 x 40 ns = 2 ms
+  const double arith = 1e6 / m.get(Param::V_C1_fp64).value;
+  // The seed has neither: its CPU time is its FLOPs.
+  const auto seed = predict(m, c, Variant::seed);
+  EXPECT_EQ(seed.lat_pixel, 0);
+  EXPECT_NEAR(seed.total, arith, 1e-15);
+  const auto seed_needs = required_params(c, Variant::seed, 0);
+  EXPECT_EQ(std::count(seed_needs.begin(), seed_needs.end(), Param::L_pixel), 0);
+  const auto latency_needs = required_params(c, Variant::latency, 0);
+  EXPECT_EQ(std::count(latency_needs.begin(), latency_needs.end(), Param::L_pixel), 1);
+  for (auto v : {Variant::latency, Variant::memory, Variant::extended}) {
+    const auto p = predict(m, c, v);
+    EXPECT_NEAR(p.lat_pixel, 3e-3, 1e-15) << to_string(v);
+    EXPECT_NEAR(p.lat_tree, 2e-3, 1e-15) << to_string(v);
+    // CPU time, added (not overlapped, not even in extended) to the arithmetic.
+    EXPECT_NEAR(p.dt_C, arith + 5e-3, 1e-15) << to_string(v);
+    EXPECT_NEAR(p.total, arith + 5e-3, 1e-15) << to_string(v);
+  }
+  // Fitted, not probed: a profile without it names it and sends the user to the calibration.
+  auto without = m;
+  without.erase(Param::L_pixel);
+  try {
+    predict(without, c, Variant::latency);
+    FAIL() << "expected MissingParameter";
+  } catch (const MissingParameter& e) {
+    EXPECT_NE(std::string(e.what()).find("L_pixel"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(predict(without, c, Variant::seed));
+  // Counts without pixel steps need no L_pixel.
+  c.pixel_steps = 0;
+  EXPECT_NO_THROW(predict(without, c, Variant::memory));
+}
+
 TEST(Predict, PageableMemoryUsesPageableFigures) {
   const auto m = test::round_profile();
   auto c = sample_counts();

@@ -88,6 +88,21 @@ TEST(CpuProbes, WindowGivesBothCostRatios) {
   EXPECT_LT(chain->value, 1e11);
 }
 
+TEST(CpuProbes, PixelGivesOneStepOfScalarPixelWork) {
+  ProbeOptions o;
+  o.effort = Effort::smoke;
+  const ProbeReport r = probe("cpu-pixel").run(o);
+  expect_sane(r);
+  const auto* m = find(r, Param::L_pixel);
+  ASSERT_NE(m, nullptr);
+  // A step is a load, a compare and a branch or two: more than a tenth of a nanosecond (no CPU
+  // retires a step of a dependent histogram count in under a cycle at 10 GHz), less than a cache
+  // miss to memory (100 ns).
+  EXPECT_GT(m->value, 1e-10);
+  EXPECT_LT(m->value, 1e-7);
+  EXPECT_EQ(m->stats.n, 3u);  // the smoke plan's repetitions
+}
+
 TEST(Identity, DescribesThisCpu) {
   const CpuInfo c = cpu_info();
   EXPECT_FALSE(c.model.empty());

@@ -78,18 +78,28 @@ double otsu_threshold(const std::vector<std::int64_t>& h) {
 }
 
 cv::Mat threshold_image(const cv::Mat& image, const AnalysisOptions& o, double* used) {
+  AnalysisBuffers b;
+  threshold_into(image, o, b, used);
+  return b.mask;
+}
+
+void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuffers& buf, double* used) {
   const bool dark = o.polarity == Polarity::dark_dots;
   const bool wide = image.depth() == CV_16U;
-  cv::Mat mask;
+  cv::Mat& mask = buf.mask;
   double T = 0;  // native: dark dots are v <= T, light dots v > T
   if (o.method == ThresholdMethod::adaptive) {
     cv::Mat img8;
-    if (wide) image.convertTo(img8, CV_8U, 1.0 / 257);
-    else img8 = image;
+    if (wide) {
+      image.convertTo(buf.wide, CV_8U, 1.0 / 257);
+      img8 = buf.wide;
+    } else {
+      img8 = image;
+    }
     cv::adaptiveThreshold(img8, mask, 255, cv::ADAPTIVE_THRESH_MEAN_C, dark ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY,
                           o.adaptive_block, dark ? o.adaptive_c : -o.adaptive_c);
     if (used) *used = -1;
-    return mask;
+    return;
   }
   if (o.method == ThresholdMethod::otsu) {
     std::vector<std::int64_t> h(256, 0);
@@ -107,10 +117,13 @@ cv::Mat threshold_image(const cv::Mat& image, const AnalysisOptions& o, double* 
   } else {
     T = wide ? std::floor(o.threshold * 257) : std::floor(o.threshold);
   }
-  cv::threshold(image, mask, T, 255, dark ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
-  if (wide) mask.convertTo(mask, CV_8U);
+  if (wide) {
+    cv::threshold(image, buf.wide, T, 255, dark ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
+    buf.wide.convertTo(mask, CV_8U);
+  } else {
+    cv::threshold(image, mask, T, 255, dark ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
+  }
   if (used) *used = T;
-  return mask;
 }
 
 namespace {
@@ -183,7 +196,7 @@ void centroid_of(const cv::Mat& img, const cv::Mat& labels, cv::Rect roi, int id
 
 }  // namespace
 
-AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threads) {
+AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threads, AnalysisBuffers* buffers) {
   if (image.empty() || image.channels() != 1 || (image.depth() != CV_8U && image.depth() != CV_16U))
     throw InputError("the image must be one-channel 8- or 16-bit grey (convert colour images first)");
   validate(o, image.size());
@@ -195,9 +208,14 @@ AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threa
 
   std::unique_lock lock(opencv_threads_mutex);
   ThreadScope scope(std::max(1, threads));
-  const cv::Mat mask = threshold_image(view, o, &r.stats.threshold);
-  cv::Mat labels, stats, cents;
-  const int n = cv::connectedComponentsWithStats(mask, labels, stats, cents, 8, CV_32S, cv::CCL_DEFAULT);
+  AnalysisBuffers local;
+  AnalysisBuffers& buf = buffers ? *buffers : local;
+  threshold_into(view, o, buf, &r.stats.threshold);
+  const cv::Mat& mask = buf.mask;
+  const cv::Mat& labels = buf.labels;
+  const cv::Mat& stats = buf.stats;
+  const int n =
+      cv::connectedComponentsWithStats(mask, buf.labels, buf.stats, buf.centroids, 8, CV_32S, cv::CCL_DEFAULT);
   r.stats.components = n - 1;
   for (int id = 1; id < n; ++id) r.stats.foreground_pixels += stats.at<int>(id, cv::CC_STAT_AREA);
 

@@ -66,12 +66,29 @@ struct AnalysisResult {
   AnalysisStats stats;
 };
 
+// The frame-sized images of one analysis (the mask, its 16-bit or 8-bit intermediate and the
+// labels). A pipeline keeps one across frames, as a camera's would: frames of one size then
+// reuse them instead of allocating ~5-7 bytes per pixel each frame. (Allocations above glibc's
+// 32 MiB mmap limit, the labels of a frame over 8 MP, come fresh from the kernel every time:
+// on the 2-vCPU VM their page faults added ~2 ns a pixel to frames over 8 MP and nothing
+// below; docs/PERFORMANCE.md, DCT calibration.)
+struct AnalysisBuffers {
+  cv::Mat wide;    // 16-bit frames: the 16-bit mask (fixed, Otsu) or the 8-bit copy (adaptive)
+  cv::Mat mask;    // 8-bit mask, 255 = dot pixel
+  cv::Mat labels;  // 32-bit component labels
+  cv::Mat stats, centroids;
+};
+
 // `threads` = 1: sequential (OpenCV's sequential labelling, one thread); > 1: OpenCV's
-// parallel labelling and centroids on `threads` threads.
-AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threads = 1);
+// parallel labelling and centroids on `threads` threads. `buffers`: the images to reuse (null:
+// allocated for this call).
+AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threads = 1,
+                       AnalysisBuffers* buffers = nullptr);
 
 // The binary mask (255 = dot pixel) and the threshold used, for inspection and tests.
 cv::Mat threshold_image(const cv::Mat& image, const AnalysisOptions& o, double* used = nullptr);
+// The same into `b.mask` (b.wide holds the 16-bit intermediate).
+void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuffers& b, double* used = nullptr);
 
 // Otsu's threshold of an 8- or 16-bit image, from a 256-bin histogram of the 8-bit scale
 // (16-bit values are divided by 257 first), in native grey levels. Shared with the device.

@@ -129,7 +129,7 @@ class CpuBackend final : public Backend {
     const PipelineOptions& opt = st.options();
     FrameOutput out;
     double t0 = now();
-    AnalysisResult r = analyze(frame, opt.analysis, threads_);
+    AnalysisResult r = analyze(frame, opt.analysis, threads_, &buffers_);
     double t1 = now();
     out.seconds["analysis"] = t1 - t0;
     out.dots = std::move(r.dots);
@@ -154,6 +154,7 @@ class CpuBackend final : public Backend {
  private:
   bool parallel_;
   int threads_ = 1;
+  AnalysisBuffers buffers_;  // the frames' mask and labels, reused (analysis.hpp)
 };
 
 std::unique_ptr<Backend> make_cpu_seq(const PipelineOptions& o) { return std::make_unique<CpuBackend>(o, false); }

@@ -130,6 +130,17 @@ std::int64_t field_values(const FrameShape& s) {
   if (s.interp == Interp::fe) return 17 * s.support_entries + 12 * s.points + 8 * s.points;
   return 5 * s.support_entries + 8 * s.points;
 }
+// The same on the CPU, streamed values only: a value gathered by a dot's or a triangle's index
+// (a support dot's reference position and displacement; a recovery triangle's dots, gradients and
+// vertex displacements) comes from a table of a few dots' or triangles' size that stays in the
+// caches, like the labels of a window's neighbourhood scan, and is no host memory traffic. MLS:
+// per support entry its dot's index (1), per point 2 position, 1 radius, 5 outputs (8). FE: per
+// support entry its triangle's index and coefficient (2), per point its triangle's 3 dots, 3
+// shape functions and 8 outputs (14).
+std::int64_t cpu_field_values(const FrameShape& s) {
+  if (s.interp == Interp::fe) return 2 * s.support_entries + 14 * s.points;
+  return s.support_entries + 8 * s.points;
+}
 }  // namespace
 
 CostCounts cpu_counts(const FrameShape& s, int threads) {
@@ -141,11 +152,13 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
   const std::int64_t scan = static_cast<std::int64_t>(2 * s.margin + 1) * (2 * s.margin + 1);
   const std::int64_t threshold = s.adaptive ? 13 + (b == 2 ? 3 : 0) : b == 2 ? 2 * b + 3 : b + 1;
   const std::int64_t bytes = (s.otsu ? b : 0) * s.roi_pixels + threshold * s.roi_pixels + 13 * s.roi_pixels +
-                             10 * s.window_pixels + 4 * scan * s.scanned_pixels +
-                             b * (s.ring_pixels + s.weighted_pixels) + 8 * field_values(s);
+                             10 * s.window_pixels + b * (s.ring_pixels + s.weighted_pixels) + 8 * cpu_field_values(s);
   c.N_CC = (bytes + 7) / 8;
+  // The scalar pixel loops (docs/model.md 2.6): Otsu's histogram, the labelling, the windows'
+  // classification and the labels each background window pixel's neighbourhood scan reads.
+  c.pixel_steps = (s.otsu ? s.roi_pixels : 0) + s.roi_pixels + s.window_pixels + scan * s.scanned_pixels;
   const std::int64_t extra = s.adaptive ? 1 + (b == 2 ? 1 : 0) : (b == 2 ? 2 : 0);
-  c.cpu_footprint = s.roi_pixels * (b + 1 + 4 + extra) + 8 * field_values(s);
+  c.cpu_footprint = s.roi_pixels * (b + 1 + 4 + extra) + 8 * cpu_field_values(s);
   c.cpu_threads = threads < 1 ? 1 : threads;
   c.tree_steps = s.tree_steps;  // the matching, on one thread
   return c;

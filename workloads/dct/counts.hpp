@@ -75,9 +75,16 @@ std::int64_t field_flops(const FrameShape& s);
 //          and read, the mean written; then image and mean read, mask written) [16-bit: + 3 roi,
 //          the image converted to 8 bits first]; labelling with statistics 13 roi (mask read, labels written,
 //          read and written again); centroids 10 window (label read twice, class written
-//          and read) + 4 (2 margin + 1)^2 scanned + b (ring + weighted); fields 8 x (MLS:
-//          5 sum(l_m) + 8 n_m | FE: 12 n_m + 8 n_m) (5 per support entry: index, X, Y, U_x,
-//          U_y; 8 per point: 2 position, 1 radius, 5 outputs; FE: 3 indices + 9 coefficients)
+//          and read) + b (ring + weighted); fields 8 x the values streamed (MLS:
+//          sum(l_m) + 8 n_m: a support entry's dot index; 2 position, 1 radius, 5 outputs a
+//          point | FE: 2 sum(l_m) + 14 n_m: a recovery triangle's index and coefficient; a
+//          point's 3 triangle dots, 3 shape functions, 8 outputs). Values gathered by a dot's or
+//          triangle's index (positions, displacements, gradients) come from tables that stay in
+//          the caches and are not counted (counts.cpp, cpu_field_values)
+//   pixel_steps = the scalar pixel loops, one step per pixel visited and per neighbourhood label
+//          read: [Otsu: roi, the histogram's counts] + roi (labelling: each pixel's label
+//          decided) + window (each window pixel classified) + (2 margin + 1)^2 scanned (the
+//          labels of a background window pixel's neighbourhood; in the caches, so not in N_CC)
 //   cpu_footprint = roi (b + 1 + 4) [+ 2 roi for the 16-bit mask | adaptive: + 1 roi, the
 //          mean, + 1 roi for the 16-bit image's 8-bit copy] + the fields' bytes: the frame, the
 //          mask and the labels, the working set the model weighs against the cache

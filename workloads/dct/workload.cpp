@@ -177,7 +177,15 @@ class Run final : public wl::Run {
               {"points", pipe_->points().size()},
               {"support_entries", shape_.support_entries},
               {"window_pixels", shape_.window_pixels},
-              {"components", shape_.components}};
+              {"components", shape_.components},
+              // The rest of the declared shape, for reading a store's costs apart (docs/dct.md).
+              {"shape", {{"roi_pixels", shape_.roi_pixels},
+                         {"bytes_per_pixel", shape_.bytes_per_pixel},
+                         {"foreground_pixels", shape_.foreground_pixels},
+                         {"ring_pixels", shape_.ring_pixels},
+                         {"weighted_pixels", shape_.weighted_pixels},
+                         {"scanned_pixels", shape_.scanned_pixels},
+                         {"tree_steps", shape_.tree_steps}}}};
     if (ran_) {
       std::int64_t valid = 0;
       for (const auto& f : last_.fields) valid += f.status == PointStatus::ok;
@@ -381,6 +389,8 @@ class DctWorkload final : public wl::Workload {
         {"seed-points", "the seed's plate with 40 dots per support and 384..2048 points (8 grids)"},
         {"image-sizes", "stills of 2 to 24 MP (1920x1080 .. 6000x4000) with 560..1611 dots growing with the image, "
                         "2048 points, 60 dots per support (6 configurations)"},
+        {"image-kinds", "the stills of image-sizes as 16-bit frames (MLS), and as 8-bit and 16-bit frames with few "
+                        "dots (150) and FE (18 configurations)"},
     };
   }
 
@@ -414,6 +424,29 @@ class DctWorkload final : public wl::Workload {
                          {"radius", std::round(10 + f * 14)},
                          {"points", "64x32"},
                          {"support", 60}});
+      }
+    } else if (spec == "image-kinds") {
+      // What the other named plans leave out and random plans draw: 16-bit frames, and large
+      // frames whose time is their pixels (few dots) with FE's fields.
+      p.description = plan_names()[3].second;
+      const double mp0 = 1920.0 * 1080, mp1 = 6000.0 * 4000;
+      for (const Still& s : kStills) {
+        const double f = (static_cast<double>(s.w * s.h) - mp0) / (mp1 - mp0);
+        const double radius = std::round(10 + f * 14);
+        given.push_back({{"size", size_text(s.w, s.h)},
+                         {"dots", std::llround(560 + f * (1611 - 560))},
+                         {"radius", radius},
+                         {"points", "64x32"},
+                         {"support", 60},
+                         {"bits", "16"}});
+        for (const char* bits : {"8", "16"})
+          given.push_back({{"size", size_text(s.w, s.h)},
+                           {"dots", 150},
+                           {"radius", radius},
+                           {"points", "32x32"},
+                           {"support", 40},
+                           {"interp", "fe"},
+                           {"bits", bits}});
       }
     } else if (spec.rfind("random:", 0) == 0) {
       const std::int64_t n = random_plan_size(spec);
@@ -676,6 +709,8 @@ std::string counts_difference(const CostCounts& d, const CostCounts& m) {
   differ(out, "N_G", d.N_G, m.N_G);
   differ(out, "N_CC", d.N_CC, m.N_CC);
   differ(out, "cpu_footprint", d.cpu_footprint, m.cpu_footprint);
+  differ(out, "pixel_steps", d.pixel_steps, m.pixel_steps);
+  differ(out, "tree_steps", d.tree_steps, m.tree_steps);
   differ(out, "transfers_CG", d.transfers_CG, m.transfers_CG);
   differ(out, "transfers_GC", d.transfers_GC, m.transfers_GC);
   differ(out, "launches", d.launches, m.launches);

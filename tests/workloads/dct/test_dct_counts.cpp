@@ -37,11 +37,15 @@ TEST(DctCounts, CpuMatchesFormulas) {
   const CostCounts c = cpu_counts(s, 16);
   // 14 ring + 11 weighted + (44 + 4) per dot + 2 per dot + 341 per support entry + 207 per point.
   EXPECT_EQ(c.N_C, 14LL * 2'000'000 + 11LL * 4'500'000 + 48LL * 1600 + 2LL * 1600 + 341LL * 2048 * 60 + 221LL * 2048);
-  // Bytes: Otsu 1 + threshold 2 + labelling 13 per analysed pixel, 10 per window pixel, 25
-  // labels of 4 bytes per scanned pixel, a byte per ring or weighted pixel, 8 per field value.
-  EXPECT_EQ(c.N_CC, (16LL * 20'000'000 + 10LL * 7'000'000 + 100LL * 2'500'000 + 6'500'000 +
-                     8 * (5LL * 2048 * 60 + 8LL * 2048)) / 8);
-  EXPECT_EQ(c.cpu_footprint, 6LL * 20'000'000 + 8 * (5LL * 2048 * 60 + 8LL * 2048));
+  // Bytes: Otsu 1 + threshold 2 + labelling 13 per analysed pixel, 10 per window pixel, a byte
+  // per ring or weighted pixel, 8 per field value streamed: a support entry's dot index, a
+  // point's position, radius and 5 outputs (the dots' positions and displacements are gathered
+  // from the caches).
+  EXPECT_EQ(c.N_CC, (16LL * 20'000'000 + 10LL * 7'000'000 + 6'500'000 + 8 * (1LL * 2048 * 60 + 8LL * 2048)) / 8);
+  // Scalar pixel steps: Otsu's histogram and the labelling, a step each per analysed pixel; one
+  // per window pixel classified; the 5 x 5 labels read around each scanned pixel (margin 2).
+  EXPECT_EQ(c.pixel_steps, 2LL * 20'000'000 + 7'000'000 + 25LL * 2'500'000);
+  EXPECT_EQ(c.cpu_footprint, 6LL * 20'000'000 + 8 * (1LL * 2048 * 60 + 8LL * 2048));
   EXPECT_EQ(c.P, 8);
   EXPECT_EQ(c.precision, Precision::fp64);
   EXPECT_EQ(c.cpu_threads, 16);
@@ -51,6 +55,12 @@ TEST(DctCounts, CpuMatchesFormulas) {
   FrameShape w = s;
   w.bytes_per_pixel = 2;
   EXPECT_EQ(cpu_counts(w, 1).N_CC - c.N_CC, (20'000'000LL * (2 - 1) + 20'000'000LL * (7 - 2) + 6'500'000) / 8);
+  // ... and the same scalar steps: a 16-bit pixel is counted and labelled once, like an 8-bit one.
+  EXPECT_EQ(cpu_counts(w, 1).pixel_steps, c.pixel_steps);
+  // A wider centroid margin reads (2 margin + 1)^2 labels per scanned pixel.
+  FrameShape m3 = s;
+  m3.margin = 3;
+  EXPECT_EQ(cpu_counts(m3, 1).pixel_steps, 2LL * 20'000'000 + 7'000'000 + 49LL * 2'500'000);
 }
 
 TEST(DctCounts, CudaMatchesFormulas) {
@@ -70,6 +80,7 @@ TEST(DctCounts, CudaMatchesFormulas) {
                         6 * 1600 + 5 * 2048 * 60 + 8 * 2048 + rv + 512);
   EXPECT_EQ(c.N_G, cpu_counts(s, 1).N_C);  // the same arithmetic, in float32
   EXPECT_EQ(c.N_C, 0);
+  EXPECT_EQ(c.pixel_steps, 0);  // the pixel work is the device's
   EXPECT_EQ(c.launches, 11);
   EXPECT_EQ(c.P, 4);
   EXPECT_EQ(c.host_memory, HostMemory::pinned);
@@ -83,6 +94,15 @@ TEST(DctCounts, CudaMatchesFormulas) {
   // scaling (5), the Green-Lagrange strain (16).
   EXPECT_EQ(f.N_G, 14LL * 2'000'000 + 11LL * 4'500'000 + 50LL * 1600 + 29LL * 2048 * 90 + 31LL * 2048);
   EXPECT_EQ(f.host_memory, HostMemory::pageable);
+  // On the CPU, FE streams a recovery triangle's index and coefficient per support entry and a
+  // point's 3 triangle dots, 3 shape functions and 8 outputs; the triangles' dots, gradients and
+  // displacements are gathered from the caches. (On the device every value goes through global
+  // memory: 17 per entry, 20 per point, in N_GG.)
+  const CostCounts fc = cpu_counts(s, 1);
+  EXPECT_EQ(fc.N_CC, (2LL * 20'000'000 + 13LL * 20'000'000 + 10LL * 7'000'000 + 6'500'000 +
+                      8 * (2LL * 2048 * 90 + 14LL * 2048)) / 8);
+  EXPECT_EQ(f.N_GG, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + 2 * 7'000'000 + 2 * 4'500'000 +
+                        6 * 1600 + 17 * 2048 * 90 + 20 * 2048);
   // 16-bit frames: twice the bytes uploaded.
   s.bytes_per_pixel = 2;
   EXPECT_EQ(cuda_counts(s, HostMemory::pinned).N_CG, 20'000'000 / 2 + 1600);
@@ -123,9 +143,8 @@ TEST(DctCounts, ThresholdMethodsArePriced) {
   const FrameShape otsu = hand_shape();
   const std::int64_t roi = 20'000'000;
   // The rest of the frame's bytes (hand_shape, CpuMatchesFormulas): labelling 13 per analysed
-  // pixel, 10 per window pixel, 100 per scanned pixel, the ring and weighted pixels, the fields.
-  const std::int64_t rest = 13LL * roi + 10LL * 7'000'000 + 100LL * 2'500'000 + 6'500'000 +
-                            8 * (5LL * 2048 * 60 + 8LL * 2048);
+  // pixel, 10 per window pixel, the ring and weighted pixels, the fields.
+  const std::int64_t rest = 13LL * roi + 10LL * 7'000'000 + 6'500'000 + 8 * (1LL * 2048 * 60 + 8LL * 2048);
   const std::int64_t flops = cpu_counts(otsu, 1).N_C;
   // Otsu: histogram 1 + threshold 2 bytes per pixel.
   EXPECT_EQ(cpu_counts(otsu, 1).N_CC, (3 * roi + rest) / 8);
@@ -135,6 +154,8 @@ TEST(DctCounts, ThresholdMethodsArePriced) {
   EXPECT_EQ(cpu_counts(fixed, 1).N_CC, (2 * roi + rest) / 8);
   EXPECT_EQ(cpu_counts(fixed, 1).N_C, flops);
   EXPECT_EQ(cpu_counts(fixed, 1).cpu_footprint, cpu_counts(otsu, 1).cpu_footprint);
+  // ... and no histogram steps: one step per analysed pixel (the labelling) less.
+  EXPECT_EQ(cpu_counts(otsu, 1).pixel_steps - cpu_counts(fixed, 1).pixel_steps, roi);
   // Adaptive: box filter (1 read, 4 + 4 row sums, 1 mean written) and the comparison (2 read,
   // 1 written): 13 bytes a pixel; 5 operations a pixel; the mean adds a byte a pixel to the
   // working set.
@@ -143,13 +164,14 @@ TEST(DctCounts, ThresholdMethodsArePriced) {
   EXPECT_EQ(cpu_counts(adaptive, 1).N_CC, (13 * roi + rest) / 8);
   EXPECT_EQ(cpu_counts(adaptive, 1).N_C, flops + 5 * roi);
   EXPECT_EQ(cpu_counts(adaptive, 1).cpu_footprint, cpu_counts(otsu, 1).cpu_footprint + roi);
+  EXPECT_EQ(cpu_counts(adaptive, 1).pixel_steps, cpu_counts(fixed, 1).pixel_steps);  // vector loops: no scalar steps
   // 16-bit adaptive: converted to 8 bits first (2 read, 1 written, a multiply), the 8-bit copy
   // in the working set; the rest of the frame reads the 16-bit ring and weighted pixels.
   FrameShape wide = adaptive;
   wide.bytes_per_pixel = 2;
   EXPECT_EQ(cpu_counts(wide, 1).N_CC, (16 * roi + rest + 6'500'000) / 8);
   EXPECT_EQ(cpu_counts(wide, 1).N_C, flops + 6 * roi);
-  EXPECT_EQ(cpu_counts(wide, 1).cpu_footprint, roi * (2 + 1 + 4 + 2) + 8 * (5LL * 2048 * 60 + 8LL * 2048));
+  EXPECT_EQ(cpu_counts(wide, 1).cpu_footprint, roi * (2 + 1 + 4 + 2) + 8 * (1LL * 2048 * 60 + 8LL * 2048));
   // cuda: a fixed threshold drops the histogram and Otsu kernels, the histogram's read and the
   // threshold's copy back.
   const CostCounts g = cuda_counts(otsu, HostMemory::pinned), f = cuda_counts(fixed, HostMemory::pinned);

@@ -450,6 +450,28 @@ TEST(DctPlans, NamedPlansHoldTheSeedsSizes) {
   EXPECT_EQ(wl::get_size2(img.configs.back(), "size"), (std::pair<std::int64_t, std::int64_t>{6000, 4000}));
   for (std::size_t i = 1; i < img.configs.size(); ++i)
     EXPECT_GT(wl::get_int(img.configs[i], "dots"), wl::get_int(img.configs[i - 1], "dots"));
+  // image-kinds: each still as a 16-bit MLS frame like image-sizes', and as 8- and 16-bit frames of
+  // 150 dots with FE (what the other named plans leave to the random ones).
+  const auto kinds = W().plan("image-kinds", b, 1);
+  ASSERT_EQ(kinds.configs.size(), 18u);
+  int wide_mls = 0, fe8 = 0, fe16 = 0;
+  for (std::size_t i = 0; i < kinds.configs.size(); ++i) {
+    const auto& c = kinds.configs[i];
+    const auto& still = img.configs[i / 3];
+    EXPECT_EQ(wl::get_size2(c, "size"), wl::get_size2(still, "size")) << i;
+    EXPECT_EQ(wl::get_real(c, "radius"), wl::get_real(still, "radius")) << i;
+    const bool fe = wl::get_text(c, "interp") == "fe", wide = wl::get_text(c, "bits") == "16";
+    if (!fe && wide) {
+      ++wide_mls;
+      EXPECT_EQ(wl::get_int(c, "dots"), wl::get_int(still, "dots")) << i;
+    } else if (fe) {
+      (wide ? fe16 : fe8) += 1;
+      EXPECT_EQ(wl::get_int(c, "dots"), 150) << i;
+    }
+  }
+  EXPECT_EQ(wide_mls, 6);
+  EXPECT_EQ(fe8, 6);
+  EXPECT_EQ(fe16, 6);
   // Every named plan is described for --help.
   for (const auto& [name, what] : W().plan_names()) {
     EXPECT_FALSE(W().plan(name, b, 1).description.empty()) << name;
