@@ -69,6 +69,10 @@ struct ResidentPlan {
   int xtile_w = 0, xtile_h = 0;
   std::int64_t xblocks_x = 0, xblocks_y = 0;
   std::size_t xsmem_bytes = 0;
+  // split only: the passes' chunks of taps (resident_geometry.hpp); 0 taps: the whole kernel in
+  // one chunk, as when it fits
+  int x_chunk = 0, x_chunks = 1;
+  int y_chunk = 0, y_chunks = 1;
   std::int64_t blocks() const { return blocks_x * blocks_y; }
   std::int64_t xblocks() const { return xblocks_x * xblocks_y; }
 };
@@ -76,7 +80,10 @@ struct ResidentPlan {
 inline constexpr std::size_t kMaxSharedBytes = 232448;
 // Throws InputError, saying which rule the layout breaks, for an invalid layout: block_x a
 // multiple of 8 in [8, 1024]; block_x x block_y a multiple of 32, at most 1024;
-// cells_per_thread one of 1, 2, 4, 8, 16; the tile's shared memory within `max_shared`.
+// cells_per_thread one of 1, 2, 4, 8, 16; an explicitly fused tile's shared memory within
+// `max_shared`. A split pass whose tile for the whole kernel would not fit `max_shared` walks
+// the kernel in chunks of taps (resident_geometry.hpp, pass_chunk), so split (and automatic)
+// layouts run any kernel the grid holds.
 ResidentPlan resident_plan(const Shape& s, const Layout& layout, std::size_t max_shared = kMaxSharedBytes);
 
 // cuda-resident, float32, one steady-state step inside a run (see cuda_resident.cu), on a GPU
