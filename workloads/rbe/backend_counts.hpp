@@ -105,9 +105,11 @@ ResidentPlan resident_plan(const Shape& s, const Layout& layout, std::size_t max
 // occ blocks at once (resident::blocks_per_sm, from the kernel's register bound, its shared
 // memory and the 1 KiB reserved per block), so the busiest one fills ceil(q(B) / occ) rounds:
 //   fused: N_GS = ceil(q(B) / occ) S [(H + I_y - 1) (W + kx) + kx + ky]
-//   split: N_GS = ceil(q(B_x) / occ_x) S [H_x (128 + kx) + kx] + ceil(q(B) / occ_y) S [u_rows W + ky]
+//   split: N_GS = ceil(q(B_x) / occ_x) S c_x [H_x (128 + kx) + kx] + ceil(q(B) / occ_y) S c_y [u_rows W + ky]
 // with kx = 8 ceil(I_x / 8), ky = the y coefficients padded (resident_geometry.hpp), u_rows =
-// H + R ceil(I_y / R). Atomics: every block of the correcting kernel (fused, or the split y-pass)
+// H + R ceil(I_y / R), c_x = c_y = 1; a pass chunked over the kernel's taps (its whole-kernel
+// tile too large for shared memory: ResidentPlan::x_chunk, y_chunk) fills c chunks, each with
+// kx (or ky) = the chunk's C taps and 128 + C columns (or u_rows = H + C rows). Atomics: every block of the correcting kernel (fused, or the split y-pass)
 // adds its share of S_k to the one sum in device memory: atomics = B. N_GR = 0: every tap reads
 // the block's shared-memory tile. Throws InputError when sms < 1.
 CostCounts cuda_resident_counts(const Shape& s, const Layout& layout, int sms);

@@ -8,7 +8,9 @@
 //         block's share of S_k (float64) and add it atomically to S_k in device memory.
 //  split  rbe_resident_xpass (x-pass to a device buffer u), then rbe_resident_ypass<R> (y-pass
 //         from a shared u tile, correction and reduction as above); for kernels whose fused
-//         tile would not fit in shared memory.
+//         tile would not fit in shared memory. A pass whose own tile would not fit either (a
+//         kernel thousands of taps tall or wide) walks the kernel in chunks of taps, copying
+//         each chunk's tile and accumulating in registers (resident_geometry.hpp).
 //
 // The normalization is never a pass of its own: S_k stays on the device and the next step
 // scales by it. A run is captured into CUDA graphs (segments of up to kSegment steps), and
