@@ -254,8 +254,8 @@ TEST(RbeBackendCounts, CudaResidentSplitByHand) {
 }
 
 TEST(RbeBackendCounts, CudaResidentChunksAKernelTallerThanAnyTile) {
-  // The search-and-rescue team's fusion step at 4000 x 4000: a 75 x 4000 kernel, layout 32x8x16
-  // (y-pass tiles 32 x 128). The whole kernel's u tile would be 128 + 16 x 250 = 4128 rows of
+  // A kernel 4000 rows tall, as the search-and-rescue team's stretched steps need at 4000 x 4000
+  // (here 75 columns wide), layout 32x8x16 (y-pass tiles 32 x 128). The whole kernel's u tile would be 128 + 16 x 250 = 4128 rows of
   // pitch 36 and 4000 coefficients: 34 x 8 + 4 (4128 x 36 + 4000) = 610704 bytes, more than a
   // block may have, so the y-pass walks the kernel in chunks of C taps (a multiple of 16), the
   // most whose tile fits two blocks on a multiprocessor: 272 + 4 ((128 + C) 36 + C) <=
