@@ -109,5 +109,24 @@ TEST(CalibCupti, EveryGpuBackendsCountsMatchWhatCuptiSees) {
   EXPECT_GE(checked, 2);  // rbe's cuda-seed and cuda-resident at least
 }
 
+// cuda-resident's chunked split passes (a kernel taller, or wider, than any tile in shared
+// memory: the search-and-rescue team's stretched steps) launch the kernels and copy what its
+// counts declare.
+TEST(CalibCupti, CudaResidentChunkedPassesMatchWhatCuptiSees) {
+  DTFLOP_REQUIRE_GPU();
+  const workload::Workload* rbe = nullptr;
+  for (const workload::Workload* w : workload::all())
+    if (w->name() == "rbe") rbe = w;
+  ASSERT_NE(rbe, nullptr);
+  const workload::Backend* resident = nullptr;
+  for (const auto& b : rbe->backends())
+    if (b->name() == "cuda-resident") resident = b.get();
+  ASSERT_NE(resident, nullptr);
+  // The default layout with a 1499-row kernel (the y-pass in 3 chunks); layout 1024x1x1 with an
+  // 801 x 301 kernel (x-pass in 3 chunks, y-pass in 13).
+  check_backend(*rbe, *resident, {{"grid", {200, 1500}}, {"kernel", {9, 1499}}});
+  check_backend(*rbe, *resident, {{"grid", {1100, 320}}, {"kernel", {801, 301}}, {"layout", "1024x1x1"}});
+}
+
 }  // namespace
 }  // namespace dtflop::calib

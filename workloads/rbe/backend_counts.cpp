@@ -109,7 +109,6 @@ ResidentPlan resident_plan(const Shape& s, const Layout& l, std::size_t max_shar
   p.tile_h = l.block_y * R;
   p.blocks_y = (s.ny + p.tile_h - 1) / p.tile_h;
   const resident::TileGeometry fused = resident::fused_geometry(s, l);
-  const resident::TileGeometry ypass = resident::ypass_geometry(s, l);
   if (l.passes == Layout::Passes::fused) {
     if (fused.smem_bytes > max_shared)
       throw bad(fmt::format("the fused tile needs {} bytes of shared memory for a {}x{} kernel, more than "
@@ -138,15 +137,23 @@ ResidentPlan resident_plan(const Shape& s, const Layout& l, std::size_t max_shar
     return p;
   }
   p.blocks_x = (s.nx + p.tile_w - 1) / p.tile_w;
+  // A pass whose whole-kernel tile does not fit walks the kernel in chunks of taps.
+  p.y_chunk = resident::pass_chunk([&](int c) { return resident::ypass_geometry(s, l, c); }, s.Iy,
+                                   resident::ypass_chunk_step(l), max_shared);
+  p.x_chunk = resident::pass_chunk([&](int c) { return resident::xpass_geometry(s, l, c); }, s.Ix,
+                                   resident::kXpassChunkStep, max_shared);
+  const resident::TileGeometry ypass = resident::ypass_geometry(s, l, p.y_chunk);
   if (ypass.smem_bytes > max_shared)
     throw bad(fmt::format("the y-pass tile needs {} bytes of shared memory for a {}-row kernel, more than "
                           "the {} a block may have; use fewer rows per block (block_y x cells_per_thread)",
                           ypass.smem_bytes, s.Iy, max_shared));
-  const resident::TileGeometry xpass = resident::xpass_geometry(s, l);
+  const resident::TileGeometry xpass = resident::xpass_geometry(s, l, p.x_chunk);
   if (xpass.smem_bytes > max_shared)
     throw bad(fmt::format("the x-pass tile needs {} bytes of shared memory for a {}-column kernel, more "
                           "than the {} a block may have; use fewer threads per block",
                           xpass.smem_bytes, s.Ix, max_shared));
+  p.y_chunks = ypass.chunks;
+  p.x_chunks = xpass.chunks;
   p.smem_bytes = ypass.smem_bytes;
   p.xtile_w = xpass.out_w;
   p.xtile_h = xpass.out_h;
@@ -179,9 +186,10 @@ CostCounts cuda_resident_counts(const Shape& s, const Layout& l, int sms) {
   // Tile fills: rounds of blocks running at once on the busiest multiprocessor (a kernel's
   // q(B) blocks there, occ at a time), each filling its tile (and kernel coefficients) from
   // device memory, counted on every multiprocessor like N_G.
+  // A chunked split pass fills its tile and its chunk of coefficients once per chunk.
   auto fills = [&](std::int64_t blocks, int regs, const resident::TileGeometry& g, std::int64_t tile_values) {
     const int occ = resident::blocks_per_sm(p.threads, regs, g.smem_bytes);
-    return resident::ceil_div(waves(blocks), occ) * S * (tile_values + g.kx_len + g.ky_len);
+    return resident::ceil_div(waves(blocks), occ) * S * g.chunks * (tile_values + g.kx_len + g.ky_len);
   };
   if (p.passes == Layout::Passes::fused) {
     const auto g = resident::fused_geometry(s, l);
@@ -192,7 +200,7 @@ CostCounts cuda_resident_counts(const Shape& s, const Layout& l, int sms) {
     c.N_GG = 3 * ng + s.Ix + s.Iy + 2 + 2 * B;
     c.N_GS = fills(B, resident::kFusedRegs, g, std::int64_t{g.in_rows} * g.in_cols);
   } else {
-    const auto gx = resident::xpass_geometry(s, l), gy = resident::ypass_geometry(s, l);
+    const auto gx = resident::xpass_geometry(s, l, p.x_chunk), gy = resident::ypass_geometry(s, l, p.y_chunk);
     c.launches = 2;
     c.waves = waves(p.xblocks()) + waves(B);
     c.atomics = B;  // the y-pass blocks add their shares of S_k to the one sum

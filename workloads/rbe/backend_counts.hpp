@@ -69,6 +69,10 @@ struct ResidentPlan {
   int xtile_w = 0, xtile_h = 0;
   std::int64_t xblocks_x = 0, xblocks_y = 0;
   std::size_t xsmem_bytes = 0;
+  // split only: the passes' chunks of taps (resident_geometry.hpp); 0 taps: the whole kernel in
+  // one chunk, as when it fits
+  int x_chunk = 0, x_chunks = 1;
+  int y_chunk = 0, y_chunks = 1;
   std::int64_t blocks() const { return blocks_x * blocks_y; }
   std::int64_t xblocks() const { return xblocks_x * xblocks_y; }
 };
@@ -76,7 +80,10 @@ struct ResidentPlan {
 inline constexpr std::size_t kMaxSharedBytes = 232448;
 // Throws InputError, saying which rule the layout breaks, for an invalid layout: block_x a
 // multiple of 8 in [8, 1024]; block_x x block_y a multiple of 32, at most 1024;
-// cells_per_thread one of 1, 2, 4, 8, 16; the tile's shared memory within `max_shared`.
+// cells_per_thread one of 1, 2, 4, 8, 16; an explicitly fused tile's shared memory within
+// `max_shared`. A split pass whose tile for the whole kernel would not fit `max_shared` walks
+// the kernel in chunks of taps (resident_geometry.hpp, pass_chunk), so split (and automatic)
+// layouts run any kernel the grid holds.
 ResidentPlan resident_plan(const Shape& s, const Layout& layout, std::size_t max_shared = kMaxSharedBytes);
 
 // cuda-resident, float32, one steady-state step inside a run (see cuda_resident.cu), on a GPU
@@ -98,9 +105,11 @@ ResidentPlan resident_plan(const Shape& s, const Layout& layout, std::size_t max
 // occ blocks at once (resident::blocks_per_sm, from the kernel's register bound, its shared
 // memory and the 1 KiB reserved per block), so the busiest one fills ceil(q(B) / occ) rounds:
 //   fused: N_GS = ceil(q(B) / occ) S [(H + I_y - 1) (W + kx) + kx + ky]
-//   split: N_GS = ceil(q(B_x) / occ_x) S [H_x (128 + kx) + kx] + ceil(q(B) / occ_y) S [u_rows W + ky]
+//   split: N_GS = ceil(q(B_x) / occ_x) S c_x [H_x (128 + kx) + kx] + ceil(q(B) / occ_y) S c_y [u_rows W + ky]
 // with kx = 8 ceil(I_x / 8), ky = the y coefficients padded (resident_geometry.hpp), u_rows =
-// H + R ceil(I_y / R). Atomics: every block of the correcting kernel (fused, or the split y-pass)
+// H + R ceil(I_y / R), c_x = c_y = 1; a pass chunked over the kernel's taps (its whole-kernel
+// tile too large for shared memory: ResidentPlan::x_chunk, y_chunk) fills c chunks, each with
+// kx (or ky) = the chunk's C taps and 128 + C columns (or u_rows = H + C rows). Atomics: every block of the correcting kernel (fused, or the split y-pass)
 // adds its share of S_k to the one sum in device memory: atomics = B. N_GR = 0: every tap reads
 // the block's shared-memory tile. Throws InputError when sms < 1.
 CostCounts cuda_resident_counts(const Shape& s, const Layout& layout, int sms);

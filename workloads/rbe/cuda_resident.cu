@@ -8,7 +8,9 @@
 //         block's share of S_k (float64) and add it atomically to S_k in device memory.
 //  split  rbe_resident_xpass (x-pass to a device buffer u), then rbe_resident_ypass<R> (y-pass
 //         from a shared u tile, correction and reduction as above); for kernels whose fused
-//         tile would not fit in shared memory.
+//         tile would not fit in shared memory. A pass whose own tile would not fit either (a
+//         kernel thousands of taps tall or wide) walks the kernel in chunks of taps, copying
+//         each chunk's tile and accumulating in registers (resident_geometry.hpp).
 //
 // The normalization is never a pass of its own: S_k stays on the device and the next step
 // scales by it. A run is captured into CUDA graphs (segments of up to kSegment steps), and
@@ -21,12 +23,14 @@
 #include <cuda.h>  // CUtensorMap and its enums (the encoder is reached through the runtime)
 #include <cuda_runtime.h>
 
+#include <algorithm>
 #include <cfloat>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <map>
 #include <optional>
+#include <stdexcept>
 
 #include "workloads/rbe/backend_counts.hpp"
 #include "workloads/rbe/cuda_fusion.hpp"
@@ -66,6 +70,8 @@ struct KernelArgs {
   int tma;                     // the tile is copied by the tensor memory accelerator (TileMaps,
                                // tile_map_fits()); else in 16-byte cp.async pieces
   int in_rows, in_cols, in_pitch, u_rows, u_pitch, kx_len, ky_len;
+  int chunk, chunks;           // split passes: taps per chunk (kx_len or ky_len of them in shared
+                               // memory) and chunks (resident_geometry.hpp); the fused kernel: unused
   double cell_area;
 };
 
@@ -181,7 +187,7 @@ __device__ inline double scale_from(double S, double area) {
   return (S > 0.0 && s <= double(FLT_MAX)) ? s : 0.0;
 }
 
-// acc[j] = sum_{a < I} k[a] row[j + a], j < N outputs of one row (N = kRx = 8; 16 was measured
+// acc[j] += sum_{a < I} k[a] row[j + a], j < N outputs of one row (N = kRx = 8; 16 was measured
 // slower: more registers and uneven task counts). row and k 16-byte aligned; k zero-padded to
 // whole groups of 8 taps; row readable up to N + 8 ceil(I / 8) - 1. The window (N + 8 values) is
 // read in float4s; taps go in groups of 8 (8 N FMAs per two float4 window loads and two float4
@@ -196,8 +202,6 @@ __device__ __forceinline__ void x_window(const float* row, const float* k, int I
     const float4 v = lds4(row + j);
     w[j] = v.x, w[j + 1] = v.y, w[j + 2] = v.z, w[j + 3] = v.w;
   }
-#pragma unroll
-  for (int j = 0; j < N; ++j) acc[j] = 0.f;
   const int full = I / 8;
 #pragma unroll 3
   for (int g = 0; g < full; ++g) {
@@ -250,6 +254,8 @@ __device__ __forceinline__ void x_pass_tile(const float* in, int in_pitch, float
   const int dr = T % rows, dseg = T / rows;
   for (int t = tid; t < tasks; t += T) {
     float acc[N];
+#pragma unroll
+    for (int j = 0; j < N; ++j) acc[j] = 0.f;
     x_window<N>(in + r * in_pitch + seg * N, kx, Ix, acc);
     float* dst = out + r * out_pitch + seg * N;
 #pragma unroll
@@ -260,16 +266,13 @@ __device__ __forceinline__ void x_pass_tile(const float* in, int in_pitch, float
   }
 }
 
-// acc[j] = sum_{b < I} k[b] col[(j + b) pitch], j < R. k zero-padded to whole groups of R and
+// acc[j] += sum_{b < I} k[b] col[(j + b) pitch], j < R. k zero-padded to whole groups of R and
 // 16-byte aligned; col readable up to row R ceil(I / R) + R - 1.
 template <int R>
 __device__ __forceinline__ void y_window(const float* col, int pitch, const float* k, int I, float (&acc)[R]) {
   float w[2 * R];
 #pragma unroll
-  for (int j = 0; j < R; ++j) {
-    acc[j] = 0.f;
-    w[j] = col[j * pitch];
-  }
+  for (int j = 0; j < R; ++j) w[j] = col[j * pitch];
   const int full = I / R;
   for (int g = 0; g < full; ++g) {
     const float* c = col + (g * R + R) * pitch;
@@ -310,16 +313,14 @@ __device__ __forceinline__ void y_window(const float* col, int pitch, const floa
   }
 }
 
-// y-pass from the shared u tile, correction, store, block reduction, atomic add of the block's
-// share of S_k. `red` holds 32 warp partials; red[32] the scale. Column gx = x0 + tx (may lie
-// outside the grid: not stored, and its likelihood is zero).
+// Correction of the y-pass's R outputs `acc` of this thread, store, block reduction, atomic add
+// of the block's share of S_k. `red` holds 32 warp partials; red[32] the scale. Column
+// gx = x0 + tx (may lie outside the grid: not stored, and its likelihood is zero).
 template <int R>
-__device__ __forceinline__ void y_correct(const KernelArgs& a, const float* u, const float* ky, int x0, int y0,
+__device__ __forceinline__ void y_correct(const KernelArgs& a, const float (&acc)[R], int x0, int y0,
                                           const float (&lv)[R], double* red) {
   const int tx = threadIdx.x, ty = threadIdx.y;
   const int tid = ty * blockDim.x + tx, T = blockDim.x * blockDim.y;
-  float acc[R];
-  y_window<R>(u + (ty * R) * a.u_pitch + tx, a.u_pitch, ky, a.Iy, acc);
   const float s = static_cast<float>(red[32]);
   const int gx = x0 + tx, gy0 = y0 + ty * R;
   const bool col_in = unsigned(gx) < unsigned(a.nx);
@@ -386,11 +387,20 @@ __global__ void __maxnreg__(resident::kFusedRegs) rbe_resident_fused(KernelArgs 
   x_pass_tile<kRx>(in, a.in_pitch, u, a.u_pitch, a.in_rows, bx / kRx, kx, a.Ix, tid, T);
   __syncthreads();
   if (a.tma && tid == 0) tma_tile_done(bar);
-  y_correct<R>(a, u, ky, x0, y0, lv, red);
+  float acc[R];
+#pragma unroll
+  for (int j = 0; j < R; ++j) acc[j] = 0.f;
+  y_window<R>(u + (ty * R) * a.u_pitch + tx, a.u_pitch, ky, a.Iy, acc);
+  y_correct<R>(a, acc, x0, y0, lv, red);
 }
 
 // Split x-pass: tile of 128 x (T / 16) outputs, one 8-wide segment per thread; writes u. Its
-// tiles start x_shift cells left of multiples of 128.
+// tiles start x_shift cells left of multiples of 128. The kernel's I_x taps go in a.chunks
+// chunks of a.chunk (a multiple of 8; one chunk: the whole kernel, a.chunk = kx_len): per chunk
+// the block copies the input tile its taps read (128 + a.chunk columns, starting a.chunk
+// columns further right each chunk) and the chunk's coefficients, and each thread adds the
+// chunk's taps to its registers. The tensor memory accelerator copies only one-chunk tiles (its
+// mbarrier serves one copy; the host clears a.tma for more).
 __global__ void __maxnreg__(resident::kXpassRegs) rbe_resident_xpass(KernelArgs a, const __grid_constant__ TileMaps maps) {
   extern __shared__ __align__(128) double smem[];
   float* in = reinterpret_cast<float*>(smem);
@@ -399,19 +409,24 @@ __global__ void __maxnreg__(resident::kXpassRegs) rbe_resident_xpass(KernelArgs 
   const int tid = threadIdx.y * blockDim.x + threadIdx.x, T = blockDim.x * blockDim.y;
   const int rows = a.in_rows;  // T / 16
   const int x0 = blockIdx.x * resident::kXpassWidth - a.x_shift, y0 = blockIdx.y * rows;
-  for (int i = tid; i < a.kx_len; i += T) copy_async(kx + i, a.kx + i, true);
-  const int gx0 = x0 - a.hx;  // a multiple of 4
-  if (a.tma) {
-    if (tid == 0) tma_tile_start(in, maps, gx0, y0, rows, a.in_pitch, bar);
-  } else {
-    copy_tile16_async(in, a.in_pitch, rows, a.in_cols / 4, a.q_prev, a.nx, a.ld, a.ny, gx0, y0, tid, T);
-  }
-  copy_async_wait();
-  __syncthreads();
-  if (a.tma) tma_tile_wait(bar);
   const int r = tid % rows, seg = tid / rows;
   float acc[kRx];
-  x_window<kRx>(in + r * a.in_pitch + seg * kRx, kx, a.Ix, acc);
+#pragma unroll
+  for (int j = 0; j < kRx; ++j) acc[j] = 0.f;
+  for (int k0 = 0; k0 < a.Ix; k0 += a.chunk) {  // k0: the chunk's first tap
+    if (k0 > 0) __syncthreads();  // every thread is done with the previous chunk's tile and taps
+    for (int i = tid; i < a.kx_len; i += T) copy_async(kx + i, a.kx + k0 + i, true);
+    const int gx0 = x0 - a.hx + k0;  // a multiple of 4 (a.chunk is a multiple of 8)
+    if (a.tma) {
+      if (tid == 0) tma_tile_start(in, maps, gx0, y0, rows, a.in_pitch, bar);
+    } else {
+      copy_tile16_async(in, a.in_pitch, rows, a.in_cols / 4, a.q_prev, a.nx, a.ld, a.ny, gx0, y0, tid, T);
+    }
+    copy_async_wait();
+    __syncthreads();
+    if (a.tma) tma_tile_wait(bar);
+    x_window<kRx>(in + r * a.in_pitch + seg * kRx, kx, min(a.chunk, a.Ix - k0), acc);
+  }
   // The outputs go out through shared memory: a thread's 8 neighbouring outputs stored straight
   // to u would make every store instruction of a warp touch 32 sectors in 16 rows, 4 bytes each
   // (measured: the x-pass then took ~3.7 us per block per multiprocessor whatever the kernel
@@ -430,7 +445,13 @@ __global__ void __maxnreg__(resident::kXpassRegs) rbe_resident_xpass(KernelArgs 
   }
 }
 
-// Split y-pass and correction: loads the u tile (with the y halo) from device memory.
+// Split y-pass and correction: loads the u tile (with the y halo) from device memory. The
+// kernel's I_y taps go in a.chunks chunks of a.chunk (a multiple of R and of 4; one chunk: the
+// whole kernel, a.chunk = R G_y): per chunk the block copies the u tile its taps read (H +
+// a.chunk rows, u_rows, starting a.chunk rows further down each chunk) and the chunk's
+// coefficients, and each thread adds the chunk's taps to its R registers; the correction follows
+// the last chunk. The tensor memory accelerator copies only one-chunk tiles (the host clears
+// a.tma for more).
 template <int R>
 __global__ void __maxnreg__(resident::kYpassRegs) rbe_resident_ypass(KernelArgs a, const __grid_constant__ TileMaps maps) {
   extern __shared__ __align__(128) double smem[];
@@ -441,19 +462,29 @@ __global__ void __maxnreg__(resident::kYpassRegs) rbe_resident_ypass(KernelArgs 
   const int tx = threadIdx.x, ty = threadIdx.y, bx = blockDim.x, by = blockDim.y;
   const int tid = ty * bx + tx, T = bx * by;
   const int x0 = blockIdx.x * bx, y0 = a.y_begin + blockIdx.y * by * R;
-  if (a.tma) {
-    if (tid == 0) tma_tile_start(u, maps, x0, y0 - a.hy, a.u_rows, a.u_pitch, bar);
-  } else {
-    copy_tile16_async(u, a.u_pitch, a.u_rows, bx / 4, a.u, a.nx, a.ld, a.ny, x0, y0 - a.hy, tid, T);
-  }
-  for (int i = tid; i < a.ky_len; i += T) copy_async(ky + i, a.ky + i, true);
-  float lv[R];
-  load_likelihood<R>(a, x0 + tx, y0 + ty * R, lv);
   if (tid == 0) red[32] = scale_from(*a.sum_in, a.cell_area);
-  copy_async_wait();
-  __syncthreads();
-  if (a.tma) tma_tile_wait(bar);
-  y_correct<R>(a, u, ky, x0, y0, lv, red);  // has a __syncthreads() after every thread's wait
+  float lv[R];
+  if (a.chunk >= a.Iy) load_likelihood<R>(a, x0 + tx, y0 + ty * R, lv);  // one chunk: its latency hides behind it
+  float acc[R];
+#pragma unroll
+  for (int j = 0; j < R; ++j) acc[j] = 0.f;
+  for (int k0 = 0; k0 < a.Iy; k0 += a.chunk) {  // k0: the chunk's first tap
+    if (k0 > 0) __syncthreads();  // every thread is done with the previous chunk's tile and taps
+    // Tile row i holds u's row y0 - h_y + k0 + i: output row y0 + t (t = ty R + j) takes taps
+    // b of the chunk from tile row t + b (y_window).
+    if (a.tma) {
+      if (tid == 0) tma_tile_start(u, maps, x0, y0 - a.hy + k0, a.u_rows, a.u_pitch, bar);
+    } else {
+      copy_tile16_async(u, a.u_pitch, a.u_rows, bx / 4, a.u, a.nx, a.ld, a.ny, x0, y0 - a.hy + k0, tid, T);
+    }
+    for (int i = tid; i < a.ky_len; i += T) copy_async(ky + i, a.ky + k0 + i, true);
+    copy_async_wait();
+    __syncthreads();
+    if (a.tma) tma_tile_wait(bar);
+    y_window<R>(u + (ty * R) * a.u_pitch + tx, a.u_pitch, ky, min(a.chunk, a.Iy - k0), acc);
+  }
+  if (a.chunk < a.Iy) load_likelihood<R>(a, x0 + tx, y0 + ty * R, lv);  // chunks: not held across them
+  y_correct<R>(a, acc, x0, y0, lv, red);  // has a __syncthreads() after every thread's wait
   if (a.tma && tid == 0) tma_tile_done(bar);
 }
 
@@ -833,10 +864,16 @@ class CudaResident final : public Backend {
     if (options_.poison && u_.get())
       DTFLOP_CUDA(cudaMemset2D(u_.get(), ld_ * sizeof(float), 0xff, nx * sizeof(float), ny));
 
-    // Flipped kernels, zero-padded to whole register groups.
+    // Flipped kernels, zero-padded to whole register groups, and for chunked split passes to
+    // whole chunks (every chunk copies a.chunk coefficients: resident_geometry.hpp).
+    const bool split = plan_.passes == Layout::Passes::split;
     const auto fused = resident::fused_geometry(shape_, options_.layout);
+    const auto yg = resident::ypass_geometry(shape_, options_.layout, plan_.y_chunk);
+    const auto xg = resident::xpass_geometry(shape_, options_.layout, plan_.x_chunk);
     const int kx_len = fused.kx_len, ky_len = fused.ky_len;
-    std::vector<float> kx(static_cast<std::size_t>(kx_len), 0.f), ky(static_cast<std::size_t>(ky_len), 0.f);
+    const std::size_t kx_all = std::max<std::size_t>(std::size_t(kx_len), split ? std::size_t(xg.chunks) * std::size_t(xg.chunk) : 0);
+    const std::size_t ky_all = std::max<std::size_t>(std::size_t(ky_len), split ? std::size_t(yg.chunks) * std::size_t(yg.chunk) : 0);
+    std::vector<float> kx(kx_all, 0.f), ky(ky_all, 0.f);
     for (std::int64_t a = 0; a < shape_.Ix; ++a)
       kx[std::size_t(a)] = float(kernel.kx()[std::size_t(shape_.Ix - 1 - a)]);
     for (std::int64_t b = 0; b < shape_.Iy; ++b)
@@ -861,7 +898,7 @@ class CudaResident final : public Backend {
     args_.hx = int(shape_.Ix - 1 - kernel_centre(shape_.Ix));
     args_.hy = int(shape_.Iy - 1 - kernel_centre(shape_.Iy));
     args_.cell_area = grid_.cell_area();
-    const auto g = plan_.passes == Layout::Passes::fused ? fused : resident::ypass_geometry(shape_, options_.layout);
+    const auto& g = split ? yg : fused;
     args_.x_shift = g.x_shift;
     args_.in_rows = g.in_rows;
     args_.in_cols = g.in_cols;
@@ -869,18 +906,26 @@ class CudaResident final : public Backend {
     args_.u_rows = g.u_rows;
     args_.u_pitch = g.u_pitch;
     args_.kx_len = kx_len;
-    args_.ky_len = ky_len;
+    args_.ky_len = split ? yg.ky_len : ky_len;
+    args_.chunk = split ? yg.chunk : 0;
+    args_.chunks = split ? yg.chunks : 1;
     xargs_ = args_;
-    if (plan_.passes == Layout::Passes::split) {
-      const auto xg = resident::xpass_geometry(shape_, options_.layout);
+    if (split) {
       xargs_.in_rows = xg.in_rows;
       xargs_.in_cols = xg.in_cols;
       xargs_.in_pitch = xg.in_pitch;
       xargs_.x_shift = xg.x_shift;
       xargs_.u_rows = 0;
       xargs_.u_pitch = 0;
+      xargs_.kx_len = xg.kx_len;
       xargs_.ky_len = 0;
+      xargs_.chunk = xg.chunk;
+      xargs_.chunks = xg.chunks;
     }
+    // The plan's chunks are the geometry's (resident_plan made them from the same functions).
+    if (split && (xg.chunks != plan_.x_chunks || yg.chunks != plan_.y_chunks || yg.smem_bytes != plan_.smem_bytes ||
+                  xg.smem_bytes != plan_.xsmem_bytes))
+      throw std::logic_error("cuda-resident: the split passes' geometry disagrees with the plan");
     // Tile copies by the tensor memory accelerator where a tile's rows fit a box (else cp.async).
     std::memset(static_cast<void*>(maps_), 0, sizeof(maps_));
     std::memset(static_cast<void*>(xmaps_), 0, sizeof(xmaps_));
@@ -892,8 +937,10 @@ class CudaResident final : public Backend {
     if (plan_.passes == Layout::Passes::fused) {
       args_.tma = tile_map_fits(args_.in_pitch) && encode_q(maps_, args_.in_pitch, args_.in_rows);
     } else {
-      xargs_.tma = tile_map_fits(xargs_.in_pitch) && encode_q(xmaps_, xargs_.in_pitch, xargs_.in_rows);
-      args_.tma = tile_map_fits(args_.u_pitch) &&
+      // One copy per kernel for the accelerator's mbarrier: chunked passes copy with cp.async.
+      xargs_.tma = xargs_.chunks == 1 && tile_map_fits(xargs_.in_pitch) &&
+                   encode_q(xmaps_, xargs_.in_pitch, xargs_.in_rows);
+      args_.tma = args_.chunks == 1 && tile_map_fits(args_.u_pitch) &&
                   encode_tile_maps(umap_, u_.get(), args_.nx, args_.ld, args_.ny, args_.u_pitch, args_.u_rows);
     }
   }

@@ -23,6 +23,14 @@
 // Split y-pass kernel: u tile | ky | scratch. Split x-pass kernel: input tile | kx | scratch,
 // 128 x (T / 16) outputs (T threads, one 8-wide segment each), input tile T/16 rows x
 // (128 + 8 G_x) columns, pitch + 4.
+//
+// Chunked split passes: when a split pass's tile for the whole kernel does not fit a block's
+// shared memory (a kernel thousands of taps tall or wide), the pass walks the kernel in chunks of
+// C taps, C a multiple of the pass's register group (x: 8; y: R, and of 4 so the parts after the
+// coefficients stay 16-byte aligned): per chunk it copies the tile its C taps read (y: H + C u
+// rows, x: 128 + C input columns) and the chunk's C coefficients, and accumulates into the same
+// registers, so the tile holds C taps, not the kernel. One chunk is the pass as above. The
+// coefficients in device memory are zero-padded to whole chunks.
 #pragma once
 
 #include <algorithm>
@@ -74,6 +82,8 @@ struct TileGeometry {
   int in_rows = 0, in_cols = 0, in_pitch = 0;  // input tile (0 rows when there is none)
   int u_rows = 0, u_pitch = 0;     // u tile (0 rows when there is none)
   int kx_len = 0, ky_len = 0;      // padded kernel lengths in shared memory
+  // Split passes: the taps each chunk covers and the chunks (one: the whole kernel at once).
+  int chunk = 0, chunks = 1;
   std::size_t smem_bytes = 0;
 };
 
@@ -121,27 +131,64 @@ inline TileGeometry fused_geometry(const Shape& s, const Layout& l) {
   return g;
 }
 
-inline TileGeometry ypass_geometry(const Shape& s, const Layout& l) {
+// Taps per chunk of the split y-pass: a multiple of R and of 4.
+inline int ypass_chunk_step(const Layout& l) { return std::max(l.cells_per_thread, 4); }
+// Taps per chunk of the split x-pass: a multiple of its register group.
+inline constexpr int kXpassChunkStep = kRx;
+
+// The split y-pass with chunks of `chunk` taps (a multiple of ypass_chunk_step), or the whole
+// kernel in one (chunk 0: u tile H + R G_y rows, coefficients R G_y rounded up to 4).
+inline TileGeometry ypass_geometry(const Shape& s, const Layout& l, int chunk = 0) {
   TileGeometry g = fused_geometry(s, l);
   g.x_shift = 0;  // reads u in grid columns: its tiles start at multiples of W
   g.in_rows = g.in_cols = g.in_pitch = 0;
   g.kx_len = 0;
+  if (chunk > 0) {
+    g.u_rows = g.out_h + chunk;
+    g.ky_len = chunk;
+    g.chunk = chunk;
+    g.chunks = static_cast<int>(ceil_div(s.Iy, chunk));
+  } else {
+    g.chunk = static_cast<int>(g.u_rows - g.out_h);  // R G_y >= I_y
+    g.chunks = 1;
+  }
   g.smem_bytes = smem_of(g);
   return g;
 }
 
-inline TileGeometry xpass_geometry(const Shape& s, const Layout& l) {
+// The split x-pass with chunks of `chunk` taps (a multiple of 8), or the whole kernel in one
+// (chunk 0).
+inline TileGeometry xpass_geometry(const Shape& s, const Layout& l, int chunk = 0) {
   TileGeometry g;
   const int threads = l.block_x * l.block_y;
   g.out_w = kXpassWidth;
   g.out_h = threads / (kXpassWidth / kRx);
   g.x_shift = x_shift(s);
-  g.kx_len = static_cast<int>(ceil_div(s.Ix, kRx) * kRx);
+  g.kx_len = chunk > 0 ? chunk : static_cast<int>(ceil_div(s.Ix, kRx) * kRx);
+  g.chunk = g.kx_len;
+  g.chunks = static_cast<int>(ceil_div(s.Ix, g.kx_len));
   g.in_rows = g.out_h;
   g.in_cols = g.out_w + g.kx_len;
   g.in_pitch = vec_pitch(g.in_cols);
   g.smem_bytes = smem_of(g);
   return g;
+}
+
+// The chunk (taps) of a split pass whose whole-kernel tile needs more than `max_shared` bytes:
+// the most taps, a multiple of `step`, whose tile fits the shared memory of two blocks on one
+// multiprocessor, or failing that of one block (`max_shared`); 0 when the whole kernel fits
+// `max_shared` (one chunk) or when not even `step` taps fit. `geometry(chunk)` gives the pass's
+// tile for a chunk; `taps` is the kernel's length along the pass.
+template <class Geometry>
+int pass_chunk(Geometry geometry, std::int64_t taps, int step, std::size_t max_shared) {
+  if (geometry(0).smem_bytes <= max_shared) return 0;
+  const std::size_t two = kSmShared / 2 - kSharedReservedPerBlock;
+  for (const std::size_t budget : {std::min(two, max_shared), max_shared}) {
+    // The tile grows with the chunk: walk down from the whole kernel in whole steps.
+    for (std::int64_t c = ceil_div(taps, step) * step; c >= step; c -= step)
+      if (geometry(static_cast<int>(c)).smem_bytes <= budget) return static_cast<int>(c);
+  }
+  return 0;
 }
 
 }  // namespace dtflop::rbe::resident

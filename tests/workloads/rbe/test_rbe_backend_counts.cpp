@@ -253,6 +253,84 @@ TEST(RbeBackendCounts, CudaResidentSplitByHand) {
   EXPECT_THROW(resident_plan(s, parse_layout("32x8x8:fused")), InputError);  // does not fit
 }
 
+TEST(RbeBackendCounts, CudaResidentChunksAKernelTallerThanAnyTile) {
+  // A kernel 4000 rows tall, as the search-and-rescue team's stretched steps need at 4000 x 4000
+  // (here 75 columns wide), layout 32x8x16 (y-pass tiles 32 x 128). The whole kernel's u tile would be 128 + 16 x 250 = 4128 rows of
+  // pitch 36 and 4000 coefficients: 34 x 8 + 4 (4128 x 36 + 4000) = 610704 bytes, more than a
+  // block may have, so the y-pass walks the kernel in chunks of C taps (a multiple of 16), the
+  // most whose tile fits two blocks on a multiprocessor: 272 + 4 ((128 + C) 36 + C) <=
+  // 233472 / 2 - 1024 = 115712, C <= 655.5, so C = 640: 7 chunks (6 x 640 + 160).
+  const Shape s{4000, 4000, 75, 4000};
+  const Layout l = parse_layout("32x8x16");
+  EXPECT_EQ(resident::ypass_geometry(s, l).smem_bytes, 610704u);
+  const auto p = resident_plan(s, l);
+  EXPECT_EQ(p.passes, Layout::Passes::split);
+  EXPECT_EQ(p.y_chunk, 640);
+  EXPECT_EQ(p.y_chunks, 7);
+  EXPECT_EQ(p.smem_bytes, 272u + 4u * ((128 + 640) * 36 + 640));
+  // The x-pass (16 rows x 128 + 80 columns, pitch 212, 80 coefficients) fits whole: one chunk.
+  EXPECT_EQ(p.x_chunk, 0);
+  EXPECT_EQ(p.x_chunks, 1);
+  EXPECT_EQ(p.xsmem_bytes, 272u + 4u * (16 * 212 + 80));
+  EXPECT_EQ(resident_plan(s, parse_layout("32x8x16:split")).y_chunks, 7);
+  EXPECT_THROW(resident_plan(s, parse_layout("32x8x16:fused")), InputError);  // fused never chunks
+
+  // Counts on 132 multiprocessors. y-pass: 125 x 32 = 4000 blocks, 31 waves; x-pass: h_x = 37,
+  // tiles shifted 3 cells, ceil(4003 / 128) x 4000 / 16 = 32 x 250 = 8000 blocks, 61 waves.
+  const std::int64_t B = 4000, XB = 8000, W = 32, H = 128;
+  EXPECT_EQ(p.blocks(), B);
+  EXPECT_EQ(p.xblocks(), XB);
+  const auto c = cuda_resident_counts(s, l, 132);
+  EXPECT_EQ(c.launches, 2);
+  EXPECT_EQ(c.waves, 61 + 31);
+  EXPECT_EQ(c.atomics, B);
+  // The chunks change no FLOP: every output still takes each of its 4000 taps once.
+  EXPECT_EQ(c.N_G, std::int64_t{61} * 132 * 2 * 75 * 128 * 16 + 31 * 132 * (2 * 4000 * W * H + 3 * W * H + 2));
+  EXPECT_EQ(c.N_GG, 5 * 16000000 + 75 + 4000 + 2 + 2 * B);
+  // Tile fills. x-pass: 48 registers, 5 blocks at once, its 61 rounds in 13, each 16 x 208
+  // values and 80 coefficients. y-pass: 72 registers (3 blocks) and 113424 bytes (2 blocks): 2
+  // at once, 31 rounds in 16, each block filling 7 chunks of 768 x 32 u values and 640
+  // coefficients.
+  EXPECT_EQ(resident::blocks_per_sm(256, resident::kYpassRegs, p.smem_bytes), 2);
+  EXPECT_EQ(resident::blocks_per_sm(256, resident::kXpassRegs, p.xsmem_bytes), 5);
+  EXPECT_EQ(c.N_GS, 13 * 132 * (16 * 208 + 80) + 16 * 132 * 7 * (768 * 32 + 640));
+}
+
+TEST(RbeBackendCounts, CudaResidentChunksBothPassesByHand) {
+  // Grid 1100 x 320, kernel 801 x 301, layout 1024x1x1 (y-pass tiles 1024 x 1, x-pass tiles 128 x
+  // 64). x-pass: the whole kernel needs 64 rows x pitch 940 (128 + 808 columns) and 808
+  // coefficients, 244144 bytes: chunks of C (a multiple of 8) with 272 + 4 (64 pitch(128 + C) +
+  // C) <= 115712: C = 312 (pitch 444: 115184 bytes; C = 320 has pitch 452: 117264), 3 chunks
+  // (312, 312, 177). y-pass: pitch 1028; 272 + 4 ((1 + C) 1028 + C) <= 115712 gives C <= 27,
+  // a multiple of 4: 24, 13 chunks (12 x 24 + 13).
+  const Shape s{1100, 320, 801, 301};
+  const Layout l = parse_layout("1024x1x1");
+  const auto p = resident_plan(s, l);
+  EXPECT_EQ(p.passes, Layout::Passes::split);
+  EXPECT_EQ(p.x_chunk, 312);
+  EXPECT_EQ(p.x_chunks, 3);
+  EXPECT_EQ(p.xsmem_bytes, 115184u);
+  EXPECT_EQ(p.y_chunk, 24);
+  EXPECT_EQ(p.y_chunks, 13);
+  EXPECT_EQ(p.smem_bytes, 272u + 4u * (25 * 1028 + 24));
+  // h_x = 400: no shift. x-pass 9 x 5 = 45 blocks, y-pass 2 x 320 = 640 blocks; on 8
+  // multiprocessors 6 and 80 waves.
+  EXPECT_EQ(p.xblocks(), 45);
+  EXPECT_EQ(p.blocks(), 640);
+  const auto c = cuda_resident_counts(s, l, 8);
+  EXPECT_EQ(c.waves, 6 + 80);
+  EXPECT_EQ(c.N_G, std::int64_t{6} * 8 * 2 * 801 * 128 * 64 + 80 * 8 * (2 * 301 * 1024 + 3 * 1024 + 2));
+  // One block of 1024 threads at a time on a multiprocessor (the counted registers: 48 or 72 per
+  // thread leave room for one), so 6 and 80 rounds; per round 3 x (64 x 440 + 312) and
+  // 13 x (25 x 1024 + 24) values.
+  EXPECT_EQ(resident::blocks_per_sm(1024, resident::kXpassRegs, p.xsmem_bytes), 1);
+  EXPECT_EQ(resident::blocks_per_sm(1024, resident::kYpassRegs, p.smem_bytes), 1);
+  EXPECT_EQ(c.N_GS, 6 * 8 * 3 * (64 * 440 + 312) + 80 * 8 * 13 * (25 * 1024 + 24));
+  // A kernel as large as the grid is planned too (every tap a chunk can hold).
+  EXPECT_NO_THROW(resident_plan({1100, 320, 1100, 320}, l));
+  EXPECT_NO_THROW(resident_plan({4000, 4000, 4000, 4000}, parse_layout("32x8x16")));
+}
+
 TEST(RbeBackendCounts, CudaResidentWavesByHand) {
   // Kernel 33 x 33 (h_x = 16: tiles do not shift), layout 32x8x4: fused tiles 32 x 32, so a
   // grid of 32a x 32b cells is a x b blocks. S = 132 multiprocessors.

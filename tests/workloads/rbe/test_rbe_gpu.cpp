@@ -1,6 +1,7 @@
 // The CUDA backends against cpu-seq (float64) on random problems: odd and even sizes, kernels
 // 1..201, grids not a multiple of the block, masks, every cells-per-thread value, fused and
-// split, graph and kernel-by-kernel; poisoned buffers; numerical safety. Skipped without a GPU.
+// split, graph and kernel-by-kernel; kernels too tall or wide for any tile (chunked split
+// passes); poisoned buffers; numerical safety. Skipped without a GPU.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,6 +10,7 @@
 #include "tests/support/gpu.hpp"
 #include "tests/workloads/rbe/support.hpp"
 #include "workloads/rbe/backend.hpp"
+#include "workloads/rbe/backend_counts.hpp"
 #include "workloads/rbe/likelihood.hpp"
 
 namespace dtflop::rbe {
@@ -20,28 +22,42 @@ using test::random_problem;
 using test::RandomProblem;
 using test::relative_l1;
 
-void expect_matches_reference(const char* backend, const BackendOptions& o, const RandomProblem& r,
-                              std::uint64_t seed, int steps = 3) {
-  SCOPED_TRACE(fmt::format("{} layout {} graph {}: {}", backend, to_string(o.layout), o.graph, describe(r, seed)));
-  const Problem p = random_problem(r, seed);
+// cpu-seq's run of a problem: the belief after it and the sums of its steps.
+struct Reference {
+  std::vector<double> belief, sums;
+};
+Reference reference_run(const Problem& p, int steps) {
   auto ref = make_backend("cpu-seq");
-  auto gpu = make_backend(backend, o);
   ref->init(p);
+  Reference r;
+  r.sums = ref->run(steps).sums;
+  r.belief = ref->belief();
+  return r;
+}
+
+void expect_matches(const char* backend, const BackendOptions& o, const Problem& p, const Reference& ref, int steps) {
+  auto gpu = make_backend(backend, o);
   gpu->init(p);
-  const auto rr = ref->run(steps);
   const auto rg = gpu->run(steps);
   const auto b = gpu->belief();
   EXPECT_EQ(test::count_nan(b), 0u);
-  EXPECT_LT(relative_l1(b, ref->belief()), 1e-5);
+  EXPECT_LT(relative_l1(b, ref.belief), 1e-5);
   EXPECT_NEAR(test::mass(b, p.grid), 1.0, 1e-5);
   ASSERT_EQ(rg.sums.size(), std::size_t(steps));
-  for (int k = 0; k < steps; ++k) EXPECT_NEAR(rg.sums[std::size_t(k)] / rr.sums[std::size_t(k)], 1.0, 1e-5);
+  for (int k = 0; k < steps; ++k) EXPECT_NEAR(rg.sums[std::size_t(k)] / ref.sums[std::size_t(k)], 1.0, 1e-5);
   if (!p.mask.empty()) {
     for (std::size_t i = 0; i < b.size(); ++i)
       if (!p.mask[i]) {
         ASSERT_EQ(b[i], 0.0) << "belief outside the target space at cell " << i;
       }
   }
+}
+
+void expect_matches_reference(const char* backend, const BackendOptions& o, const RandomProblem& r,
+                              std::uint64_t seed, int steps = 3) {
+  SCOPED_TRACE(fmt::format("{} layout {} graph {}: {}", backend, to_string(o.layout), o.graph, describe(r, seed)));
+  const Problem p = random_problem(r, seed);
+  expect_matches(backend, o, p, reference_run(p, steps), steps);
 }
 
 const std::vector<RandomProblem>& cases() {
@@ -85,6 +101,43 @@ TEST(RbeCudaResident, MatchesCpuSeqForEveryLayoutKind) {
         expect_matches_reference("cuda-resident", o, r, seed);
       }
     }
+  }
+}
+
+// Kernels taller or wider than any tile a block's shared memory holds (the search-and-rescue
+// team's stretched steps): the split passes walk them in chunks of taps (resident_geometry.hpp).
+// Random kernels (every tap matters, so a chunk misplaced or dropped shows); uneven last chunks;
+// R = 16 (the default layout), 8 with a mask, and 1 with both passes chunked; graph and kernel by
+// kernel. The plans (for sm_90's 227 KiB a block) are checked to chunk, so the path is the one
+// tested. cuda-seed (no tiles) runs the same problems.
+TEST(RbeCudaResident, KernelsLargerThanAnyTileMatchCpuSeq) {
+  DTFLOP_REQUIRE_GPU();
+  const auto seed = fresh_seed();
+  struct Case {
+    const char* layout;
+    RandomProblem r;
+    bool x_chunked;
+  };
+  const std::vector<Case> cases = {{"32x8x16", {200, 1500, 9, 1499}, false},
+                                   {"128x2x8", {300, 700, 33, 699, true, true}, false},
+                                   {"1024x1x1", {1100, 320, 801, 301}, true}};
+  for (const Case& c : cases) {
+    BackendOptions o;
+    o.layout = parse_layout(c.layout);
+    o.poison = true;
+    const ResidentPlan plan = resident_plan({c.r.nx, c.r.ny, c.r.Ix, c.r.Iy}, o.layout);
+    ASSERT_EQ(plan.passes, Layout::Passes::split) << c.layout;
+    ASSERT_GT(plan.y_chunks, 1) << c.layout;
+    ASSERT_EQ(plan.x_chunks > 1, c.x_chunked) << c.layout;
+    const Problem p = random_problem(c.r, seed);
+    const Reference ref = reference_run(p, 2);
+    for (bool graph : {true, false}) {
+      o.graph = graph;
+      SCOPED_TRACE(fmt::format("cuda-resident layout {} graph {}: {}", c.layout, graph, describe(c.r, seed)));
+      expect_matches("cuda-resident", o, p, ref, 2);
+    }
+    SCOPED_TRACE(fmt::format("cuda-seed: {}", describe(c.r, seed)));
+    expect_matches("cuda-seed", BackendOptions{}, p, ref, 2);
   }
 }
 

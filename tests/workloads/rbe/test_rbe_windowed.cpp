@@ -7,6 +7,7 @@
 // and, with DTFLOP_WINDOWED_GPU, the CUDA backends (label gpu; skipped without a device).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -170,6 +171,41 @@ TEST_P(BackendWindowed, ANewKernelKeepsTheBelief) {
   // A kernel wider than the grid is refused.
   const MotionKernel wide = MotionKernel::separable(std::vector<double>(91, 1.0 / 91), {1.0});
   EXPECT_THROW(kept->set_kernel(wide), InputError);
+}
+
+// The search-and-rescue team's steps that the link stretches need a kernel about as tall as the
+// grid (sar/platform.cpp). Every backend takes one through set_kernel, and back, and steps on as
+// cpu-seq (float64) does with the same kernels. A 1399-row kernel is taller than any tile of
+// cuda-resident's y-pass in shared memory (sm_90): its split passes walk it in chunks of taps
+// (resident_geometry.hpp), and back to a small kernel it fuses again.
+TEST_P(BackendWindowed, AKernelAsTallAsTheGridStepsAsCpuSeq) {
+#ifdef DTFLOP_WINDOWED_GPU
+  DTFLOP_REQUIRE_GPU();
+#endif
+  const Problem p = synthetic_problem({40, 1400, 5, 5}, 21);
+  const MotionKernel tall = synthetic_problem({40, 1400, 7, 1399}, 22).kernel;
+  auto b = make_backend(GetParam());
+  auto ref = make_backend("cpu-seq");
+  b->init(p);
+  ref->init(p);
+  (void)b->run(1);
+  (void)ref->run(1);
+  for (const MotionKernel* k : {&tall, &p.kernel, &tall}) {
+    SCOPED_TRACE("kernel " + std::to_string(k->Ix()) + "x" + std::to_string(k->Iy()));
+    b->set_kernel(*k);
+    ref->set_kernel(*k);
+    for (int i = 0; i < 2; ++i) {
+      (void)b->step(p.likelihood);
+      (void)ref->step(p.likelihood);
+    }
+    const std::vector<double> got = b->belief(), want = ref->belief();
+    double largest = 0, mass = 0;
+    for (double v : want) largest = std::max(largest, v);
+    for (double v : got) mass += v * p.grid.cell_area();
+    ASSERT_GT(largest, 0);
+    EXPECT_NEAR(mass, 1.0, 1e-5);
+    for (std::size_t i = 0; i < got.size(); ++i) ASSERT_NEAR(got[i], want[i], 1e-5 * largest) << i;
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Here, BackendWindowed, ::testing::ValuesIn(backends_here()), [](const auto& info) {
