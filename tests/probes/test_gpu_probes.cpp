@@ -190,7 +190,9 @@ TEST(GpuProbes, AtomicsToOneAddressCostLessThanALaunch) {
   const PerEventFit f = fit_per_event(pts);
   const double launch = summarize(gpu::time_launches(200, 3).per_launch).median;
   EXPECT_LT(f.per_event, launch);
-  if (d.sm_clock_ghz) EXPECT_GT(f.per_event, 0.25e-9 / *d.sm_clock_ghz);
+  if (d.sm_clock_ghz) {
+    EXPECT_GT(f.per_event, 0.25e-9 / *d.sm_clock_ghz);
+  }
   const std::vector<int> two = {4, 8};
   EXPECT_THROW(gpu::time_atomics(two, 1, 1), std::invalid_argument);
 }
