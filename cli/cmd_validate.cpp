@@ -155,7 +155,7 @@ int run(const ValidateOptions& o) {
 
   // A probe profile names no variant: predict with the one the samples' backends declare for their
   // code (workload::Backend::model_variant; extended where they differ), or the richest simpler one
-  // the profile supports for all of them, as `predict` falls back (the probes give no B_GS, L_atomic).
+  // the profile supports for all of them, as `predict` falls back (a profile of older probes has no B_GS, L_atomic).
   if (o.variant.empty() && !chosen_variant(profile)) {
     std::optional<Variant> declared;
     bool alike = true;

@@ -101,8 +101,6 @@ namespace {
 // Parameters no probe measures: only `dtflop calibrate` finds them (docs/model.md, section 3).
 bool fitted_only(Param p) {
   switch (p) {
-    case Param::B_GS:
-    case Param::L_atomic:
     case Param::B_GC_staged:
     case Param::S_GC_staged:
     case Param::S_GC_flat: return true;

@@ -39,7 +39,7 @@ struct BasisSigma {
   double cpu;  // CPU backends
 };
 // Probe-only predictions: no calibration of the workload anywhere. GPU: 0.78 .. 1.66 measured
-// (the seed variant: the probes give no K_GR, B_GS, L_atomic); CPU: cpu-seq 2.12 (2-vCPU VM) and
+// (the seed variant: the probes then gave no K_GR, B_GS, L_atomic); CPU: cpu-seq 2.12 (2-vCPU VM) and
 // 2.72 (the H100 machine's 16-thread host): its taps do not run at the probed FMA rate.
 inline constexpr BasisSigma kProbeOnlySigma = {1.7, 2.8};
 // A calibration carried to another machine whose own transfer error was never measured (added in

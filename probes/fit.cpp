@@ -87,4 +87,16 @@ LatencyBandwidthFit fit_latency_bandwidth(std::span<const TransferPoint> points)
   return f;
 }
 
+PerEventFit fit_per_event(std::span<const TransferPoint> points) {
+  const LatencyBandwidthFit f = fit_latency_bandwidth(points);
+  PerEventFit e;
+  e.fixed = f.latency;
+  e.fixed_hw95 = f.latency_hw95;
+  e.per_event = 1.0 / f.bandwidth;
+  e.per_event_hw95 = f.bandwidth_hw95 / (f.bandwidth * f.bandwidth);
+  e.rms_rel_residual = f.rms_rel_residual;
+  e.fixed_clamped = f.latency_clamped;
+  return e;
+}
+
 }  // namespace dtflop::probes

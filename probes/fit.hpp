@@ -34,6 +34,20 @@ struct LatencyBandwidthFit {
 // value, fewer than 2 distinct sizes, or data that give no positive bandwidth.
 LatencyBandwidthFit fit_latency_bandwidth(std::span<const TransferPoint> points);
 
+// The same model counted in events instead of bytes: time = L + events x C (a fixed cost plus a
+// cost per event, e.g. per serialized atomic update), fitted by fit_latency_bandwidth() with
+// `bytes` holding the event counts. C = 1 / B; its 95% half-width comes from B's by the delta
+// method (C_hw95 = B_hw95 / B^2). Throws as fit_latency_bandwidth() does.
+struct PerEventFit {
+  double fixed = 0;              // L [s]
+  double per_event = 0;          // C [s]
+  double fixed_hw95 = 0;
+  double per_event_hw95 = 0;
+  double rms_rel_residual = 0;
+  bool fixed_clamped = false;    // as LatencyBandwidthFit::latency_clamped
+};
+PerEventFit fit_per_event(std::span<const TransferPoint> points);
+
 // Two-sided 95% quantile of Student's t distribution with `dof` degrees of freedom
 // (tabulated up to 30, 1.96 beyond). Throws std::invalid_argument for dof < 1.
 double student_t95(std::size_t dof);

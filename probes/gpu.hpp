@@ -124,4 +124,47 @@ struct WaveTiming {
 // size is checked first: every block writes its own result into a poisoned buffer.
 WaveTiming time_waves(int batch, int reps);
 
+struct FillPoint {
+  int rows = 0;                  // tile rows (of tiles::kCols floats)
+  std::vector<double> seconds;   // seconds per launch (events around a batch of launches)
+  std::int64_t counted_bytes = 0;  // what the model counts (tiles::counted_fill_bytes)
+  std::int64_t filled_bytes = 0;   // what the blocks filled: blocks x rows x kCols x 4
+};
+
+struct FillTiming {
+  bool tma = false;              // filled by the tensor memory accelerator, else 16-byte cp.async
+  int blocks = 0;                // per launch: blocks_per_sm_rounds x occ x SMs
+  int sms = 0, occ = 0;          // multiprocessors; blocks each runs at once (what the occupancy API says)
+  std::vector<FillPoint> points; // one per tile height, smallest first
+};
+
+// Shared-memory tile fills (B_GS): kernels of 256-thread blocks that each copy a tile of `rows`
+// x 72 floats (cuda-resident's fused input tile with its halo, probes/tile_fill.hpp) from an
+// L2-resident 2048 x 2048 grid into shared memory, as cuda-resident does (the tensor memory
+// accelerator when `tma` and the device has one, else 16-byte cp.async pieces), wait for it, sum
+// it and write the sum. Shared memory is sized so that tiles::kBlocksPerSm blocks run on a
+// multiprocessor at once, whatever the tile height; each launch runs `rounds` x occ blocks per
+// multiprocessor. `reps` batches of `batch` launches per tile height after 3 untimed; every
+// block's sum of every height is checked against the exact one (ValidationError). Throws
+// GpuError (`tma` on a device or driver without the accelerator) and std::invalid_argument.
+FillTiming time_tile_fills(bool tma, int rounds, int batch, int reps);
+// Whether time_tile_fills(true, ...) can run here (compute capability 9 and the driver's
+// tensor-map encoder).
+bool tma_available();
+
+struct AtomicTiming {
+  std::vector<int> blocks;                  // blocks per launch
+  std::vector<std::vector<double>> atomic;  // seconds per launch, each block adds to one address
+  std::vector<std::vector<double>> stored;  // the same kernel, each block storing its own result
+};
+
+// Serialized atomics (L_atomic): a kernel of 256-thread blocks that each reduce their threads'
+// values (warp shuffles, then the warp partials) and add the block's float64 sum to one address
+// with atomicAdd, as cuda-resident's correcting kernel does; and beside it the same kernel with
+// the atomic add replaced by a store of the block's sum to its own word. Launched with each of
+// `blocks_per_sm` x SMs blocks; `reps` batches of `batch` launches after 3 untimed. The one sum
+// is checked after every batch (it is exact: integer values) and every stored word after the
+// last (ValidationError).
+AtomicTiming time_atomics(std::span<const int> blocks_per_sm, int batch, int reps);
+
 }  // namespace dtflop::probes::gpu

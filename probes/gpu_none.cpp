@@ -29,5 +29,8 @@ FmaTiming time_fma(bool, double, int, int) { no_cuda(); }
 RowsTiming time_rows(int, int, int, int) { no_cuda(); }
 LaunchTiming time_launches(int, int) { no_cuda(); }
 WaveTiming time_waves(int, int) { no_cuda(); }
+FillTiming time_tile_fills(bool, int, int, int) { no_cuda(); }
+bool tma_available() { return false; }
+AtomicTiming time_atomics(std::span<const int>, int, int) { no_cuda(); }
 
 }  // namespace dtflop::probes::gpu

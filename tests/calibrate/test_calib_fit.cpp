@@ -329,6 +329,24 @@ namespace {
 // What the repository ships holds no parameter outside its physical range: every calibration
 // (its factors against the source machine's probes) and every fitted profile kept beside the probe
 // profile it was fitted from.
+// B_GS and L_atomic have probes (gpu-tiles, gpu-atomics): where the start profile holds their probed
+// values, the fit is bounded by them as B_GG is by its probe; a profile without them (an older probe)
+// leaves the generic ranges.
+TEST(CalibBounds, TileFillsAndAtomicsAreBoundedByTheirProbes) {
+  MachineProfile probed;
+  probed.set(Param::B_GS, Parameter{3.2e12, Provenance::probed, {}, {}, {}});
+  probed.set(Param::L_atomic, Parameter{8e-9, Provenance::probed, {}, {}, {}});
+  const Bound gs = physical_bounds(Param::B_GS, probed, 3.2e12);
+  EXPECT_DOUBLE_EQ(gs.hi, kBoundAbove * 3.2e12);
+  EXPECT_DOUBLE_EQ(gs.lo, 1e-4 * 3.2e12);
+  const Bound at = physical_bounds(Param::L_atomic, probed, 8e-9);
+  EXPECT_DOUBLE_EQ(at.lo, 0.02 * 8e-9);
+  EXPECT_DOUBLE_EQ(at.hi, 100 * 8e-9);
+  const MachineProfile none;
+  EXPECT_DOUBLE_EQ(physical_bounds(Param::B_GS, none, 1e12).hi, 1e18);  // a million-fold of the start
+  EXPECT_DOUBLE_EQ(physical_bounds(Param::L_atomic, none, 1e-5).lo, 1e-10);
+}
+
 TEST(CalibBounds, ShippedCalibrationsAndFittedProfilesStayInTheirBounds) {
   namespace fs = std::filesystem;
   int calibrations = 0, profiles = 0;

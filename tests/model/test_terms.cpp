@@ -490,7 +490,7 @@ TEST(Terms, EachVariantNeedsWhatTheOneItExtendsNeeds) {
 // ---- The fallback to a simpler variant --------------------------------------------------------
 
 TEST(RichestSupportedVariant, AProbedProfileFallsBackToTheVariantItHasTheParametersOf) {
-  const MachineProfile probed = h200();  // no B_GS, L_atomic, K_CW, K_GR, staging figures, B_llc
+  const MachineProfile probed = h200();  // no B_GS, L_atomic, K_CW, K_GR, staging figures, B_llc (older probes)
   std::vector<Param> missing;
   // The CPU's sliding-window FLOPs need K_CW in memory and extended: both fall back to latency.
   CostCounts cpu;
@@ -529,11 +529,17 @@ TEST(RichestSupportedVariant, AProbedProfileFallsBackToTheVariantItHasTheParamet
   gpu.host_memory = HostMemory::pinned;
   EXPECT_EQ(richest_supported_variant(probed, gpu, Variant::extended, &missing), Variant::seed);
   EXPECT_EQ(as_set(missing), (std::set<Param>{Param::B_GS, Param::L_atomic}));
-  // No probe measures them: the note sends the user to a calibration.
-  const std::string fitted_note = fallback_note(Variant::extended, Variant::seed, missing);
+  // The gpu-tiles and gpu-atomics probes measure them (this profile predates them): the note sends
+  // the user to the probe, not to a calibration.
+  const std::string probe_note = fallback_note(Variant::extended, Variant::seed, missing);
+  EXPECT_NE(probe_note.find("with `dtflop probe`"), std::string::npos) << probe_note;
+  EXPECT_EQ(probe_note.find("dtflop calibrate"), std::string::npos) << probe_note;
+  EXPECT_NO_THROW(predict(probed, gpu, Variant::seed));
+  // A parameter no probe measures (the staging figures) sends the user to a calibration.
+  const std::vector<Param> staged = {Param::B_GC_staged};
+  const std::string fitted_note = fallback_note(Variant::extended, Variant::latency, staged);
   EXPECT_NE(fitted_note.find("dtflop calibrate"), std::string::npos) << fitted_note;
   EXPECT_EQ(fitted_note.find("dtflop probe"), std::string::npos) << fitted_note;
-  EXPECT_NO_THROW(predict(probed, gpu, Variant::seed));
   // Sized pageable copies: the staging figures apply only where the profile has them, so a
   // probed profile keeps the latency variant's plain line rather than falling back.
   CostCounts copies;

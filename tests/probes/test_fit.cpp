@@ -78,6 +78,33 @@ TEST(LatencyBandwidthFit, RejectsBadInput) {
                std::invalid_argument);
 }
 
+TEST(PerEventFit, RecoversTheCostPerEventAndTheFixedCost) {
+  // 3 us of launch and 9.5 ns an event, 528..8448 events.
+  std::vector<TransferPoint> p;
+  for (double n = 528; n <= 8448; n *= 2) p.push_back({n, 3e-6 + n * 9.5e-9});
+  const PerEventFit f = fit_per_event(p);
+  EXPECT_NEAR(f.per_event, 9.5e-9, 9.5e-9 * 1e-9);
+  EXPECT_NEAR(f.fixed, 3e-6, 3e-6 * 1e-9);
+  EXPECT_FALSE(f.fixed_clamped);
+  EXPECT_LT(f.per_event_hw95, 1e-18);
+}
+
+TEST(PerEventFit, IntervalIsTheBandwidthsMappedToACostPerEvent) {
+  std::mt19937_64 rng(777);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  std::vector<TransferPoint> p;
+  for (double n = 100; n <= 12800; n *= 2) p.push_back({n, (2e-6 + n * 4e-9) * (1.0 + noise(rng))});
+  const PerEventFit e = fit_per_event(p);
+  const LatencyBandwidthFit f = fit_latency_bandwidth(p);
+  EXPECT_DOUBLE_EQ(e.per_event, 1.0 / f.bandwidth);
+  EXPECT_DOUBLE_EQ(e.per_event_hw95, f.bandwidth_hw95 / (f.bandwidth * f.bandwidth));
+  EXPECT_DOUBLE_EQ(e.fixed_hw95, f.latency_hw95);
+  EXPECT_GT(e.per_event_hw95, 0);
+  EXPECT_LE(std::fabs(e.per_event - 4e-9), e.per_event_hw95);
+  // Times that fall with the count: no positive cost per event.
+  EXPECT_THROW(fit_per_event(std::vector<TransferPoint>{{1, 3e-6}, {2, 2e-6}, {4, 1e-6}}), std::invalid_argument);
+}
+
 TEST(StudentT, MatchesTables) {
   EXPECT_DOUBLE_EQ(student_t95(1), 12.706);
   EXPECT_DOUBLE_EQ(student_t95(17), 2.110);

@@ -9,6 +9,7 @@
 #include "probes/fit.hpp"
 #include "probes/gpu.hpp"
 #include "probes/probe.hpp"
+#include "probes/tile_fill.hpp"
 #include "model/stats.hpp"
 #include "tests/support/gpu.hpp"
 
@@ -130,6 +131,70 @@ TEST(GpuProbes, RoundsOfBlocksCostMoreWithEveryRound) {
   for (std::size_t i = 1; i < w.seconds.size(); ++i) EXPECT_GT(w.seconds[i], w.seconds[i - 1]) << w.waves[i];
   EXPECT_GT(w.per_wave, 1e-7);
   EXPECT_LT(w.per_wave, 1e-4);
+}
+
+// Tile fills from an L2-resident grid: every block's sum is checked inside (ValidationError); the
+// fills grow with the tile, and the bytes really filled per second lie within a factor of ten of
+// what this device's copy kernel moves through device memory in the same run (the L2 cache is
+// faster than device memory, by a few times, on every CUDA GPU).
+TEST(GpuProbes, TileFillsAreCheckedAndRunNearTheDeviceMemoryRate) {
+  DTFLOP_REQUIRE_GPU();
+  const std::int64_t bytes = 256 << 20;
+  const double copy = 2.0 * bytes / summarize(gpu::time_copy_kernel(bytes, 5, 1)).median;  // read + write
+  std::vector<bool> ways = {false};
+  if (gpu::tma_available()) ways.push_back(true);
+  for (bool tma : ways) {
+    const auto t = gpu::time_tile_fills(tma, 4, 3, 3);
+    EXPECT_EQ(t.tma, tma);
+    EXPECT_EQ(t.occ, tiles::kBlocksPerSm) << "shared memory sized for cuda-resident's blocks per multiprocessor";
+    EXPECT_EQ(t.blocks, 4 * t.occ * t.sms);
+    ASSERT_GE(t.points.size(), 3u);
+    std::vector<TransferPoint> pts;
+    for (std::size_t i = 0; i < t.points.size(); ++i) {
+      const auto& p = t.points[i];
+      ASSERT_EQ(p.seconds.size(), 3u);
+      EXPECT_EQ(p.filled_bytes, std::int64_t{t.blocks} * p.rows * tiles::kCols * 4);
+      EXPECT_EQ(p.counted_bytes, std::int64_t{4} * t.sms * p.rows * tiles::kCols * 4);  // 4 rounds, one tile each
+      pts.push_back({static_cast<double>(p.counted_bytes), summarize(p.seconds).median});
+    }
+    EXPECT_GT(pts.back().seconds, pts.front().seconds) << "a 224-row tile takes longer to fill than a 48-row one";
+    const double filled = static_cast<double>(t.points.back().filled_bytes) / pts.back().seconds;
+    EXPECT_GT(filled, 0.1 * copy) << tma;
+    EXPECT_LT(filled, 10 * copy) << tma;
+    const auto f = fit_latency_bandwidth(pts);
+    EXPECT_GT(f.bandwidth, 0.01 * copy) << tma;
+    EXPECT_LT(f.bandwidth, 10 * copy) << tma;
+  }
+  EXPECT_THROW(gpu::time_tile_fills(false, 0, 1, 1), std::invalid_argument);
+}
+
+// Atomic adds of every block to one address: the sum is checked after every batch and every
+// stored word (ValidationError inside). One of them costs more than nothing and less than a kernel
+// launch measured in the same run, and at least a quarter of a clock cycle of this device.
+TEST(GpuProbes, AtomicsToOneAddressCostLessThanALaunch) {
+  DTFLOP_REQUIRE_GPU();
+  const std::vector<int> per_sm = {4, 8, 16, 32};
+  const auto t = gpu::time_atomics(per_sm, 5, 3);
+  const auto d = gpu::device_info();
+  ASSERT_EQ(t.blocks.size(), per_sm.size());
+  ASSERT_EQ(t.atomic.size(), per_sm.size());
+  ASSERT_EQ(t.stored.size(), per_sm.size());
+  std::vector<TransferPoint> pts;
+  for (std::size_t i = 0; i < per_sm.size(); ++i) {
+    EXPECT_EQ(t.blocks[i], per_sm[i] * d.sm_count);
+    ASSERT_EQ(t.atomic[i].size(), 3u);
+    ASSERT_EQ(t.stored[i].size(), 3u);
+    pts.push_back({static_cast<double>(t.blocks[i]), summarize(t.atomic[i]).median});
+  }
+  EXPECT_GT(pts.back().seconds, pts.front().seconds) << "8 times the blocks, 8 times the atomics";
+  const PerEventFit f = fit_per_event(pts);
+  const double launch = summarize(gpu::time_launches(200, 3).per_launch).median;
+  EXPECT_LT(f.per_event, launch);
+  if (d.sm_clock_ghz) {
+    EXPECT_GT(f.per_event, 0.25e-9 / *d.sm_clock_ghz);
+  }
+  const std::vector<int> two = {4, 8};
+  EXPECT_THROW(gpu::time_atomics(two, 1, 1), std::invalid_argument);
 }
 
 TEST(GpuProbes, EveryGpuProbeRunsAtSmokeEffort) {

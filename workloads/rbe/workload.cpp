@@ -123,8 +123,8 @@ class RbeBackend final : public workload::Backend {
   }
   // The largest rms of log error of each backend's probe-only predictions over held-out random:50
   // sets (results/portability/probe-only-2026-11-24/vm, probe-only-chunks-2026-11-24/h100 and h200;
-  // docs/PERFORMANCE.md, Prediction portability). cuda-resident has none: no probe gives its B_GS
-  // and L_atomic.
+  // docs/PERFORMANCE.md, Prediction portability). cuda-resident has none yet: its B_GS and L_atomic
+  // come from the gpu-tiles and gpu-atomics probes, whose probe-only error is not measured yet.
   std::optional<BasisError> probe_only_error() const override {
     static const std::map<std::string, double> measured = {{"cpu-seq", 0.27}, {"cpu-par", 0.51}, {"cuda-seed", 0.25}};
     const auto it = measured.find(name());
