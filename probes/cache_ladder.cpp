@@ -59,8 +59,14 @@ CacheKnee find_cache_knee(std::span<const LadderPoint> ladder) {
                           k.threshold / 1e9, mib(ladder[knee].bytes), mib(ladder[i].bytes));
       return k;
     }
-  k.bytes = ladder[knee].bytes;
-  k.next_bytes = ladder[knee + 1].bytes;
+  const LadderPoint& a = ladder[knee];
+  const LadderPoint& b = ladder[knee + 1];
+  k.above = a.bytes;
+  k.below = b.bytes;
+  // a.bandwidth >= threshold > b.bandwidth, so f is in [0, 1).
+  const double f = std::log(a.bandwidth / k.threshold) / std::log(a.bandwidth / b.bandwidth);
+  const double bytes = static_cast<double>(a.bytes) * std::pow(static_cast<double>(b.bytes) / static_cast<double>(a.bytes), f);
+  k.bytes = std::clamp(static_cast<std::int64_t>(std::llround(bytes)), a.bytes, b.bytes);
   return k;
 }
 

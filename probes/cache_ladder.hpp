@@ -19,11 +19,13 @@ struct LadderPoint {
 };
 
 struct CacheKnee {
-  // The effective last-level cache: the largest ladder size whose bandwidth is still at or
-  // above `threshold`, on the run of points that starts at the cache plateau. Empty when the
-  // ladder shows no knee (`why` says why).
+  // The effective last-level cache: where the bandwidth crosses `threshold` on its way down
+  // from the cache plateau, interpolated linearly in log size and log bandwidth between the
+  // last ladder point at or above the threshold (`above`) and the next one (`below`). Empty when
+  // the ladder shows no knee (`why` says why).
   std::optional<std::int64_t> bytes;
-  std::int64_t next_bytes = 0;  // the next ladder size (the first below the threshold): the knee lies in [bytes, next_bytes)
+  std::int64_t above = 0;       // the largest ladder size still at or above the threshold
+  std::int64_t below = 0;       // the next ladder size, the first below it
   double cache_plateau = 0;     // highest bandwidth of the ladder [B/s]
   double memory_plateau = 0;    // median bandwidth of its three largest sizes [B/s]
   double threshold = 0;         // sqrt(cache_plateau x memory_plateau) [B/s]
@@ -35,12 +37,15 @@ inline constexpr double kMinPlateauRatio = 1.3;
 
 // The knee rule (pure; tests/probes/test_cache_ladder.cpp): the cache plateau is the highest
 // bandwidth of the ladder, the memory plateau the median of its three largest sizes'; with
-// them at least kMinPlateauRatio apart, the threshold is their geometric mean, and the knee is
-// the last point at or above it counting up from the cache plateau's point. No knee when the
-// ladder has fewer than 5 points, the plateaus are closer than kMinPlateauRatio, the fall comes
-// within the three largest sizes (no memory plateau beyond it), or a larger size climbs back
-// above the threshold (no single knee). Throws std::invalid_argument when the points are not
-// ascending in size or hold a non-positive or non-finite value.
+// them at least kMinPlateauRatio apart, the threshold is their geometric mean; counting up from
+// the cache plateau's point, `above` is the last point at or above it, and the knee is where
+// the line from `above` to the next point crosses it (log size, log bandwidth), so that the
+// estimate moves smoothly with the data rather than by a ladder step when one point sits at the
+// threshold. No knee when the ladder has fewer than 5 points, the plateaus are closer than
+// kMinPlateauRatio, the fall comes within the three largest sizes (no memory plateau beyond
+// it), or a larger size climbs back above the threshold (no single knee). Throws
+// std::invalid_argument when the points are not ascending in size or hold a non-positive or
+// non-finite value.
 CacheKnee find_cache_knee(std::span<const LadderPoint> ladder);
 
 // The ladder's sizes: first x 2^(k / steps_per_octave) for k = 0, 1, ... while <= last, each

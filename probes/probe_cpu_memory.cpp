@@ -236,6 +236,11 @@ Ladder cache_ladder(const LadderPlan& p, cpu::Isa isa, const CpuInfo& ci, const 
     out.points.push_back(std::move(pt));
   }
   const CacheKnee k = find_cache_knee(pts);
+  auto index_of = [&pts](std::int64_t bytes) {
+    std::size_t i = 0;
+    while (i + 1 < pts.size() && pts[i].bytes != bytes) ++i;
+    return i;
+  };
   auto gb = [](double v) { return v / 1e9; };
   auto mb = [](std::int64_t v) { return static_cast<double>(v) / (1 << 20); };
   const std::string ladder = fmt::format("read ladder of {} sizes, {:.1f}..{:.1f} MiB, one thread; largest spread of a size {:.1f}%",
@@ -247,9 +252,10 @@ Ladder cache_ladder(const LadderPlan& p, cpu::Isa isa, const CpuInfo& ci, const 
     km.label = "last-level cache this process gets (knee of the read ladder)";
     km.value = static_cast<double>(*k.bytes);
     km.note = fmt::format(
-        "{}: cache plateau {:.3g} GB/s, memory plateau {:.3g} GB/s, threshold (their geometric mean) {:.3g} GB/s; "
-        "the largest size above it {:.1f} MiB, the next {:.1f} MiB; the system reports {}",
-        ladder, gb(k.cache_plateau), gb(k.memory_plateau), gb(k.threshold), mb(*k.bytes), mb(k.next_bytes),
+        "{}: cache plateau {:.3g} GB/s, memory plateau {:.3g} GB/s, threshold (their geometric mean) {:.3g} GB/s, "
+        "crossed at {:.1f} MiB between the ladder's {:.1f} MiB ({:.3g} GB/s) and {:.1f} MiB ({:.3g} GB/s); the system reports {}",
+        ladder, gb(k.cache_plateau), gb(k.memory_plateau), gb(k.threshold), mb(*k.bytes), mb(k.above),
+        gb(pts[index_of(k.above)].bandwidth), mb(k.below), gb(pts[index_of(k.below)].bandwidth),
         ci.llc_bytes ? fmt::format("{:.1f} MiB", mb(*ci.llc_bytes)) : std::string("no size"));
     o.say(fmt::format("  cache ladder: {:.1f} MiB effective last-level cache (read {:.3g} GB/s -> {:.3g} GB/s; the system reports {})",
                       mb(*k.bytes), gb(k.cache_plateau), gb(k.memory_plateau),

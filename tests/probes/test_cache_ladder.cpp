@@ -30,8 +30,11 @@ TEST(CacheKnee, StepFromCacheToMemoryGivesTheLastSizeOnTheCachePlateau) {
   const auto l = ladder(9, [](double mib) { return mib <= 32 ? 30e9 : 10e9; });
   const CacheKnee k = find_cache_knee(l);
   ASSERT_TRUE(k.bytes.has_value()) << k.why;
-  EXPECT_EQ(*k.bytes, 32 * MiB);
-  EXPECT_EQ(k.next_bytes, 64 * MiB);
+  EXPECT_EQ(k.above, 32 * MiB);
+  EXPECT_EQ(k.below, 64 * MiB);
+  // The threshold is the plateaus' geometric mean, so a step is crossed half-way in log size:
+  // at sqrt(32 x 64) MiB.
+  EXPECT_NEAR(static_cast<double>(*k.bytes), std::sqrt(32.0 * 64.0) * MiB, 1.0);
   EXPECT_DOUBLE_EQ(k.cache_plateau, 30e9);
   EXPECT_DOUBLE_EQ(k.memory_plateau, 10e9);
   EXPECT_NEAR(k.threshold, std::sqrt(300.0) * 1e9, 1e3);
@@ -43,7 +46,27 @@ TEST(CacheKnee, GradualFallIsCutWhereItCrossesTheGeometricMean) {
   const auto l = ladder(8, [](double mib) { return mib <= 8 ? 40e9 : std::max(10e9, 40e9 * 8 / mib); });
   const CacheKnee k = find_cache_knee(l);
   ASSERT_TRUE(k.bytes.has_value()) << k.why;
+  EXPECT_EQ(k.above, 16 * MiB);
   EXPECT_EQ(*k.bytes, 16 * MiB);
+}
+
+TEST(CacheKnee, ThePointsBesideTheThresholdPlaceTheKneeBetweenThem) {
+  // 30 GB/s to 32 MiB, 20 at 64, 10 beyond: threshold sqrt(300) = 17.3 GB/s, crossed between
+  // 64 MiB (20) and 128 MiB (10) where log(20 / 17.3) / log(20 / 10) = 0.2075 of the octave has
+  // passed: 64 x 2^0.2075 = 73.9 MiB. A point just above or just below the threshold moves the
+  // knee a little, not a whole ladder step.
+  auto at = [](double at64) {
+    return find_cache_knee(ladder(9, [at64](double mib) { return mib <= 32 ? 30e9 : mib == 64 ? at64 : 10e9; }));
+  };
+  const CacheKnee k = at(20e9);
+  ASSERT_TRUE(k.bytes.has_value()) << k.why;
+  const double f = std::log(20.0 / std::sqrt(300.0)) / std::log(2.0);
+  EXPECT_NEAR(static_cast<double>(*k.bytes), 64.0 * std::pow(2.0, f) * MiB, 1.0);
+  const CacheKnee up = at(17.4e9), down = at(17.2e9);
+  ASSERT_TRUE(up.bytes && down.bytes);
+  EXPECT_EQ(up.above, 64 * MiB);
+  EXPECT_EQ(down.above, 32 * MiB);
+  EXPECT_LT(static_cast<double>(*up.bytes - *down.bytes), 0.02 * static_cast<double>(*up.bytes));
 }
 
 TEST(CacheKnee, TheCachePlateauIsTheHighestPointNotTheFirst) {
@@ -51,7 +74,7 @@ TEST(CacheKnee, TheCachePlateauIsTheHighestPointNotTheFirst) {
   const auto l = ladder(9, [](double mib) { return mib == 4 ? 20e9 : mib <= 64 ? 30e9 : 8e9; });
   const CacheKnee k = find_cache_knee(l);
   ASSERT_TRUE(k.bytes.has_value()) << k.why;
-  EXPECT_EQ(*k.bytes, 64 * MiB);
+  EXPECT_EQ(k.above, 64 * MiB);
 }
 
 TEST(CacheKnee, FlatLadderHasNoKnee) {
