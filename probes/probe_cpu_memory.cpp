@@ -188,7 +188,7 @@ LadderPlan ladder_plan(Effort e, const CpuInfo& ci, std::optional<std::int64_t> 
   switch (e) {
     case Effort::smoke: return {first, std::max(first, std::min<std::int64_t>(last, 4 * first)), 1, 3, 8 * mib};
     case Effort::quick: return {first, std::max(first, last), 2, 5, 64 * mib};
-    case Effort::full: return {first, std::max(first, last), 4, 9, 128 * mib};
+    case Effort::full: return {first, std::max(first, last), 4, 5, 64 * mib};
   }
   return {first, std::max(first, last), 2, 5, 64 * mib};
 }
