@@ -1,12 +1,12 @@
-// Host memory bandwidth: STREAM copy and triad over arrays several times the last-level
+// First the cache a process really gets: read bandwidth on one thread over a ladder of working
+// sets from above the core's own caches to several times the size the system reports, and the
+// knee where it falls from the cache's plateau to the memory's (probes/cache_ladder.hpp): the
+// effective last-level cache, which the profile's identity carries beside the system's figure.
+// Then host memory bandwidth: STREAM copy and triad over arrays several times the last-level
 // cache, one thread and all threads (each thread streams its own slice, first touched by
 // itself). Bytes counted are those read plus written (write-allocate traffic not counted,
-// as in STREAM). B_host_1 / B_host are the triad figures. Then the cache a process really
-// gets: read bandwidth on one thread over a ladder of working sets from above the core's own
-// caches to several times the size the system reports, and the knee where it falls from the
-// cache's plateau to the memory's (probes/cache_ladder.hpp): the effective last-level cache,
-// which the profile's identity carries beside the system's figure. Then the triad over arrays
-// that fit that cache together (an eighth of it each): B_llc_1 / B_llc, the bandwidth CPU work
+// as in STREAM). B_host_1 / B_host are the triad figures. Then the triad over arrays that fit
+// the measured cache together (an eighth of it each): B_llc_1 / B_llc, the bandwidth CPU work
 // sees while its working set stays in the cache.
 #include <algorithm>
 #include <chrono>
@@ -295,8 +295,9 @@ ProbeReport run(const ProbeOptions& o) {
       r.measurements.push_back(all);
     }
   };
-  measure(p, kMemory);
+  // The ladder first, on pages no other part of the probe used (see docs/probe.md).
   const Ladder ladder = cache_ladder(ladder_plan(o.effort, ci, physical_memory()), isa, ci, o);
+  measure(p, kMemory);
   r.measurements.insert(r.measurements.end(), ladder.points.begin(), ladder.points.end());
   // (No knee and no system figure: nothing to show but the metadata's note.)
   if (ladder.knee->value >= 1) r.measurements.push_back(*ladder.knee);
