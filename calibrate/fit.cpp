@@ -128,7 +128,7 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
   // The parameters the samples' counts exercise, in Param order.
   std::vector<Param> ids;
   for (const auto& s : samples)
-    for (Param p : required_params(s.counts, o.variant, start.identity.cpu_llc_bytes, true, true, true))
+    for (Param p : required_params(s.counts, o.variant, model_llc_bytes(start.identity), true, true, true))
       if (std::find(ids.begin(), ids.end(), p) == ids.end()) ids.push_back(p);
   std::sort(ids.begin(), ids.end());
   // Start values: the latency variant's fit for extended (see FitOptions::warm_start), else
@@ -158,7 +158,7 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
   std::vector<Residual> residuals;
   for (const auto& s : samples) {
     std::vector<int> params;
-    for (Param p : required_params(s.counts, o.variant, start.identity.cpu_llc_bytes, true, true, true)) params.push_back(index_of(p));
+    for (Param p : required_params(s.counts, o.variant, model_llc_bytes(start.identity), true, true, true)) params.push_back(index_of(p));
     for (Component c : all_components()) {
       if (c != Component::total &&
           std::find(o.components.begin(), o.components.end(), c) == o.components.end())

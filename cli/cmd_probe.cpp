@@ -40,11 +40,27 @@ std::string spread_str(const Stats& s) {
   return s.n > 1 ? fmt::format("{:.1f}%", 100 * s.spread()) : "-";
 }
 
-void print_identity(const probes::MachineReport& r) {
-  const auto& id = r.identity;
+void print_identity(const probes::MachineReport& r, const MachineProfile& prof) {
+  const auto& id = prof.identity;
   fmt::print("Machine {}: {} ({} cores, {} threads{})\n", id.hostname, id.cpu_model, id.cpu_cores,
              id.cpu_threads,
              id.cpu_clock_ghz ? fmt::format(", {:.3g} GHz nominal", *id.cpu_clock_ghz) : "");
+  // The cache the model prices working sets against, and where its size came from.
+  if (id.cpu_llc_effective_bytes > 0)
+    fmt::print("Last-level cache: {} effective, measured (the system reports {})\n",
+               format_bytes(static_cast<double>(id.cpu_llc_effective_bytes)),
+               id.cpu_llc_bytes > 0 ? format_bytes(static_cast<double>(id.cpu_llc_bytes)) : std::string("no size"));
+  else if (const auto it = prof.metadata.find("probe.cpu_llc_effective"); it != prof.metadata.end()) {
+    // "none: <ladder>: no knee (<why>); the model uses ..."
+    std::string why = it->second;
+    if (const auto a = why.find("no knee ("), b = why.rfind("); the model"); a != std::string::npos && b != std::string::npos && b > a)
+      why = why.substr(a + 9, b - a - 9);
+    fmt::print("Last-level cache: {} as the system reports it; the cache ladder showed no knee: {}\n",
+               id.cpu_llc_bytes > 0 ? format_bytes(static_cast<double>(id.cpu_llc_bytes)) : std::string("no size"), why);
+  }
+  else if (id.cpu_llc_bytes > 0)
+    fmt::print("Last-level cache: {} as the system reports it (not measured)\n",
+               format_bytes(static_cast<double>(id.cpu_llc_bytes)));
   if (r.gpu.usable)
     fmt::print("GPU: {} ({} SMs, compute capability {}.{}, {}), driver {}, CUDA runtime {}\n",
                r.gpu.name, r.gpu.sm_count, r.gpu.cc_major, r.gpu.cc_minor,
@@ -85,7 +101,8 @@ void print_tables(const probes::MachineReport& r, const MachineProfile& prof, bo
       any = true;
     }
   if (any)
-    fmt::print("\nOther measurements{}:\n{}", details ? "" : " (--details adds every transfer size)",
+    fmt::print("\nOther measurements{}:\n{}",
+               details ? "" : " (--details adds every transfer size and every size of the cache ladder)",
                other.str());
   // Probes skipped for one reason (typically: no GPU) on one line.
   std::vector<std::pair<std::string, std::vector<std::string>>> skipped;
@@ -125,7 +142,7 @@ void run(const ProbeCliOptions& o) {
   if (o.json)
     fmt::print("{}\n", to_json(prof).dump(2));
   else {
-    print_identity(report);
+    print_identity(report, prof);
     print_tables(report, prof, o.details);
   }
   if (report.failed()) {
@@ -151,7 +168,8 @@ void add_probe_command(CLI::App& root) {
                 "Fewer sizes and repetitions: under 30 s on a 2-core machine without GPU");
   app->add_option("-o,--output", o->output, "Write the machine profile (JSON) to this file");
   app->add_flag("--json", o->json, "Print the profile as JSON on stdout instead of tables");
-  app->add_flag("--details", o->details, "Also print every point of the transfer sweeps");
+  app->add_flag("--details", o->details,
+                "Also print every point of the transfer sweeps and of the cache ladder");
   app->add_option("--only", o->only, "Run only these probes (comma-separated; see --list)")
       ->delimiter(',');
   app->add_flag("--list", o->list, "List the probes and exit");

@@ -102,6 +102,7 @@ json to_json(const MachineProfile& p) {
              {"cpu_cores", p.identity.cpu_cores},
              {"cpu_threads", p.identity.cpu_threads},
              {"cpu_llc_bytes", p.identity.cpu_llc_bytes},
+             {"cpu_llc_effective_bytes", p.identity.cpu_llc_effective_bytes},
              {"gpu_name", p.identity.gpu_name},
              {"gpu_sms", p.identity.gpu_sms},
              {"gpu_driver", p.identity.gpu_driver},
@@ -140,6 +141,8 @@ MachineProfile profile_from_json(const json& j) {
   p.identity.cpu_cores = get_count(id, "cpu_cores", "identity.");
   p.identity.cpu_threads = get_count(id, "cpu_threads", "identity.");
   p.identity.cpu_llc_bytes = get_i64(id, "cpu_llc_bytes", 0, "identity.");  // 0 when absent (older profiles)
+  // 0 when absent (profiles probed before the cache ladder): the model uses cpu_llc_bytes.
+  p.identity.cpu_llc_effective_bytes = get_i64(id, "cpu_llc_effective_bytes", 0, "identity.");
   p.identity.gpu_name = get_string(id, "gpu_name", "identity.", false);
   p.identity.gpu_sms = get_count(id, "gpu_sms", "identity.");  // 0 when absent (older profiles)
   p.identity.gpu_driver = get_string(id, "gpu_driver", "identity.", false);

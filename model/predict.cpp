@@ -74,8 +74,9 @@ double host_bandwidth(const MachineProfile& m, int threads) {
 }
 
 double llc_share_missed(const MachineProfile& m, const CostCounts& c) {
-  if (c.cpu_footprint <= 0 || m.identity.cpu_llc_bytes <= 0) return 1.0;
-  return std::min(1.0, static_cast<double>(c.cpu_footprint) / static_cast<double>(m.identity.cpu_llc_bytes));
+  const std::int64_t llc = model_llc_bytes(m.identity);
+  if (c.cpu_footprint <= 0 || llc <= 0) return 1.0;
+  return std::min(1.0, static_cast<double>(c.cpu_footprint) / static_cast<double>(llc));
 }
 
 double host_seconds_per_byte(const MachineProfile& m, const CostCounts& c) {

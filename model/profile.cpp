@@ -160,6 +160,10 @@ bool same_machine(const MachineIdentity& a, const MachineIdentity& b, std::strin
   return diff.empty();
 }
 
+std::int64_t model_llc_bytes(const MachineIdentity& id) {
+  return id.cpu_llc_effective_bytes > 0 ? id.cpu_llc_effective_bytes : id.cpu_llc_bytes;
+}
+
 std::string describe(const MachineIdentity& id) {
   std::string s = fmt::format("{} ({} threads)", id.cpu_model.empty() ? "unknown CPU" : id.cpu_model,
                               id.cpu_threads);

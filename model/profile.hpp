@@ -92,7 +92,10 @@ struct MachineIdentity {
   std::string cpu_model;
   int cpu_cores = 0;       // physical cores
   int cpu_threads = 0;     // hardware threads
-  std::int64_t cpu_llc_bytes = 0;       // last-level cache; 0 = unknown
+  std::int64_t cpu_llc_bytes = 0;       // last-level cache the system reports (sysfs); 0 = unknown
+  // The last-level cache a process was measured to get (dtflop probe's cache ladder, docs/probe.md
+  // cpu-memory); 0 = not measured, or the ladder showed no knee: the model then uses cpu_llc_bytes.
+  std::int64_t cpu_llc_effective_bytes = 0;
   std::optional<double> cpu_clock_ghz;  // nominal clock when known
   std::string gpu_name;                 // empty when no GPU
   int gpu_sms = 0;                      // the GPU's multiprocessors; 0 = unknown or no GPU
@@ -105,6 +108,10 @@ struct MachineIdentity {
 // both). The hostname is not compared: lent machines of one kind get a new name each time.
 // When they differ, `why` (if given) says what differs, in words.
 bool same_machine(const MachineIdentity& a, const MachineIdentity& b, std::string* why = nullptr);
+
+// The last-level cache the model prices working sets against (docs/model.md 2.4): the measured
+// one (cpu_llc_effective_bytes) when there is one, else what the system reports; 0 = unknown.
+std::int64_t model_llc_bytes(const MachineIdentity& id);
 
 // One line for people: "AMD EPYC 7B13 (2 threads) + NVIDIA H200 on host x".
 std::string describe(const MachineIdentity& id);

@@ -49,7 +49,7 @@ std::string Variants::str() const {
 }
 
 Pricing Pricing::of(const MachineProfile& m) {
-  return {m.identity.cpu_llc_bytes, has_staging(m), m.has(Param::K_CW_all) || m.has(Param::K_CA_all), m.has(Param::V_CS)};
+  return {model_llc_bytes(m.identity), has_staging(m), m.has(Param::K_CW_all) || m.has(Param::K_CA_all), m.has(Param::V_CS)};
 }
 
 namespace {

@@ -51,6 +51,21 @@ template <typename T, int N, bool Fused>
   for (std::size_t i = 0; i < n; ++i) a[i] = b[i] + s * c[i];
 }
 
+// 16 running sums, so that the additions of one step do not wait on each other and the loop is
+// bound by its loads (GCC keeps them in 2-4 vector registers); the sum of small integers is
+// exact in any order.
+[[gnu::always_inline]] inline double sum_body(const double* __restrict b, std::size_t n) {
+  constexpr std::size_t kSums = 16;
+  double acc[kSums] = {};
+  std::size_t i = 0;
+  for (; i + kSums <= n; i += kSums)
+    for (std::size_t j = 0; j < kSums; ++j) acc[j] += b[i + j];
+  for (; i < n; ++i) acc[0] += b[i];
+  double s = 0;
+  for (std::size_t j = 0; j < kSums; ++j) s += acc[j];
+  return s;
+}
+
 // 12 vector registers of chains for each ISA (see fma_chain_count).
 constexpr int kRegs = 12;
 // SSE2 on x86-64; a 128-bit vector unit is the common baseline elsewhere too.
@@ -66,6 +81,7 @@ void generic_copy(double* a, const double* b, std::size_t n) { copy_body(a, b, n
 void generic_triad(double* a, const double* b, const double* c, double s, std::size_t n) {
   triad_body(a, b, c, s, n);
 }
+double generic_sum(const double* b, std::size_t n) { return sum_body(b, n); }
 
 #ifdef DTFLOP_X86_DISPATCH
 DTFLOP_TARGET_AVX2 void avx2_f32(std::int64_t n, float a, float b, float* acc) {
@@ -79,6 +95,8 @@ DTFLOP_TARGET_AVX2 void avx2_triad(double* a, const double* b, const double* c, 
                                    std::size_t n) {
   triad_body(a, b, c, s, n);
 }
+DTFLOP_TARGET_AVX2 double avx2_sum(const double* b, std::size_t n) { return sum_body(b, n); }
+DTFLOP_TARGET_AVX512 double avx512_sum(const double* b, std::size_t n) { return sum_body(b, n); }
 DTFLOP_TARGET_AVX512 void avx512_f32(std::int64_t n, float a, float b, float* acc) {
   chains_body<float, kRegs * 16, true>(n, a, b, acc);
 }
@@ -181,6 +199,17 @@ void stream_triad(Isa isa, double* a, const double* b, const double* c, double s
     case Isa::avx2: return avx2_triad(a, b, c, s, n);
 #endif
     default: return generic_triad(a, b, c, s, n);
+  }
+}
+
+double stream_sum(Isa isa, const double* b, std::size_t n) {
+  require(isa);
+  switch (isa) {
+#ifdef DTFLOP_X86_DISPATCH
+    case Isa::avx512: return avx512_sum(b, n);
+    case Isa::avx2: return avx2_sum(b, n);
+#endif
+    default: return generic_sum(b, n);
   }
 }
 

@@ -40,6 +40,9 @@ void fma_chains(Isa isa, std::int64_t iterations, double a, double b, double* ac
 // traffic is not counted, as in STREAM.
 void stream_copy(Isa isa, double* a, const double* b, std::size_t n);
 void stream_triad(Isa isa, double* a, const double* b, const double* c, double s, std::size_t n);
+// Read: the sum of b[0..n) (8 bytes per element read), in 16 running sums so that the loads,
+// not the additions, set the pace: the cache ladder of cpu-memory.
+double stream_sum(Isa isa, const double* b, std::size_t n);
 
 // Sliding-window correlations along one row (n a multiple of the group; `in` holds n + taps - 1
 // values), the two shapes the CPU backends' taps have (docs/probe.md, cpu-window):

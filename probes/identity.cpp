@@ -1,6 +1,7 @@
 #include "probes/identity.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <chrono>
 #include <ctime>
 #include <fstream>
@@ -8,6 +9,7 @@
 #include <sstream>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -88,12 +90,25 @@ CpuInfo cpu_info() {
   }
   if (c.clock_ghz && !(*c.clock_ghz > 0)) c.clock_ghz.reset();
 
-  // Largest cache level listed for cpu0.
+  // Largest cache of the highest level listed for cpu0 (the last-level cache), and the largest
+  // of the levels below it (the core's own caches, on most CPUs its L2).
+  std::vector<std::pair<int, std::int64_t>> caches;  // (level, bytes)
   for (int i = 0; i < 8; ++i) {
     const std::string p = fmt::format("/sys/devices/system/cpu/cpu0/cache/index{}/size", i);
+    const std::string l = fmt::format("/sys/devices/system/cpu/cpu0/cache/index{}/level", i);
     if (auto s = read_first_line(p.c_str())) {
-      if (auto v = parse_cache_size(*s)) c.llc_bytes = std::max(c.llc_bytes.value_or(0), *v);
+      if (auto v = parse_cache_size(*s)) {
+        int level = 0;
+        if (auto ls = read_first_line(l.c_str())) level = std::atoi(ls->c_str());
+        caches.emplace_back(level, *v);
+      }
     }
+  }
+  int top = 0;
+  for (const auto& [level, bytes] : caches) top = std::max(top, level);
+  for (const auto& [level, bytes] : caches) {
+    if (level == top) c.llc_bytes = std::max(c.llc_bytes.value_or(0), bytes);
+    else c.private_cache_bytes = std::max(c.private_cache_bytes.value_or(0), bytes);
   }
   return c;
 }

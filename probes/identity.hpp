@@ -16,7 +16,10 @@ struct CpuInfo {
   int threads = 0;          // hardware threads this process may use, >= 1
   std::optional<double> clock_ghz;  // nominal clock when the system says it
   std::string clock_source;         // where clock_ghz came from, e.g. "/proc/cpuinfo 'cpu MHz'"
-  std::optional<std::int64_t> llc_bytes;  // last-level cache size, when known
+  std::optional<std::int64_t> llc_bytes;  // last-level cache size the system reports (sysfs), when known
+  // The largest cache of a level below the last (a core's L2), when known: cpu-memory's cache
+  // ladder starts above it.
+  std::optional<std::int64_t> private_cache_bytes;
 };
 
 // Reads /proc/cpuinfo and /sys (Linux); elsewhere fills what the standard library knows.

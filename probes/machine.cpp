@@ -114,6 +114,18 @@ MachineProfile make_profile(const MachineReport& report) {
     }
   }
   auto& md = prof.metadata;
+  // What the probes add to the metadata themselves (ProbeReport::metadata).
+  for (const auto& r : report.reports)
+    if (!r.error && !r.skipped)
+      for (const auto& [k, v] : r.metadata) md["probe." + k] = v;
+  // The cache a process gets (cpu-memory's read ladder): its knee becomes the identity's
+  // effective last-level cache. Without a knee the field stays 0 and the model uses the system's
+  // figure; the metadata (probe.cpu_llc_effective) says which, and why.
+  for (const auto& r : report.reports) {
+    if (r.error || r.skipped || r.probe != "cpu-memory") continue;
+    for (const auto& m : r.measurements)
+      if (m.key == "llc_effective" && m.value >= 1) prof.identity.cpu_llc_effective_bytes = static_cast<std::int64_t>(m.value);
+  }
   // Every point of the transfer sweeps, so a report can draw them against the fitted curve:
   // "probe.transfers.<series>" = "bytes:seconds ..." (seconds: the median of one copy's
   // repetitions; reports/reports.hpp reads it). The series is the point's key without its size.

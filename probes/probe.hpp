@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -68,6 +69,9 @@ struct ProbeReport {
   // measurements are dropped, since none of them can be trusted.
   std::optional<std::string> error;
   double seconds = 0;  // wall time the probe took
+  // Entries for the profile's metadata, keyed without the "probe." prefix make_profile() adds
+  // (e.g. "cpu_llc_ladder"): what a probe saw beyond its measurements.
+  std::map<std::string, std::string> metadata;
 };
 
 struct Probe {

@@ -56,6 +56,29 @@ TEST(ProfileJson, GpuMultiprocessorsRoundTripAndMayBeAbsent) {
   EXPECT_NE(error_of(old).find("identity.gpu_sms"), std::string::npos);
 }
 
+TEST(ProfileJson, EffectiveCacheRoundTripsBesideTheSystemsAndMayBeAbsent) {
+  auto m = test::round_profile();
+  m.identity.cpu_llc_bytes = std::int64_t{480} << 20;
+  m.identity.cpu_llc_effective_bytes = std::int64_t{24} << 20;
+  const json j = to_json(m);
+  EXPECT_EQ(j["identity"]["cpu_llc_bytes"], std::int64_t{480} << 20);
+  EXPECT_EQ(j["identity"]["cpu_llc_effective_bytes"], std::int64_t{24} << 20);
+  const auto back = profile_from_json(json::parse(j.dump()));
+  EXPECT_EQ(back.identity.cpu_llc_bytes, std::int64_t{480} << 20);
+  EXPECT_EQ(back.identity.cpu_llc_effective_bytes, std::int64_t{24} << 20);
+  EXPECT_EQ(model_llc_bytes(back.identity), std::int64_t{24} << 20);
+  // Profiles probed before the cache ladder read as not measured (0): the model uses the system's.
+  json old = j;
+  old["identity"].erase("cpu_llc_effective_bytes");
+  const auto o = profile_from_json(old);
+  EXPECT_EQ(o.identity.cpu_llc_effective_bytes, 0);
+  EXPECT_EQ(model_llc_bytes(o.identity), std::int64_t{480} << 20);
+  old["identity"]["cpu_llc_effective_bytes"] = -1;
+  EXPECT_NE(error_of(old).find("identity.cpu_llc_effective_bytes"), std::string::npos);
+  old["identity"]["cpu_llc_effective_bytes"] = 1.5;
+  EXPECT_NE(error_of(old).find("identity.cpu_llc_effective_bytes"), std::string::npos);
+}
+
 TEST(ProfileJson, BadFilesNameFieldValueAndExpectation) {
   const json good = to_json(test::round_profile());
 

@@ -94,6 +94,14 @@ TEST(Predict, TheLastLevelCacheServesTheShareOfTrafficItsWorkingSetLeavesIn) {
   EXPECT_DOUBLE_EQ(llc_share_missed(m, c), 0.25);
   EXPECT_NEAR(predict(m, c, Variant::memory).dt_C, 10e-6 + 0.25 * 200e-6 + 0.75 * 50e-6, 1e-15);
   EXPECT_NEAR(predict(m, c, Variant::extended).dt_C, 0.25 * 200e-6 + 0.75 * 50e-6, 1e-15);
+  // The cache the probe measured this process to get, where there is one, and not the system's:
+  // 16 MiB effective of a reported 480 MiB: half of the 8 MiB working set's traffic from memory.
+  m.identity.cpu_llc_bytes = std::int64_t{480} << 20;
+  m.identity.cpu_llc_effective_bytes = 16 << 20;
+  EXPECT_DOUBLE_EQ(llc_share_missed(m, c), 0.5);
+  EXPECT_NEAR(predict(m, c, Variant::extended).dt_C, 0.5 * 200e-6 + 0.5 * 50e-6, 1e-15);
+  m.identity.cpu_llc_bytes = 32 << 20;
+  m.identity.cpu_llc_effective_bytes = 0;
   // Working sets of the cache's size or more: all from memory.
   c.cpu_footprint = 64 << 20;
   EXPECT_NEAR(predict(m, c, Variant::memory).dt_C, 210e-6, 1e-15);
@@ -105,6 +113,13 @@ TEST(Predict, TheLastLevelCacheServesTheShareOfTrafficItsWorkingSetLeavesIn) {
   m.erase(Param::B_llc);
   EXPECT_THROW(predict(m, c, Variant::memory), MissingParameter);
   EXPECT_NO_THROW(predict(m, c, Variant::latency));  // which leaves host traffic out
+  // A 64 MiB working set fits the 480 MiB the system reports but not the 16 MiB measured: with a
+  // measured cache it is priced from memory alone and needs no B_llc.
+  m.identity.cpu_llc_bytes = std::int64_t{480} << 20;
+  c.cpu_footprint = 64 << 20;
+  EXPECT_THROW(predict(m, c, Variant::memory), MissingParameter);
+  m.identity.cpu_llc_effective_bytes = 16 << 20;
+  EXPECT_NO_THROW(predict(m, c, Variant::memory));
 }
 
 TEST(Predict, MemoryVariantAddsHostTrafficToCpuArithmetic) {

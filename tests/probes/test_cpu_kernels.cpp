@@ -95,6 +95,18 @@ TEST(CpuKernels, StreamKernelsHandleAnyLength) {
   }
 }
 
+TEST(CpuKernels, StreamSumAddsEveryElementOnce) {
+  for (cpu::Isa isa : runnable()) {
+    for (std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{15}, std::size_t{16}, std::size_t{1029}}) {
+      std::vector<double> b(n + 1);
+      double want = 0;
+      for (std::size_t i = 0; i < n; ++i) want += (b[i] = static_cast<double>(i % 97));
+      b[n] = 1e6;  // past the end: must not be read
+      EXPECT_EQ(cpu::stream_sum(isa, b.data(), n), want) << cpu::to_string(isa) << " n " << n;
+    }
+  }
+}
+
 // Both window kernels against the correlation written out in float64, on values whose every
 // partial sum is exact, for rows of one group and of several.
 TEST(CpuKernels, WindowKernelsComputeTheCorrelation) {

@@ -1,8 +1,10 @@
 // The CPU probes, run at smoke effort: positive finite figures for the right parameters,
 // with their results validated inside the probe.
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -52,6 +54,33 @@ TEST(CpuProbes, MemoryGivesBothBandwidths) {
   // Between 100 MB/s and 10 TB/s: catches a unit slip by 1e3 either way.
   EXPECT_GT(one->value, 1e8);
   EXPECT_LT(all->value, 1e13);
+}
+
+TEST(CpuProbes, MemoryClimbsTheCacheLadderAndSaysWhatItFound) {
+  ProbeOptions o;
+  o.effort = Effort::smoke;
+  const ProbeReport r = probe("cpu-memory").run(o);
+  expect_sane(r);
+  // Every size of the ladder is a detail point, read and checked; ascending.
+  std::vector<double> sizes;
+  for (const auto& m : r.measurements)
+    if (m.key.rfind("llc_read_", 0) == 0) {
+      EXPECT_TRUE(m.detail) << m.key;
+      EXPECT_EQ(m.unit, "B/s");
+      EXPECT_EQ(m.stats.n, 3u);
+      sizes.push_back(m.value * m.stats.median);
+    }
+  ASSERT_GE(sizes.size(), 3u);
+  // The knee, or why there is none (the smoke ladder is short: usually none), in the metadata;
+  // beside it every point as bytes:B/s.
+  ASSERT_EQ(r.metadata.count("cpu_llc_effective"), 1u);
+  ASSERT_EQ(r.metadata.count("cpu_llc_ladder"), 1u);
+  EXPECT_FALSE(r.metadata.at("cpu_llc_effective").empty());
+  const bool knee = std::any_of(r.measurements.begin(), r.measurements.end(),
+                                [](const Measurement& m) { return m.key == "llc_effective"; });
+  EXPECT_EQ(knee, r.metadata.at("cpu_llc_effective").rfind("none: ", 0) != 0);
+  const std::string& ladder = r.metadata.at("cpu_llc_ladder");
+  EXPECT_EQ(static_cast<std::size_t>(std::count(ladder.begin(), ladder.end(), ':')), sizes.size()) << ladder;
 }
 
 TEST(CpuProbes, FmaGivesFourRates) {

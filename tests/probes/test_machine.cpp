@@ -115,6 +115,43 @@ TEST(ProbeMachine, ProfileHoldsWhatWasMeasuredAndNothingElse) {
   }
   EXPECT_EQ(back.identity.cpu_model, prof.identity.cpu_model);
   EXPECT_EQ(back.identity.measured_at, prof.identity.measured_at);
+  EXPECT_EQ(back.identity.cpu_llc_bytes, prof.identity.cpu_llc_bytes);
+  EXPECT_EQ(back.identity.cpu_llc_effective_bytes, prof.identity.cpu_llc_effective_bytes);
+  EXPECT_EQ(prof.metadata.count("probe.cpu_llc_effective"), 1u);
+}
+
+TEST(ProbeMachine, TheCacheLaddersKneeIsTheEffectiveCacheBesideTheSystemsFigure) {
+  MachineReport rep;
+  rep.identity.cpu_llc_bytes = std::int64_t{480} << 20;
+  ProbeReport mem;
+  mem.probe = "cpu-memory";
+  Measurement k;
+  k.key = "llc_effective";
+  k.unit = "B";
+  k.value = 24 << 20;
+  mem.measurements.push_back(k);
+  mem.metadata["cpu_llc_effective"] = "read ladder of 12 sizes: ...";
+  mem.metadata["cpu_llc_ladder"] = "4194304:3e10 8388608:1e10";
+  rep.reports.push_back(mem);
+  MachineProfile prof = make_profile(rep);
+  EXPECT_EQ(prof.identity.cpu_llc_bytes, std::int64_t{480} << 20);
+  EXPECT_EQ(prof.identity.cpu_llc_effective_bytes, 24 << 20);
+  EXPECT_EQ(prof.metadata.at("probe.cpu_llc_effective"), "read ladder of 12 sizes: ...");
+  EXPECT_EQ(prof.metadata.at("probe.cpu_llc_ladder"), "4194304:3e10 8388608:1e10");
+  // No knee: the field stays unmeasured, the note says so, and the model uses the system's figure.
+  rep.reports[0].measurements[0].key = "llc_no_knee";
+  rep.reports[0].measurements[0].value = static_cast<double>(rep.identity.cpu_llc_bytes);
+  rep.reports[0].metadata["cpu_llc_effective"] = "none: no knee (...)";
+  prof = make_profile(rep);
+  EXPECT_EQ(prof.identity.cpu_llc_effective_bytes, 0);
+  EXPECT_EQ(model_llc_bytes(prof.identity), std::int64_t{480} << 20);
+  EXPECT_EQ(prof.metadata.at("probe.cpu_llc_effective"), "none: no knee (...)");
+  // A failed cpu-memory leaves nothing of it.
+  rep.reports[0].measurements[0].key = "llc_effective";
+  rep.reports[0].error = "host copy differed";
+  prof = make_profile(rep);
+  EXPECT_EQ(prof.identity.cpu_llc_effective_bytes, 0);
+  EXPECT_EQ(prof.metadata.count("probe.cpu_llc_ladder"), 0u);
 }
 
 TEST(ProbeMachine, CostRatiosAreRebasedOnTheProfilesOwnRate) {
