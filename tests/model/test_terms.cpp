@@ -59,9 +59,15 @@ double host_bandwidth_before(const MachineProfile& m, int threads) {
   return scaled_rate(m, Param::B_host_1, Param::B_host, threads);
 }
 
+// The cache a working set is priced against: the one the probe measured where it did, else the
+// size the system reports (docs/model.md 2.4).
+std::int64_t llc_before(const MachineProfile& m) {
+  return m.identity.cpu_llc_effective_bytes > 0 ? m.identity.cpu_llc_effective_bytes : m.identity.cpu_llc_bytes;
+}
+
 double llc_share_missed_before(const MachineProfile& m, const CostCounts& c) {
-  if (c.cpu_footprint <= 0 || m.identity.cpu_llc_bytes <= 0) return 1.0;
-  return std::min(1.0, static_cast<double>(c.cpu_footprint) / static_cast<double>(m.identity.cpu_llc_bytes));
+  if (c.cpu_footprint <= 0 || llc_before(m) <= 0) return 1.0;
+  return std::min(1.0, static_cast<double>(c.cpu_footprint) / static_cast<double>(llc_before(m)));
 }
 
 double host_seconds_per_byte_before(const MachineProfile& m, const CostCounts& c) {
@@ -134,7 +140,7 @@ Prediction predict_before(const MachineProfile& m, const CostCounts& c, Variant 
   if (c.N_GR < 0 || c.N_GR > c.N_G) throw InputError("N_GR");
   if (c.N_CW < 0 || c.N_CW > c.N_C) throw InputError("N_CW");
   const bool staged = uses_staging(c, variant, has_staging_before(m));
-  for (auto p : required_params_before(c, variant, m.identity.cpu_llc_bytes, staged))
+  for (auto p : required_params_before(c, variant, llc_before(m), staged))
     if (!m.has(p)) throw MissingParameter(std::string(info(p).name));
 
   const double P = c.P;
@@ -283,7 +289,12 @@ std::vector<std::pair<std::string, MachineProfile>> grid_profiles() {
   auto no_llc_rate = test::round_profile();
   no_llc_rate.identity.cpu_llc_bytes = 16 << 20;
   out.emplace_back("round + LLC size, no B_llc", no_llc_rate);
-  out.emplace_back("h200 probed", h200());
+  // The H200's probe profile, less the all-thread window ratios, which the formulas above predate
+  // (they price every thread's window FLOPs by the one-thread K_CW and K_CA).
+  auto probed = h200();
+  probed.erase(Param::K_CW_all);
+  probed.erase(Param::K_CA_all);
+  out.emplace_back("h200 probed", probed);
   return out;
 }
 
@@ -490,7 +501,11 @@ TEST(Terms, EachVariantNeedsWhatTheOneItExtendsNeeds) {
 // ---- The fallback to a simpler variant --------------------------------------------------------
 
 TEST(RichestSupportedVariant, AProbedProfileFallsBackToTheVariantItHasTheParametersOf) {
-  const MachineProfile probed = h200();  // no B_GS, L_atomic, K_CW, K_GR, staging figures, B_llc (older probes)
+  // A probed profile without the parameters of the newer probes (cpu-window's K_CW and K_CA,
+  // gpu-tiles' B_GS, gpu-atomics' L_atomic) and without the staging figures, which no probe gives.
+  MachineProfile probed = h200();
+  for (Param p : {Param::K_CW, Param::K_CW_all, Param::K_CA, Param::K_CA_all, Param::B_GS, Param::L_atomic})
+    probed.erase(p);
   std::vector<Param> missing;
   // The CPU's sliding-window FLOPs need K_CW in memory and extended: both fall back to latency.
   CostCounts cpu;
@@ -529,7 +544,7 @@ TEST(RichestSupportedVariant, AProbedProfileFallsBackToTheVariantItHasTheParamet
   gpu.host_memory = HostMemory::pinned;
   EXPECT_EQ(richest_supported_variant(probed, gpu, Variant::extended, &missing), Variant::seed);
   EXPECT_EQ(as_set(missing), (std::set<Param>{Param::B_GS, Param::L_atomic}));
-  // The gpu-tiles and gpu-atomics probes measure them (this profile predates them): the note sends
+  // The gpu-tiles and gpu-atomics probes measure them (erased from this profile): the note sends
   // the user to the probe, not to a calibration.
   const std::string probe_note = fallback_note(Variant::extended, Variant::seed, missing);
   EXPECT_NE(probe_note.find("with `dtflop probe`"), std::string::npos) << probe_note;
