@@ -135,14 +135,14 @@ INSTANTIATE_TEST_SUITE_P(EveryBackend, Contract, ::testing::ValuesIn(every_backe
 TEST(Registry, RbeBackendsDeclareTheProbeOnlyErrorMeasuredForThem) {
   // docs/PERFORMANCE.md (Prediction portability) holds the held-out sets behind these figures.
   const auto& rbe = find("rbe");
-  for (const char* b : {"cpu-seq", "cpu-par", "cuda-seed"}) {
+  for (const char* b : {"cpu-seq", "cpu-par", "cuda-seed", "cuda-resident"}) {
     const auto e = rbe.backend(b).probe_only_error();
     ASSERT_TRUE(e.has_value()) << b;
     EXPECT_GT(e->sigma, 0.05) << b;  // no backend predicted within 5% from probes alone
     EXPECT_LT(e->sigma, 1.0) << b;
     EXPECT_NE(e->source.find(b), std::string::npos) << b;
   }
-  EXPECT_FALSE(rbe.backend("cuda-resident").probe_only_error().has_value());  // no probe for B_GS, L_atomic
+  EXPECT_FALSE(rbe.backend("cuda-bands").probe_only_error().has_value());  // peer terms: one pair of GPUs measured
 }
 
 TEST(Registry, FindsEveryWorkloadAndNamesTheKnownOnes) {
