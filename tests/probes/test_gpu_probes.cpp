@@ -5,9 +5,9 @@
 #include <cmath>
 #include <vector>
 
-#include <cuda_runtime_api.h>
 #include <gtest/gtest.h>
 
+#include "cuda/device.hpp"
 #include "probes/fit.hpp"
 #include "probes/gpu.hpp"
 #include "probes/probe.hpp"
@@ -215,8 +215,7 @@ TEST(GpuProbes, EveryGpuProbeRunsAtSmokeEffort) {
     // gpu-peer needs two GPUs (and NCCL): where this process sees fewer, or the build has no
     // NCCL, it skips, saying why, and measures nothing; with two it runs like the others.
     if (p.name == "gpu-peer" && r.skipped) {
-      int devices = 0;
-      ASSERT_EQ(cudaGetDeviceCount(&devices), cudaSuccess);
+      const int devices = cuda::device_count();
       const bool no_nccl = r.skipped->find("without NCCL") != std::string::npos;
       EXPECT_TRUE(devices < 2 || no_nccl) << "gpu-peer skipped with " << devices << " GPUs: " << *r.skipped;
       if (!no_nccl) {
