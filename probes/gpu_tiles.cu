@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "cuda/tma.cuh"
 #include "probes/gpu_common.cuh"
 #include "probes/probe.hpp"
 #include "probes/tile_fill.hpp"
@@ -23,10 +24,6 @@ using detail::Stream;
 constexpr int kCols4 = tiles::kCols / 4;  // 16-byte pieces in a tile row
 // After the tile: 8 warp partials (floats) and the accelerator's mbarrier (8 bytes).
 constexpr int kScratchBytes = 64;
-
-__device__ __forceinline__ unsigned smem_addr(const void* p) {
-  return static_cast<unsigned>(__cvta_generic_to_shared(p));
-}
 
 // Block b fills its tile (tiles::tile_origin: x a multiple of 4, the tile inside the grid), waits
 // for it, sums its rows x kCols values and writes the sum to out[b]. Tma: thread 0 starts one
@@ -46,33 +43,16 @@ __global__ void __launch_bounds__(tiles::kThreads)
   const int y0 = static_cast<int>(static_cast<long long>(b / per_row) * (rows - tiles::kHaloRows) % (n - rows + 1));
   if constexpr (Tma) {
     if (tid == 0) {
-      const unsigned mb = smem_addr(bar);
-      const unsigned bytes = unsigned(rows * tiles::kPitch) * 4u;
-      asm volatile("mbarrier.init.shared::cta.b64 [%0], 1;\n" ::"r"(mb) : "memory");
-      asm volatile("fence.mbarrier_init.release.cluster;\n" ::: "memory");
-      asm volatile("fence.proxy.async.shared::cta;\n" ::: "memory");
-      asm volatile("mbarrier.arrive.expect_tx.shared::cta.b64 _, [%0], %1;\n" ::"r"(mb), "r"(bytes) : "memory");
-      asm volatile(
-          "cp.async.bulk.tensor.2d.shared::cluster.global.tile.mbarrier::complete_tx::bytes [%0], [%1, {%2, %3}], "
-          "[%4];\n" ::"r"(smem_addr(tile)),
-          "l"(reinterpret_cast<unsigned long long>(&map)), "r"(x0), "r"(y0), "r"(mb)
-          : "memory");
+      cuda::tma::arm(bar, unsigned(rows * tiles::kPitch) * 4u);
+      cuda::tma::copy_box(tile, &map, x0, y0, bar);
     }
     __syncthreads();  // the barrier is initialized before anyone waits on it
-    const unsigned mb = smem_addr(bar);
-    unsigned done = 0;
-    do {
-      asm volatile(
-          "{\n .reg .pred p;\n mbarrier.try_wait.parity.shared::cta.b64 p, [%1], 0;\n selp.u32 %0, 1, 0, p;\n}\n"
-          : "=r"(done)
-          : "r"(mb)
-          : "memory");
-    } while (!done);
+    cuda::tma::wait(bar);
   } else {
     for (int i = tid; i < rows * kCols4; i += T) {
       const int r = i / kCols4, c = i - r * kCols4;
       const float* src = grid + (static_cast<std::size_t>(y0 + r) * static_cast<std::size_t>(n) + x0 + 4 * c);
-      asm volatile("cp.async.cg.shared.global [%0], [%1], 16;\n" ::"r"(smem_addr(tile + r * tiles::kPitch + 4 * c)),
+      asm volatile("cp.async.cg.shared.global [%0], [%1], 16;\n" ::"r"(cuda::tma::smem_addr(tile + r * tiles::kPitch + 4 * c)),
                    "l"(src)
                    : "memory");
     }
@@ -98,7 +78,7 @@ __global__ void __launch_bounds__(tiles::kThreads)
     if (lane == 0) out[b] = s;
   }
   if constexpr (Tma) {
-    if (tid == 0) asm volatile("mbarrier.inval.shared::cta.b64 [%0];\n" ::"r"(smem_addr(bar)) : "memory");
+    if (tid == 0) cuda::tma::done(bar);
   }
 }
 

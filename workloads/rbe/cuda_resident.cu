@@ -41,6 +41,7 @@
 #include "workloads/rbe/detail.hpp"
 #include "workloads/rbe/resident_geometry.hpp"
 #include "workloads/rbe/resident_sweep.hpp"
+#include "cuda/tma.cuh"
 
 namespace dtflop::rbe::detail {
 namespace {
@@ -127,45 +128,21 @@ struct TileMaps {
   CUtensorMap full;  // boxes of min(rows, kMaxBoxRows) rows
   CUtensorMap tail;  // a box of the rows after the last full box (unused when there are none)
 };
-__device__ __forceinline__ unsigned smem_addr(const void* p) {
-  return static_cast<unsigned>(__cvta_generic_to_shared(p));
-}
 __device__ __forceinline__ void tma_tile_start(float* dst, const TileMaps& maps, int x, int y, int rows, int pitch,
                                                unsigned long long* bar) {
-  const unsigned b = smem_addr(bar);
-  const unsigned bytes = unsigned(rows * pitch) * 4u;
-  asm volatile("mbarrier.init.shared::cta.b64 [%0], 1;\n" ::"r"(b) : "memory");
-  asm volatile("fence.mbarrier_init.release.cluster;\n" ::: "memory");
-  asm volatile("fence.proxy.async.shared::cta;\n" ::: "memory");
-  asm volatile("mbarrier.arrive.expect_tx.shared::cta.b64 _, [%0], %1;\n" ::"r"(b), "r"(bytes) : "memory");
+  cuda::tma::arm(bar, unsigned(rows * pitch) * 4u);
   for (int r = 0; r < rows; r += kMaxBoxRows) {
     const CUtensorMap* map = r + kMaxBoxRows <= rows || r == 0 ? &maps.full : &maps.tail;
-    asm volatile(
-        "cp.async.bulk.tensor.2d.shared::cluster.global.tile.mbarrier::complete_tx::bytes [%0], [%1, {%2, %3}], "
-        "[%4];\n" ::"r"(smem_addr(dst + r * pitch)),
-        "l"(reinterpret_cast<unsigned long long>(map)), "r"(x), "r"(y + r), "r"(b)
-        : "memory");
+    cuda::tma::copy_box(dst + r * pitch, map, x, y + r, bar);
   }
 }
 // Waits for phase 0 of the mbarrier (the tile); call after a __syncthreads() that follows
 // tma_tile_start, so that the barrier is initialized.
-__device__ __forceinline__ void tma_tile_wait(unsigned long long* bar) {
-  const unsigned b = smem_addr(bar);
-  unsigned done = 0;
-  do {
-    asm volatile(
-        "{\n .reg .pred p;\n mbarrier.try_wait.parity.shared::cta.b64 p, [%1], 0;\n selp.u32 %0, 1, 0, p;\n}\n"
-        : "=r"(done)
-        : "r"(b)
-        : "memory");
-  } while (!done);
-}
+__device__ __forceinline__ void tma_tile_wait(unsigned long long* bar) { cuda::tma::wait(bar); }
 
 // Ends the mbarrier's life (before its shared memory serves anything else); one thread, after a
 // __syncthreads() that follows every thread's tma_tile_wait.
-__device__ __forceinline__ void tma_tile_done(unsigned long long* bar) {
-  asm volatile("mbarrier.inval.shared::cta.b64 [%0];\n" ::"r"(smem_addr(bar)) : "memory");
-}
+__device__ __forceinline__ void tma_tile_done(unsigned long long* bar) { cuda::tma::done(bar); }
 
 // The likelihood of the R cells a thread corrects, loaded before the y-pass so that its latency
 // hides behind it. gx may be negative (shifted tiles): outside, zero.
