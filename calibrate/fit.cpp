@@ -45,7 +45,8 @@ double default_start(Param p) {
   if (p == Param::S_GC_flat) return 128.0 * 1024;
   if (p == Param::V_G_fp32 || p == Param::V_G_fp64) return 10e12;
   if (p == Param::B_peer || p == Param::B_allreduce) return 100e9;  // GPUs of one host over NVLink
-  if (p == Param::B_GG || p == Param::B_GG_copy || p == Param::B_GS) return 1e12;
+  if (p == Param::B_GG || p == Param::B_GG_copy || p == Param::B_GS || p == Param::B_L2) return 1e12;
+  if (p == Param::L_graph) return 1e-6;  // a kernel a graph starts: about a microsecond
   return 10e9;  // host bandwidths and CPU rates
 }
 
@@ -119,6 +120,13 @@ ceres::LossFunction* make_loss(const FitOptions& o) {
 
 std::string fmt_value(double v, Param p) { return fmt::format("{:.4g} {}", v, info(p).unit); }
 
+// The parameters a sample's counts exercise: every refinement the model has is priced, those the
+// start profile lacks found by the fit (staging, serial chains, all-thread windows, the GPU's L2
+// where its size is known, graph launches).
+std::vector<Param> exercised_params(const CostCounts& c, Variant v, const MachineProfile& start) {
+  return required_params(c, v, model_llc_bytes(start.identity), true, true, true, start.identity.gpu_l2_bytes, true);
+}
+
 }  // namespace
 
 FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, const FitOptions& o) {
@@ -128,7 +136,7 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
   // The parameters the samples' counts exercise, in Param order.
   std::vector<Param> ids;
   for (const auto& s : samples)
-    for (Param p : required_params(s.counts, o.variant, model_llc_bytes(start.identity), true, true, true))
+    for (Param p : exercised_params(s.counts, o.variant, start))
       if (std::find(ids.begin(), ids.end(), p) == ids.end()) ids.push_back(p);
   std::sort(ids.begin(), ids.end());
   // Start values: the latency variant's fit for extended (see FitOptions::warm_start), else
@@ -158,7 +166,7 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
   std::vector<Residual> residuals;
   for (const auto& s : samples) {
     std::vector<int> params;
-    for (Param p : required_params(s.counts, o.variant, model_llc_bytes(start.identity), true, true, true)) params.push_back(index_of(p));
+    for (Param p : exercised_params(s.counts, o.variant, start)) params.push_back(index_of(p));
     for (Component c : all_components()) {
       if (c != Component::total &&
           std::find(o.components.begin(), o.components.end(), c) == o.components.end())

@@ -15,6 +15,7 @@ MachineIdentity this_machine() {
   if (d.usable) {
     id.gpu_name = d.name;
     id.gpu_sms = d.sm_count;
+    id.gpu_l2_bytes = d.l2_bytes;
     id.gpu_driver = d.driver_version;
     id.cuda_version = d.runtime_version;
   }

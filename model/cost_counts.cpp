@@ -43,6 +43,8 @@ const std::vector<CountField>& count_fields() {
       {"N_GR", &C::N_GR, "FLOPs", "of N_G, whose taps each read another row of device memory", A::sum, &C::N_G},
       {"N_GS", &C::N_GS, "values", "copied into shared-memory tiles (per busiest-SM round x SMs)"},
       {"launches", &C::launches, "launches", "of kernels"},
+      {"graph_launches", &C::graph_launches, "launches", "of launches, kernels of a CUDA graph (started by the device)",
+       A::sum, &C::launches},
       {"waves", &C::waves, "rounds", "of thread blocks on the busiest GPU multiprocessor"},
       {"atomics", &C::atomics, "updates", "of one device address, one after another"},
       {"host_waits", &C::host_waits, "waits", "of the host for device work it submitted"},
@@ -62,6 +64,8 @@ const std::vector<CountField>& count_fields() {
       {"N_peer", &C::N_peer, "values", "in those messages"},
       {"collectives", &C::collectives, "all-reduces", "across the partitions of one grid"},
       {"collective_bytes", &C::collective_bytes, "bytes", "each device contributes to them"},
+      {"gpu_footprint", &C::gpu_footprint, "bytes", "of device memory the kernels touch in one step (0: not counted)",
+       A::max},
       {"cpu_footprint", &C::cpu_footprint, "bytes", "of host memory the CPU work touches in one step (0: not counted)",
        A::max},
   };

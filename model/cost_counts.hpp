@@ -69,6 +69,9 @@ struct CostCounts {
   std::int64_t transfers_CG = 0;  // number of host->device copies
   std::int64_t transfers_GC = 0;  // number of device->host copies
   std::int64_t launches = 0;      // kernel launches
+  std::int64_t graph_launches = 0;  // of launches, the kernels launched as nodes of a CUDA graph: the
+                                    // device starts them one after another without the host (L_graph
+                                    // each, latency+; the others L_launch)
   std::int64_t waves = 0;         // rounds of thread blocks the busiest multiprocessor runs,
                                   // summed over the kernels, as the backend counts them (e.g.
                                   // ceil(B / S) for B blocks on S multiprocessors, one at a time)
@@ -102,6 +105,9 @@ struct CostCounts {
   std::vector<CopySize> copies_GC;  // the device->host copies by size (empty: not counted); their
                                    // bytes add up to P N_GC and their number to transfers_GC. A
                                    // pageable copy's staging cost depends on its size (latency+)
+  std::int64_t gpu_footprint = 0;  // bytes of device memory the kernels of one step touch (their
+                                   // working set; 0 = not counted): how much of N_GG the GPU's L2
+                                   // cache serves (B_L2) rather than device memory (B_GG)
   std::int64_t cpu_footprint = 0;  // bytes of host memory the CPU work touches in one step (its
                                    // working set; 0 = not counted): how much of N_CC the
                                    // last-level cache serves (memory and extended variants)

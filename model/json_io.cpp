@@ -105,6 +105,7 @@ json to_json(const MachineProfile& p) {
              {"cpu_llc_effective_bytes", p.identity.cpu_llc_effective_bytes},
              {"gpu_name", p.identity.gpu_name},
              {"gpu_sms", p.identity.gpu_sms},
+             {"gpu_l2_bytes", p.identity.gpu_l2_bytes},
              {"gpu_driver", p.identity.gpu_driver},
              {"cuda_version", p.identity.cuda_version},
              {"measured_at", p.identity.measured_at}};
@@ -145,6 +146,7 @@ MachineProfile profile_from_json(const json& j) {
   p.identity.cpu_llc_effective_bytes = get_i64(id, "cpu_llc_effective_bytes", 0, "identity.");
   p.identity.gpu_name = get_string(id, "gpu_name", "identity.", false);
   p.identity.gpu_sms = get_count(id, "gpu_sms", "identity.");  // 0 when absent (older profiles)
+  p.identity.gpu_l2_bytes = get_i64(id, "gpu_l2_bytes", 0, "identity.");  // 0 when absent (older profiles)
   p.identity.gpu_driver = get_string(id, "gpu_driver", "identity.", false);
   p.identity.cuda_version = get_string(id, "cuda_version", "identity.", false);
   p.identity.measured_at = get_string(id, "measured_at", "identity.", false);

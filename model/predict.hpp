@@ -49,7 +49,8 @@ struct Prediction {
   double dt_G = 0;       // GPU arithmetic                  [s]
   double lat_CG = 0;     // transfers_CG x per-transfer latency
   double lat_GC = 0;     // transfers_GC x per-transfer latency
-  double lat_launch = 0; // launches x launch overhead
+  double lat_launch = 0; // launches x launch overhead (those of CUDA graphs apart where the profile has L_graph)
+  double lat_graph = 0;  // graph_launches x L_graph: kernels a CUDA graph starts (latency+; device component)
   double lat_sync = 0;   // cpu_syncs x CPU thread sync (part of dt_C)
   double lat_wave = 0;   // waves x per-wave cost of thread blocks
   double lat_atomic = 0;  // atomics x one serialized atomic update (device component)
@@ -81,8 +82,11 @@ struct Prediction {
 // `serial`: price serial chains (N_CS) at V_CS: true where the profile has it or a fit is to find it.
 // `all_threads`: price windows on several threads with K_CW_all, K_CA_all (the profile has them or
 // a fit is to find them).
+// `gpu_l2`: the GPU's L2 cache where the share of N_GG it serves is priced at B_L2 (the profile has
+// B_L2 or a fit is to find it), else 0. `graph`: price a CUDA graph's kernels at L_graph (likewise).
 std::vector<Param> required_params(const CostCounts& counts, Variant variant, std::int64_t profile_llc = 0,
-                                   bool staged = false, bool serial = false, bool all_threads = false);
+                                   bool staged = false, bool serial = false, bool all_threads = false,
+                                   std::int64_t gpu_l2 = 0, bool graph = false);
 // Does the profile have the three staging figures of pageable device->host copies?
 bool has_staging(const MachineProfile& profile);
 // Seconds a pageable device->host copy of `bytes` takes past its latency:

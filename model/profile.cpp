@@ -68,6 +68,8 @@ const std::vector<ParamInfo>& all_params() {
       {Param::B_peer, "B_peer", "B/s", "bandwidth of a point-to-point message between two GPUs (NCCL send/recv of large messages)"},
       {Param::L_allreduce, "L_allreduce", "s", "one all-reduce across the GPUs (NCCL, a small message)"},
       {Param::B_allreduce, "B_allreduce", "B/s", "bytes per GPU per second of an all-reduce across the GPUs (NCCL, large messages)"},
+      {Param::B_L2, "B_L2", "B/s", "device bandwidth seen by a kernel whose working set stays in the GPU's L2 cache (read+write)"},
+      {Param::L_graph, "L_graph", "s", "one kernel of a CUDA graph, device side: what a kernel launched from a graph costs beside its work"},
       {Param::L_pixel, "L_pixel", "s", "one step of host scalar pixel work: a pixel counted into a histogram, labelled, classified, or a label of its neighbourhood read"},
   };
   return table;

@@ -64,6 +64,8 @@ enum class Param {
   L_allreduce,     // one all-reduce across the GPUs (NCCL, a small message)                 [s]
   B_allreduce,     // bytes per second an all-reduce moves per GPU (NCCL, large messages)    [B/s]
   L_pixel,         // one step of host scalar pixel work (pixel_steps)                      [s]
+  B_L2,            // device bandwidth seen by a kernel, working set in the L2 cache (r+w)  [B/s]
+  L_graph,         // one kernel of a CUDA graph, device side (graph_launches)              [s]
 };
 
 struct ParamInfo {
@@ -99,6 +101,7 @@ struct MachineIdentity {
   std::optional<double> cpu_clock_ghz;  // nominal clock when known
   std::string gpu_name;                 // empty when no GPU
   int gpu_sms = 0;                      // the GPU's multiprocessors; 0 = unknown or no GPU
+  std::int64_t gpu_l2_bytes = 0;        // the GPU's L2 cache; 0 = unknown or no GPU
   std::string gpu_driver;
   std::string cuda_version;
   std::string measured_at;              // ISO 8601 UTC

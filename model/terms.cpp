@@ -49,7 +49,8 @@ std::string Variants::str() const {
 }
 
 Pricing Pricing::of(const MachineProfile& m) {
-  return {model_llc_bytes(m.identity), has_staging(m), m.has(Param::K_CW_all) || m.has(Param::K_CA_all), m.has(Param::V_CS)};
+  return {model_llc_bytes(m.identity), has_staging(m), m.has(Param::K_CW_all) || m.has(Param::K_CA_all),
+          m.has(Param::V_CS), m.has(Param::B_L2) ? m.identity.gpu_l2_bytes : 0, m.has(Param::L_graph)};
 }
 
 namespace {
@@ -122,6 +123,46 @@ double gc_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const
   double s = 0;
   for (const CopySize& copy : c.copies_GC) s += static_cast<double>(copy.count) * staged_copy_seconds(m, copy.bytes);
   return s;
+}
+
+// dt_GG. latency+: the share of the kernels' traffic the GPU's L2 cache serves (0 < gpu_footprint <
+// L2, where the profile has B_L2) at B_L2, the rest at B_GG, as the CPU's last-level cache is
+// priced (docs/model.md 2.2): w = gpu_footprint / L2 of it at B_GG. Seed: P N_GG / B_GG (eq. 3.4).
+bool l2_served(const CostCounts& c, Variant v, const Pricing& x) {
+  return kLatencyVariants.contains(v) && c.gpu_footprint > 0 && c.gpu_footprint < x.gpu_l2_bytes;
+}
+std::vector<Param> gg_needs(const CostCounts& c, Variant v, const Pricing& x) {
+  if (l2_served(c, v, x)) return {Param::B_GG, Param::B_L2};
+  return {Param::B_GG};
+}
+double gg_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing& x) {
+  const double bytes = static_cast<double>(c.P) * static_cast<double>(c.N_GG);
+  if (!l2_served(c, v, x)) return bytes / m.get(Param::B_GG).value;
+  const double w = static_cast<double>(c.gpu_footprint) / static_cast<double>(x.gpu_l2_bytes);
+  return bytes * (w / m.get(Param::B_GG).value + (1 - w) / m.get(Param::B_L2).value);
+}
+
+// lat_launch and lat_graph (latency+). The kernels of a CUDA graph (graph_launches) are started by
+// the device, one after another: L_graph each where the profile has it; every other launch, and
+// all of them on a profile without L_graph, L_launch (docs/model.md 2.2).
+std::int64_t host_launches(const CostCounts& c, const Pricing& x) {
+  return c.launches - (x.graph ? c.graph_launches : 0);
+}
+std::vector<Param> launch_needs(const CostCounts& c, Variant, const Pricing& x) {
+  if (host_launches(c, x) > 0) return {Param::L_launch};
+  return {};
+}
+double launch_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing& x) {
+  const std::int64_t n = host_launches(c, x);
+  return n > 0 ? static_cast<double>(n) * m.get(Param::L_launch).value : 0.0;
+}
+std::vector<Param> graph_needs(const CostCounts& c, Variant, const Pricing& x) {
+  if (x.graph && c.graph_launches > 0) return {Param::L_graph};
+  return {};
+}
+double graph_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing& x) {
+  if (!x.graph || c.graph_launches <= 0) return 0;
+  return static_cast<double>(c.graph_launches) * m.get(Param::L_graph).value;
 }
 
 // dt_G. latency+: the FLOPs whose taps read across rows (N_GR) cost K_GR times the others (each
@@ -259,13 +300,18 @@ const std::vector<Term>& terms() {
       {"lat_GC", &P::lat_GC, Phase::GC, kLatencyVariants, sum, "transfers_GC",
        "L_GC_pinned or L_GC_pageable (host_memory)", "device->host copies: latency",
        per_event<&C::transfers_GC, l_gc>()},
-      {"dt_GG", &P::dt_GG, Phase::G, kEveryVariant, overlap, "P N_GG", "B_GG", "device memory traffic",
-       per_byte<&C::N_GG, only<Param::B_GG>>()},
+      {"dt_GG", &P::dt_GG, Phase::G, kEveryVariant, overlap,
+       "P N_GG; latency+, 0 < gpu_footprint < L2: w = gpu_footprint / L2 of it at B_GG, the rest at B_L2 (2.2)",
+       "B_GG; B_L2 (latency+, 0 < gpu_footprint < L2, where the profile has it)", "device memory traffic",
+       {positive<&C::N_GG>, gg_needs, gg_seconds}},
       {"dt_G", &P::dt_G, Phase::G, kEveryVariant, overlap, "N_G + (K_GR - 1) N_GR; seed: N_G",
        "V_G_fp32 or V_G_fp64 (precision); K_GR (latency+, N_GR > 0)", "GPU arithmetic",
        {positive<&C::N_G>, g_needs, g_seconds}},
-      {"lat_launch", &P::lat_launch, Phase::G, kLatencyVariants, sum, "launches", "L_launch", "kernel launches",
-       per_event<&C::launches, only<Param::L_launch>>()},
+      {"lat_launch", &P::lat_launch, Phase::G, kLatencyVariants, sum,
+       "launches - graph_launches (all of them where the profile has no L_graph)", "L_launch", "kernel launches",
+       {positive<&C::launches>, launch_needs, launch_seconds}},
+      {"lat_graph", &P::lat_graph, Phase::G, kLatencyVariants, sum, "graph_launches", "L_graph (where the profile has it)",
+       "kernels of CUDA graphs", {positive<&C::graph_launches>, graph_needs, graph_seconds}},
       {"lat_wave", &P::lat_wave, Phase::G, kLatencyVariants, sum, "waves", "L_wave", "rounds of thread blocks",
        per_event<&C::waves, only<Param::L_wave>>()},
       {"lat_atomic", &P::lat_atomic, Phase::G, kLatencyVariants, sum, "atomics", "L_atomic",

@@ -73,6 +73,10 @@ struct Pricing {
                                // profile has them, or a fit is to find them); else K_CW, K_CA
   bool serial = false;         // price serial chains (N_CS) at V_CS (the profile has it, or a fit is
                                // to find it); else at the CPU rate, as profiles made before it did
+  std::int64_t gpu_l2_bytes = 0;  // the GPU's L2 cache where its share of N_GG is priced at B_L2 (the
+                                  // profile has B_L2, or a fit is to find it); 0: all of it at B_GG
+  bool graph = false;          // price a CUDA graph's kernels (graph_launches) at L_graph (the profile
+                               // has it, or a fit is to find it); else at L_launch like the others
   static Pricing of(const MachineProfile& profile);
 };
 

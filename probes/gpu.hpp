@@ -27,6 +27,7 @@ struct DeviceInfo {
   int device = 0;
   std::string name;                 // "NVIDIA H200"
   int sm_count = 0;
+  std::int64_t l2_bytes = 0;        // L2 cache
   int cc_major = 0, cc_minor = 0;   // compute capability
   std::int64_t total_bytes = 0;     // device memory
   std::int64_t free_bytes = 0;
@@ -72,6 +73,15 @@ std::vector<double> time_d2d_memcpy(std::int64_t bytes, int reps, int warmup);
 // Times a copy kernel (16-byte loads and stores, 4 in flight per thread) over `bytes`;
 // checks the destination. Returns seconds per kernel.
 std::vector<double> time_copy_kernel(std::int64_t bytes, int reps, int warmup);
+
+// Times a copy kernel whose two buffers of `bytes` each stay in the L2 cache: `passes` sweeps
+// over them per kernel (loads that bypass L1), `reps` kernels after `warmup`; checks the
+// destination. Returns seconds per kernel (2 x bytes x passes moved).
+std::vector<double> time_l2_copy(std::int64_t bytes, int passes, int reps, int warmup);
+
+// Times a CUDA graph of `batch` empty kernels (captured on one stream, instantiated and uploaded
+// first): events around each of `reps` graph launches. Returns seconds per kernel.
+std::vector<double> time_graph_launches(int batch, int reps);
 
 struct FmaTiming {
   std::vector<double> seconds;  // per kernel

@@ -66,6 +66,7 @@ DeviceInfo device_info() {
     check(cudaGetDeviceProperties(&p, 0), "cudaGetDeviceProperties");
     d.name = p.name;
     d.sm_count = p.multiProcessorCount;
+    d.l2_bytes = p.l2CacheSize;
     d.cc_major = p.major;
     d.cc_minor = p.minor;
     std::size_t free = 0, total = 0;

@@ -39,6 +39,32 @@ __global__ void __launch_bounds__(kCopyThreads)
   }
 }
 
+// The copy with its working set in the L2 cache: `passes` sweeps over buffers that fit it, each a
+// grid-stride loop of kCopyUnroll 16-byte loads in flight per thread that bypass L1
+// (ld.global.cg), then their stores. Each pass starts one block's span further on (wrapping), so
+// that a line is read by another block than in the pass before.
+__global__ void __launch_bounds__(kCopyThreads)
+    l2_copy_kernel(const uint4* __restrict__ in, uint4* __restrict__ out, std::size_t n, int passes) {
+  const std::size_t stride = static_cast<std::size_t>(gridDim.x) * blockDim.x;
+  const std::size_t tid = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
+  for (int p = 0; p < passes; ++p) {
+    const std::size_t shift = (static_cast<std::size_t>(p) * blockDim.x * kCopyUnroll) % n;
+    for (std::size_t k = tid; k < n; k += kCopyUnroll * stride) {
+      uint4 v[kCopyUnroll];
+#pragma unroll
+      for (int u = 0; u < kCopyUnroll; ++u) {
+        const std::size_t j = k + static_cast<std::size_t>(u) * stride;
+        if (j < n) v[u] = __ldcg(in + (j + shift < n ? j + shift : j + shift - n));
+      }
+#pragma unroll
+      for (int u = 0; u < kCopyUnroll; ++u) {
+        const std::size_t j = k + static_cast<std::size_t>(u) * stride;
+        if (j < n) __stcg(out + (j + shift < n ? j + shift : j + shift - n), v[u]);
+      }
+    }
+  }
+}
+
 constexpr int kFmaThreads = 256;
 constexpr int kFmaUnroll = 32;
 
@@ -259,6 +285,77 @@ std::vector<double> time_copy_kernel(std::int64_t bytes, int reps, int warmup) {
     t.push_back(detail::elapsed(start, stop));
   }
   check_pattern(dst, n, seed, s, "device copy kernel");
+  return t;
+}
+
+std::vector<double> time_l2_copy(std::int64_t bytes, int passes, int reps, int warmup) {
+  if (bytes <= 0 || bytes % 16 != 0 || passes < 1 || reps < 1)
+    throw std::invalid_argument("time_l2_copy: bytes must be a positive multiple of 16, passes and reps >= 1");
+  detail::use_device();
+  int sms = 0, per_sm = 0;
+  DTFLOP_CUDA(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, 0));
+  DTFLOP_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, l2_copy_kernel, kCopyThreads, 0));
+  const auto n = static_cast<std::size_t>(bytes);
+  const std::size_t words16 = n / 16;
+  DeviceBuffer src(n), dst(n);
+  Stream s;
+  Event start, stop;
+  const std::uint32_t seed = 0xC0B2u;
+  detail::fill_pattern_device(src.get<std::uint32_t>(), n / 4, seed, s);
+  // As many blocks as run at once: every multiprocessor busy, none waiting for a slot.
+  const auto blocks = static_cast<unsigned>(sms * std::max(per_sm, 1));
+  auto launch = [&] {
+    l2_copy_kernel<<<blocks, kCopyThreads, 0, s.get()>>>(src.get<const uint4>(), dst.get<uint4>(), words16, passes);
+    DTFLOP_CUDA_LAUNCHED();
+  };
+  for (int i = 0; i < warmup; ++i) launch();
+  DTFLOP_CUDA(cudaMemsetAsync(dst.get(), 0xA5, n, s.get()));
+  std::vector<double> t;
+  for (int i = 0; i < reps; ++i) {
+    start.record(s);
+    launch();
+    stop.record(s);
+    t.push_back(detail::elapsed(start, stop));
+  }
+  check_pattern(dst, n, seed, s, "L2-resident copy kernel");
+  return t;
+}
+
+std::vector<double> time_graph_launches(int batch, int reps) {
+  if (batch < 1 || reps < 1) throw std::invalid_argument("time_graph_launches: batch and reps must be >= 1");
+  detail::use_device();
+  Stream s;
+  Event start, stop;
+  cudaGraph_t graph = nullptr;
+  DTFLOP_CUDA(cudaStreamBeginCapture(s.get(), cudaStreamCaptureModeThreadLocal));
+  for (int i = 0; i < batch; ++i) empty_kernel<<<1, 32, 0, s.get()>>>();
+  const cudaError_t launched = cudaGetLastError();
+  const cudaError_t captured = cudaStreamEndCapture(s.get(), &graph);
+  if (launched != cudaSuccess || captured != cudaSuccess) {
+    if (graph) cudaGraphDestroy(graph);
+    DTFLOP_CUDA(launched);
+    DTFLOP_CUDA(captured);
+  }
+  cudaGraphExec_t exec = nullptr;
+  const cudaError_t made = cudaGraphInstantiate(&exec, graph, 0);
+  cudaGraphDestroy(graph);
+  DTFLOP_CUDA(made);
+  std::vector<double> t;
+  try {
+    // The first launch uploads the graph: out of the figures.
+    DTFLOP_CUDA(cudaGraphLaunch(exec, s.get()));
+    s.sync();
+    for (int k = 0; k < reps; ++k) {
+      start.record(s);
+      DTFLOP_CUDA(cudaGraphLaunch(exec, s.get()));
+      stop.record(s);
+      t.push_back(detail::elapsed(start, stop) / batch);
+    }
+  } catch (...) {
+    cudaGraphExecDestroy(exec);
+    throw;
+  }
+  DTFLOP_CUDA(cudaGraphExecDestroy(exec));
   return t;
 }
 

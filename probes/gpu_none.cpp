@@ -28,6 +28,8 @@ std::vector<double> time_copy_kernel(std::int64_t, int, int) { no_cuda(); }
 FmaTiming time_fma(bool, double, int, int) { no_cuda(); }
 RowsTiming time_rows(int, int, int, int) { no_cuda(); }
 LaunchTiming time_launches(int, int) { no_cuda(); }
+std::vector<double> time_graph_launches(int, int) { no_cuda(); }
+std::vector<double> time_l2_copy(std::int64_t, int, int, int) { no_cuda(); }
 WaveTiming time_waves(int, int) { no_cuda(); }
 FillTiming time_tile_fills(bool, int, int, int) { no_cuda(); }
 bool tma_available() { return false; }

@@ -43,6 +43,7 @@ MachineReport probe_machine(const ProbeOptions& o, std::span<const std::string> 
   if (m.gpu.usable) {
     m.identity.gpu_name = m.gpu.name;
     m.identity.gpu_sms = m.gpu.sm_count;
+    m.identity.gpu_l2_bytes = m.gpu.l2_bytes;
     m.identity.gpu_driver = m.gpu.driver_version;
     m.identity.cuda_version = m.gpu.runtime_version;
   }

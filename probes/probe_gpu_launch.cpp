@@ -1,6 +1,8 @@
 // Kernel launch overhead: back-to-back launches of an empty kernel (events around a batch,
-// L_launch), and a single launch + synchronize round trip (host clock, reported beside it);
-// and the fixed cost of one round of thread blocks (L_wave, gpu::time_waves).
+// L_launch: what the host's launches cost where the host keeps the device waiting), a single
+// launch + synchronize round trip (host clock, L_wait), the empty kernels of a CUDA graph (events
+// around the graph's launch, L_graph: the device starts them, so the host's speed does not
+// count); and the fixed cost of one round of thread blocks (L_wave, gpu::time_waves).
 #include <exception>
 
 #include <fmt/format.h>
@@ -27,6 +29,12 @@ ProbeReport run(const ProbeOptions& o) {
       fmt::format("host clock around one launch and its synchronize, median of {}", t.round_trip.size())));
   o.say(fmt::format("  launch: {:.2f} us back to back, {:.2f} us with synchronize",
                     r.measurements[0].value * 1e6, r.measurements[1].value * 1e6));
+  const auto g = gpu::time_graph_launches(batch, reps);
+  r.measurements.push_back(time_measurement(
+      "graph_launch", "empty kernel, one of a CUDA graph's", g, Param::L_graph,
+      fmt::format("events around the launch of a CUDA graph of {} empty kernels on one stream, per kernel, median of {}",
+                  batch, reps)));
+  o.say(fmt::format("  graph: {:.2f} us a kernel", r.measurements.back().value * 1e6));
   gpu::WaveTiming w;
   try {
     w = gpu::time_waves(o.effort == Effort::smoke ? 5 : 50, reps);
@@ -59,6 +67,6 @@ ProbeReport run(const ProbeOptions& o) {
 }  // namespace dtflop::probes
 
 DTFLOP_PROBE_UNIT(probe_gpu_launch) {
-  registry.add({"gpu-launch", "kernel launch overhead (empty kernel) and the fixed cost of a round of blocks", true, 60,
+  registry.add({"gpu-launch", "kernel launch overhead (empty kernel: from the host, L_launch; from a CUDA graph, L_graph) and the fixed cost of a round of blocks", true, 60,
                 dtflop::probes::run});
 }

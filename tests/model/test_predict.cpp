@@ -300,6 +300,68 @@ TEST(Predict, AcrossRowGpuFlopsCostKGrTimesTheOthersInTheLatencyVariants) {
   EXPECT_THROW(predict(m, c, Variant::seed), InputError);
 }
 
+TEST(Predict, TheGpuL2ServesTheShareOfKernelTrafficItsWorkingSetLeavesIn) {
+  auto m = test::round_profile();
+  m.set(Param::B_GG, {2e12});
+  m.set(Param::B_L2, {8e12});
+  m.identity.gpu_l2_bytes = 50'000'000;
+  CostCounts c;
+  c.P = 4;
+  c.N_GG = 1'000'000;           // 4 MB through the kernels
+  c.gpu_footprint = 10'000'000;  // a fifth of the L2: 0.2 of the bytes at B_GG, 0.8 at B_L2
+  const double mixed = 4e6 * (0.2 / 2e12 + 0.8 / 8e12), device = 4e6 / 2e12;
+  for (Variant v : {Variant::latency, Variant::memory, Variant::extended})
+    EXPECT_NEAR(predict(m, c, v).dt_GG, mixed, 1e-18) << to_string(v);
+  EXPECT_NEAR(predict(m, c, Variant::seed).dt_GG, device, 1e-18);  // eq. 3.7 as the seed wrote it
+  // A working set the L2 cannot hold, one not counted, an L2 of unknown size, a profile without B_L2.
+  CostCounts big = c;
+  big.gpu_footprint = 50'000'000;
+  EXPECT_NEAR(predict(m, big, Variant::latency).dt_GG, device, 1e-18);
+  CostCounts uncounted = c;
+  uncounted.gpu_footprint = 0;
+  EXPECT_NEAR(predict(m, uncounted, Variant::latency).dt_GG, device, 1e-18);
+  auto unknown = m;
+  unknown.identity.gpu_l2_bytes = 0;
+  EXPECT_NEAR(predict(unknown, c, Variant::latency).dt_GG, device, 1e-18);
+  auto without = m;
+  without.erase(Param::B_L2);
+  EXPECT_NEAR(predict(without, c, Variant::latency).dt_GG, device, 1e-18);
+  // A fit that is to find B_L2 asks for it where the working set fits.
+  auto r = required_params(c, Variant::latency, 0, false, false, false, 50'000'000, false);
+  EXPECT_NE(std::find(r.begin(), r.end(), Param::B_L2), r.end());
+  r = required_params(big, Variant::latency, 0, false, false, false, 50'000'000, false);
+  EXPECT_EQ(std::find(r.begin(), r.end(), Param::B_L2), r.end());
+}
+
+TEST(Predict, KernelsOfAGraphCostLGraphWhereTheProfileHasIt) {
+  auto m = test::round_profile();
+  m.set(Param::L_launch, {4e-6});
+  m.set(Param::L_graph, {1e-6});
+  CostCounts c;
+  c.launches = 10;
+  c.graph_launches = 6;
+  const Prediction p = predict(m, c, Variant::latency);
+  EXPECT_NEAR(p.lat_launch, 4 * 4e-6, 1e-18);
+  EXPECT_NEAR(p.lat_graph, 6 * 1e-6, 1e-18);
+  EXPECT_NEAR(p.total, 4 * 4e-6 + 6e-6, 1e-18);
+  // Every launch a graph's: no L_launch needed.
+  CostCounts all = c;
+  all.graph_launches = 10;
+  auto no_launch = m;
+  no_launch.erase(Param::L_launch);
+  EXPECT_NEAR(predict(no_launch, all, Variant::latency).total, 10e-6, 1e-18);
+  // A profile without L_graph prices every launch at L_launch, as before the count existed.
+  auto without = m;
+  without.erase(Param::L_graph);
+  const Prediction q = predict(without, c, Variant::latency);
+  EXPECT_NEAR(q.lat_launch, 10 * 4e-6, 1e-18);
+  EXPECT_EQ(q.lat_graph, 0);
+  EXPECT_EQ(predict(m, c, Variant::seed).total, 0);  // the seed has no launch costs
+  // More graph kernels than launches is no computation.
+  c.graph_launches = 11;
+  EXPECT_THROW(predict(m, c, Variant::latency), InputError);
+}
+
 TEST(Predict, ThreadSyncsWavesAndHostWaitsAreFixedCostsOfTheLatencyVariants) {
   const auto m = test::round_profile();
   CostCounts c;

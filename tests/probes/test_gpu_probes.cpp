@@ -2,6 +2,7 @@
 // these tests check that they run, validate, and give figures of the right size.
 #include <algorithm>
 #include <exception>
+#include <stdexcept>
 #include <cmath>
 #include <vector>
 
@@ -86,6 +87,31 @@ TEST(GpuProbes, DeviceCopiesAreCheckedAndFast) {
   // Read + write of 64 MiB: faster than 10 GB/s on any CUDA GPU.
   EXPECT_GT(2.0 * bytes / summarize(a).median, 1e10);
   EXPECT_GT(2.0 * bytes / summarize(b).median, 1e10);
+}
+
+TEST(GpuProbes, AnL2ResidentCopyIsCheckedAndFasterThanDeviceMemory) {
+  DTFLOP_REQUIRE_GPU();
+  const std::int64_t l2 = gpu::device_info().l2_bytes;
+  ASSERT_GT(l2, 1 << 20);
+  const std::int64_t small = l2 / 8 / 16 * 16, big = 256 << 20;
+  const auto t = gpu::time_l2_copy(small, 16, 5, 1);
+  ASSERT_EQ(t.size(), 5u);
+  const double in_l2 = 2.0 * small * 16 / summarize(t).median;
+  const double device = 2.0 * big / summarize(gpu::time_copy_kernel(big, 5, 1)).median;
+  // The L2 serves a working set it holds faster than device memory serves one it cannot.
+  EXPECT_GT(in_l2, device) << in_l2 << " B/s in L2, " << device << " B/s from device memory";
+  EXPECT_THROW(gpu::time_l2_copy(small + 4, 16, 5, 1), std::invalid_argument);
+  EXPECT_THROW(gpu::time_l2_copy(small, 0, 5, 1), std::invalid_argument);
+}
+
+TEST(GpuProbes, KernelsOfAGraphCostMicrosecondsOrLess) {
+  DTFLOP_REQUIRE_GPU();
+  const auto t = gpu::time_graph_launches(200, 3);
+  ASSERT_EQ(t.size(), 3u);
+  const double g = summarize(t).median;
+  EXPECT_GT(g, 1e-8);
+  EXPECT_LT(g, 1e-4);
+  EXPECT_THROW(gpu::time_graph_launches(0, 3), std::invalid_argument);
 }
 
 TEST(GpuProbes, FmaKernelsValidateAndCountFlops) {

@@ -19,7 +19,8 @@ const std::vector<Param> kGpuParams = {
     Param::B_CG_pinned,   Param::B_GC_pinned,   Param::B_CG_pageable, Param::B_GC_pageable,
     Param::L_CG_pinned,   Param::L_GC_pinned,   Param::L_CG_pageable, Param::L_GC_pageable,
     Param::B_GG,          Param::B_GG_copy,     Param::V_G_fp32,      Param::V_G_fp64,
-    Param::L_launch,      Param::L_wait,        Param::L_wave};
+    Param::L_launch,      Param::L_wait,        Param::L_wave,        Param::L_graph,
+    Param::B_L2};
 const std::vector<Param> kCpuParams = {Param::B_host_1,  Param::B_host,    Param::V_C1_fp32,
                                        Param::V_C_fp32,  Param::V_C1_fp64, Param::V_C_fp64};
 
@@ -91,6 +92,8 @@ TEST(ProbeMachine, ProfileHoldsWhatWasMeasuredAndNothingElse) {
     EXPECT_FALSE(prof.identity.cuda_version.empty());
     EXPECT_EQ(prof.identity.gpu_sms, gpu::device_info().sm_count);
     EXPECT_GT(prof.identity.gpu_sms, 0);
+    EXPECT_EQ(prof.identity.gpu_l2_bytes, gpu::device_info().l2_bytes);
+    EXPECT_GT(prof.identity.gpu_l2_bytes, 0);
     for (Param p : kGpuParams) EXPECT_TRUE(prof.has(p)) << info(p).name;
   } else {
     // No device: the GPU parameters are absent (never zero), and the reason is recorded.

@@ -208,6 +208,12 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
     c.launches += 2;
   }
   c.N_G = analysis_flops(s) + field_flops(s);
+  // The kernels' working set: the region of interest and its labels (4 bytes a pixel); the
+  // components' records (6 statistics, x and y as doubles, weight, status, 3 pixel counts: 60
+  // bytes); the reference dots (position 16, match 4, displacement 8, validity 1); the points
+  // (position 16, their field record) and the support table (4 bytes an entry).
+  c.gpu_footprint = s.roi_pixels * (s.bytes_per_pixel + 4) + 60 * nc + 29 * s.dots + (16 + field_bytes) * s.points +
+                    4 * s.support_entries;
   c.N_C = 0;
   // The host waits for the device three times a frame: for the component count, for the
   // component records, and for the fields.

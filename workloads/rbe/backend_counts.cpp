@@ -84,6 +84,8 @@ CostCounts cuda_seed_counts(const Shape& s, HostMemory memory) {
   c.N_CS = s.cells();  // the host's sum of q: one chain of n_g dependent additions
   // The row kernel's taps: each reads u one row further on (rbe_seed_row_multiply).
   c.N_GR = 2 * s.cells() * s.Iy;
+  // The kernels' working set: the belief, u, the likelihood and q, and the two kernels.
+  c.gpu_footprint = c.P * (4 * s.cells() + s.Ix + s.Iy);
   return c;
 }
 
@@ -199,6 +201,7 @@ CostCounts cuda_resident_counts(const Shape& s, const Layout& l, int sms) {
     c.N_G = waves(B) * S * (2 * s.Ix * W * (H + s.Iy - 1) + correct_block);
     c.N_GG = 3 * ng + s.Ix + s.Iy + 2 + 2 * B;
     c.N_GS = fills(B, resident::kFusedRegs, g, std::int64_t{g.in_rows} * g.in_cols);
+    c.gpu_footprint = c.P * (3 * ng + s.Ix + s.Iy);  // the belief read and written, the likelihood, the kernels
   } else {
     const auto gx = resident::xpass_geometry(s, l, p.x_chunk), gy = resident::ypass_geometry(s, l, p.y_chunk);
     c.launches = 2;
@@ -208,12 +211,13 @@ CostCounts cuda_resident_counts(const Shape& s, const Layout& l, int sms) {
     c.N_GG = 5 * ng + s.Ix + s.Iy + 2 + 2 * B;
     c.N_GS = fills(p.xblocks(), resident::kXpassRegs, gx, std::int64_t{gx.in_rows} * gx.in_cols) +
              fills(B, resident::kYpassRegs, gy, std::int64_t{gy.u_rows} * gy.out_w);
+    c.gpu_footprint = c.P * (4 * ng + s.Ix + s.Iy);  // and u between the passes
   }
   return c;
 }
 
 CostCounts cuda_resident_run_counts(const Shape& s, const Layout& l, int sms, std::int64_t steps,
-                                    std::int64_t chunk) {
+                                    std::int64_t chunk, bool graph) {
   if (steps < 1) throw InputError(fmt::format("a run needs at least one step, got {}", steps));
   if (chunk < 1) throw InputError(fmt::format("chunk of {} steps must be at least 1", chunk));
   CostCounts c = cuda_resident_counts(s, l, sms).scaled(steps);
@@ -229,6 +233,8 @@ CostCounts cuda_resident_run_counts(const Shape& s, const Layout& l, int sms, st
   add_copies(c.copies_GC, chunk * sum_bytes, steps / chunk);
   add_copies(c.copies_GC, (steps % chunk) * sum_bytes, steps % chunk > 0 ? 1 : 0);
   c.host_waits += chunks;  // the host launches each chunk's graph and waits for it
+  // From graphs, the device starts every kernel; else the host launches them one by one.
+  if (graph) c.graph_launches = c.launches;
   return c;
 }
 

@@ -88,9 +88,9 @@ ResidentPlan resident_plan(const Shape& s, const Layout& layout, std::size_t max
 
 // cuda-resident, float32, one steady-state step inside a run (see cuda_resident.cu), on a GPU
 // of S = `sms` multiprocessors; a kernel of B blocks runs in q(B) = ceil(B / S) waves:
-//   fused: launches 1, waves = q(B), N_GG = 3 n_g + I_x + I_y + 2 + 2 B,
+//   fused: launches 1, waves = q(B), N_GG = 3 n_g + I_x + I_y + 2 + 2 B, gpu_footprint P (3 n_g + I_x + I_y),
 //          N_G = q(B) S [2 I_x W (H + I_y - 1) + (2 I_y + 3) W H + 2]
-//   split: launches 2, waves = q(B_x) + q(B), N_GG = 5 n_g + I_x + I_y + 2 + 2 B,
+//   split: launches 2, waves = q(B_x) + q(B), N_GG = 5 n_g + I_x + I_y + 2 + 2 B, gpu_footprint P (4 n_g + I_x + I_y),
 //          N_G = q(B_x) S 2 I_x W_x H_x + q(B) S [(2 I_y + 3) W H + 2]
 // with B blocks of W x H outputs (B_x blocks of W_x x H_x in the x-pass; fused and x-pass tiles
 // of a row start (-h_x) mod 4 cells left of multiples of their width, resident_geometry.hpp, so
@@ -113,11 +113,12 @@ ResidentPlan resident_plan(const Shape& s, const Layout& layout, std::size_t max
 // adds its share of S_k to the one sum in device memory: atomics = B. N_GR = 0: every tap reads
 // the block's shared-memory tile. Throws InputError when sms < 1.
 CostCounts cuda_resident_counts(const Shape& s, const Layout& layout, int sms);
-// A run of `steps` steps in chunks of `chunk` steps (one CUDA graph each): adds per chunk one
-// memset of the chunk's sums, two 8-byte device copies (the last sum carried in and out), one
-// device->host copy of the sums and one host wait (the graph's launch and the synchronize that
-// waits for it).
+// A run of `steps` steps in chunks of `chunk` steps (one CUDA graph each with `graph`, else
+// launched by the host one kernel at a time): adds per chunk one memset of the chunk's sums, two
+// 8-byte device copies (the last sum carried in and out), one device->host copy of the sums and
+// one host wait (the graph's launch, or the last launch, and the synchronize that waits for it).
+// With `graph`, every kernel is a graph's (graph_launches = launches).
 CostCounts cuda_resident_run_counts(const Shape& s, const Layout& layout, int sms, std::int64_t steps,
-                                    std::int64_t chunk);
+                                    std::int64_t chunk, bool graph);
 
 }  // namespace dtflop::rbe

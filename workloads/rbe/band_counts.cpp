@@ -125,6 +125,11 @@ CostCounts device_step_counts(const Shape& s, const Layout& l, int sms, const Ba
     c.peer_messages += h.messages;
     c.N_peer += h.values;
   }
+  // The device's working set, as cuda-resident's: its bands read and written, their likelihood,
+  // the kernels (the halo rows, a few rows a band, left out).
+  std::int64_t rows = 0;
+  for (std::size_t b : bands) rows += plan.bands[b].rows;
+  c.gpu_footprint = c.P * (3 * rows * s.nx + s.Ix + s.Iy);
   const std::int64_t G = plan.partitions();
   if (G > 1) {
     // Each band's scale kernel (the lagged normalization): one launch, reading T_k, E_k, T_{k-1},

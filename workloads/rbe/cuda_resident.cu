@@ -570,7 +570,7 @@ class CudaResident final : public Backend {
   }
   CostCounts run_counts(const Shape& s, const BackendOptions& o, std::int64_t steps) const override {
     // Each segment of up to kSegment steps brings its sums back in one copy.
-    return cuda_resident_run_counts(s, o.layout, counted_gpu_sms(o), steps, kSegment);
+    return cuda_resident_run_counts(s, o.layout, counted_gpu_sms(o), steps, kSegment, o.graph);
   }
   std::vector<std::string_view> kernel_names() const override {
     return {"rbe_resident_fused", "rbe_resident_xpass", "rbe_resident_ypass"};

@@ -79,6 +79,9 @@ TEST(DctCounts, CudaMatchesFormulas) {
   EXPECT_EQ(c.N_GG, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + 2 * 7'000'000 + 2 * 4'500'000 +
                         6 * 1600 + 5 * 2048 * 60 + 8 * 2048 + rv + 512);
   EXPECT_EQ(c.N_G, cpu_counts(s, 1).N_C);  // the same arithmetic, in float32
+  // Working set: the 8-bit frame and its labels, 60 bytes of records a component, 29 a reference
+  // dot, a point's position and field record, 4 bytes a support entry.
+  EXPECT_EQ(c.gpu_footprint, roi * (1 + 4) + 60 * 1700 + 29 * 1600 + (16 + field) * 2048 + 4 * 2048 * 60);
   EXPECT_EQ(c.N_C, 0);
   EXPECT_EQ(c.pixel_steps, 0);  // the pixel work is the device's
   EXPECT_EQ(c.launches, 11);

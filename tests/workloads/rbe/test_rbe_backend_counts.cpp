@@ -131,6 +131,7 @@ TEST(RbeBackendCounts, CudaSeedIsEquations5_10To5_16) {
     EXPECT_EQ(c.transfers_GC, 2);
     EXPECT_EQ(c.launches, 3);
     EXPECT_EQ(c.host_memory, mem);
+    EXPECT_EQ(c.gpu_footprint, 4 * (4 * ng + 33 + 21));  // p, u, l and q, the two kernels
   }
 }
 
@@ -154,6 +155,9 @@ TEST(RbeBackendCounts, CudaResidentFusedByHand) {
   EXPECT_EQ(cuda_resident_counts(s, l, 8).atomics, B);
   EXPECT_EQ(c.N_G, 4 * 132 * per_block);
   EXPECT_EQ(c.N_GG, 3 * 1000000 + 66 + 2 + 2 * B);
+  // Working set: two beliefs and the likelihood (4 MB each) and the two 33-tap kernels.
+  EXPECT_EQ(c.gpu_footprint, 4 * (3 * 1000000 + 33 + 33));
+  EXPECT_EQ(c.graph_launches, 0);  // a step alone: who launches it is the run's business
   // 128 multiprocessors: 4 whole waves, N_G is the blocks' own FLOPs.
   EXPECT_EQ(cuda_resident_counts(s, l, 128).N_G, B * per_block);
   EXPECT_EQ(cuda_resident_counts(s, l, 128).waves, 4);
@@ -169,7 +173,11 @@ TEST(RbeBackendCounts, CudaResidentFusedByHand) {
   EXPECT_EQ(c.N_GR, 0);  // every tap reads the shared-memory tile
   EXPECT_EQ(cuda_resident_counts(s, l, 128).N_GS, 2 * 128 * (96 * 72 + 40 + 40));
   // A run of 2500 steps: 3 segments of up to 1000, each bringing its sums back in one copy.
-  const auto r = cuda_resident_run_counts(s, l, 132, 2500, 1000);
+  const auto r = cuda_resident_run_counts(s, l, 132, 2500, 1000, true);
+  EXPECT_EQ(r.launches, 2500);
+  EXPECT_EQ(r.graph_launches, 2500);  // every kernel a node of a segment's graph
+  EXPECT_EQ(r.gpu_footprint, c.gpu_footprint);  // a working set: the run's is the step's
+  EXPECT_EQ(cuda_resident_run_counts(s, l, 132, 2500, 1000, false).graph_launches, 0);
   EXPECT_EQ(r.N_GC, 2 * 2500);
   EXPECT_EQ(r.transfers_GC, 3);
   // Two segments' sums of 1000 doubles and one of 500, into pinned host memory.
@@ -240,6 +248,7 @@ TEST(RbeBackendCounts, CudaResidentSplitByHand) {
   EXPECT_EQ(cuda_resident_counts(s, l, 8).N_G, XB * 2 * 201 * 128 * 16 + B * (2 * 201 * 32 * 64 + 3 * 32 * 64 + 2));
   EXPECT_EQ(cuda_resident_counts(s, l, 8).waves, XB / 8 + B / 8);
   EXPECT_EQ(c.N_GG, 5 * 1000000 + 402 + 2 + 2 * B);
+  EXPECT_EQ(c.gpu_footprint, 4 * (4 * 1000000 + 201 + 201));  // u between the passes too
   // Tile fills. x-pass: 16 rows x (128 + 208) values and 208 coefficients per block, pitch 340,
   // 22864 bytes; 48 registers: 5 blocks at once, so its 4 blocks per multiprocessor fill in one
   // round. y-pass: u tile 64 + 8 x 26 = 272 rows x 32 values (pitch 36) and 208 coefficients,
@@ -385,9 +394,10 @@ TEST(RbeBackendCounts, CudaResidentWavesByHand) {
     EXPECT_EQ(c.waves, 1 + 2);
     EXPECT_EQ(c.N_G, 1 * S * xpass_block + 2 * S * ypass_block);
     // A run: waves and N_G per step times the steps.
-    const auto r = cuda_resident_run_counts(s, split, S, 250, 100);
+    const auto r = cuda_resident_run_counts(s, split, S, 250, 100, true);
     EXPECT_EQ(r.waves, 250 * 3);
     EXPECT_EQ(r.N_G, 250 * c.N_G);
+    EXPECT_EQ(r.graph_launches, 250 * 2);  // both passes of every step, from the graphs
   }
   EXPECT_THROW(cuda_resident_counts({384, 352, 33, 33}, fused, 0), InputError);
 
