@@ -356,8 +356,12 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
       f.value = f.probed ? *f.probed : starts[i];
       f.note = why + (f.probed ? "; kept the probed value" : "; absent from the profile, left out");
     } else {
-      if (out.covariance_ok) {
-        f.log_sigma = std::sqrt(log_var[i]);
+      // A parameter the samples barely constrain can have a variance so large that its interval
+      // overflows (exp of it is infinite): it has no interval, rather than an infinite one that
+      // no profile can hold (a fitted profile with it could not be read back).
+      const double sigma = std::sqrt(log_var[i]);
+      if (out.covariance_ok && std::isfinite(f.value * std::exp(kZ95 * sigma))) {
+        f.log_sigma = sigma;
         f.has_interval = true;
         f.lo95 = f.value * std::exp(-kZ95 * f.log_sigma);
         f.hi95 = f.value * std::exp(kZ95 * f.log_sigma);

@@ -113,8 +113,10 @@ json to_json(const MachineProfile& p) {
   json params = json::object();
   for (const auto& [k, v] : p.params()) {
     json e = {{"value", v.value}, {"unit", info(k).unit}, {"provenance", to_string(v.provenance)}};
-    if (v.uncertainty) e["uncertainty"] = *v.uncertainty;
-    if (v.spread) e["spread"] = *v.spread;
+    // A figure that is not a finite number is no figure: left out (JSON has no infinity, and
+    // the reader refuses what would stand in for it).
+    if (v.uncertainty && std::isfinite(*v.uncertainty)) e["uncertainty"] = *v.uncertainty;
+    if (v.spread && std::isfinite(*v.spread)) e["spread"] = *v.spread;
     if (!v.note.empty()) e["note"] = v.note;
     params[std::string(info(k).name)] = e;
   }

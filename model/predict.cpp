@@ -104,7 +104,8 @@ bool fitted_only(Param p) {
   switch (p) {
     case Param::B_GC_staged:
     case Param::S_GC_staged:
-    case Param::S_GC_flat: return true;
+    case Param::S_GC_flat:
+    case Param::L_graph: return true;
     default: return false;
   }
 }

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
 #include "tests/model/fixtures.hpp"
@@ -54,6 +56,32 @@ TEST(ProfileJson, GpuMultiprocessorsRoundTripAndMayBeAbsent) {
   EXPECT_EQ(profile_from_json(old).identity.gpu_sms, 0);
   old["identity"]["gpu_sms"] = -1;
   EXPECT_NE(error_of(old).find("identity.gpu_sms"), std::string::npos);
+}
+
+TEST(ProfileJson, GpuL2RoundTripsAndMayBeAbsent) {
+  auto m = test::round_profile();
+  m.identity.gpu_l2_bytes = 52'428'800;
+  const json j = to_json(m);
+  EXPECT_EQ(profile_from_json(json::parse(j.dump())).identity.gpu_l2_bytes, 52'428'800);
+  json old = j;
+  old["identity"].erase("gpu_l2_bytes");
+  EXPECT_EQ(profile_from_json(old).identity.gpu_l2_bytes, 0);
+  old["identity"]["gpu_l2_bytes"] = -1;
+  EXPECT_NE(error_of(old).find("identity.gpu_l2_bytes"), std::string::npos);
+}
+
+TEST(ProfileJson, AFigureThatIsNotFiniteIsLeftOutSoTheProfileReadsBack) {
+  // A fit whose covariance overflowed gave a parameter an infinite uncertainty; written as JSON
+  // null it made the fitted profile unreadable (the main job's validate step failed on it).
+  auto m = test::round_profile();
+  Parameter p = m.get(Param::B_GG);
+  p.uncertainty = std::numeric_limits<double>::infinity();
+  p.spread = std::numeric_limits<double>::quiet_NaN();
+  m.set(Param::B_GG, p);
+  const MachineProfile back = profile_from_json(json::parse(to_json(m).dump()));
+  EXPECT_FALSE(back.get(Param::B_GG).uncertainty.has_value());
+  EXPECT_FALSE(back.get(Param::B_GG).spread.has_value());
+  EXPECT_EQ(back.get(Param::B_GG).value, p.value);
 }
 
 TEST(ProfileJson, EffectiveCacheRoundTripsBesideTheSystemsAndMayBeAbsent) {

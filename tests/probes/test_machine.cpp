@@ -19,8 +19,7 @@ const std::vector<Param> kGpuParams = {
     Param::B_CG_pinned,   Param::B_GC_pinned,   Param::B_CG_pageable, Param::B_GC_pageable,
     Param::L_CG_pinned,   Param::L_GC_pinned,   Param::L_CG_pageable, Param::L_GC_pageable,
     Param::B_GG,          Param::B_GG_copy,     Param::V_G_fp32,      Param::V_G_fp64,
-    Param::L_launch,      Param::L_wait,        Param::L_wave,        Param::L_graph,
-    Param::B_L2};
+    Param::L_launch,      Param::L_wait,        Param::L_wave,        Param::B_L2};
 const std::vector<Param> kCpuParams = {Param::B_host_1,  Param::B_host,    Param::V_C1_fp32,
                                        Param::V_C_fp32,  Param::V_C1_fp64, Param::V_C_fp64};
 
