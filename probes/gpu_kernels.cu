@@ -110,6 +110,60 @@ void check_pattern(const DeviceBuffer& dst, std::size_t bytes, std::uint32_t see
   if (bad != 0) detail::mismatch(what, bytes, bad, words);
 }
 
+// Times a copy (a kernel, or cudaMemcpyAsync): `warmup` untimed launches, the destination poisoned, then `reps` launches
+// with events around each; checks the destination against the source's pattern `seed`.
+template <class Launch>
+std::vector<double> time_copies(const Stream& s, const DeviceBuffer& dst, std::size_t bytes, std::uint32_t seed,
+                                int warmup, int reps, const char* what, Launch launch) {
+  auto once = [&] {
+    launch();
+    DTFLOP_CUDA_LAUNCHED();
+  };
+  for (int i = 0; i < warmup; ++i) once();
+  DTFLOP_CUDA(cudaMemsetAsync(dst.get(), 0xA5, bytes, s.get()));
+  Event start, stop;
+  std::vector<double> t;
+  for (int i = 0; i < reps; ++i) {
+    start.record(s);
+    once();
+    stop.record(s);
+    t.push_back(detail::elapsed(start, stop));
+  }
+  check_pattern(dst, bytes, seed, s, what);
+  return t;
+}
+
+// Kernel launches captured once in a CUDA graph (`enqueue` launches them on the stream) and
+// launched as a whole: the device starts them one after another, the host out of the way.
+class GraphBatch {
+ public:
+  template <class Enqueue>
+  GraphBatch(const Stream& s, Enqueue enqueue) {
+    cudaGraph_t graph = nullptr;
+    DTFLOP_CUDA(cudaStreamBeginCapture(s.get(), cudaStreamCaptureModeThreadLocal));
+    enqueue();
+    const cudaError_t launched = cudaGetLastError();
+    const cudaError_t captured = cudaStreamEndCapture(s.get(), &graph);
+    if (launched != cudaSuccess || captured != cudaSuccess) {
+      if (graph) cudaGraphDestroy(graph);
+      DTFLOP_CUDA(launched);
+      DTFLOP_CUDA(captured);
+    }
+    const cudaError_t made = cudaGraphInstantiate(&exec_, graph, 0);
+    cudaGraphDestroy(graph);
+    DTFLOP_CUDA(made);
+  }
+  GraphBatch(const GraphBatch&) = delete;
+  GraphBatch& operator=(const GraphBatch&) = delete;
+  ~GraphBatch() {
+    if (exec_) cudaGraphExecDestroy(exec_);
+  }
+  void launch(const Stream& s) const { DTFLOP_CUDA(cudaGraphLaunch(exec_, s.get())); }
+
+ private:
+  cudaGraphExec_t exec_ = nullptr;
+};
+
 template <typename T, int Chains>
 FmaTiming run_fma(double target_seconds, int reps) {
   detail::use_device();
@@ -240,21 +294,11 @@ std::vector<double> time_d2d_memcpy(std::int64_t bytes, int reps, int warmup) {
   const auto n = static_cast<std::size_t>(bytes);
   DeviceBuffer src(n), dst(n);
   Stream s;
-  Event start, stop;
   const std::uint32_t seed = 0xD2D0u;
   detail::fill_pattern_device(src.get<std::uint32_t>(), n / 4, seed, s);
-  for (int i = 0; i < warmup; ++i)
+  return time_copies(s, dst, n, seed, warmup, reps, "device->device cudaMemcpy", [&] {
     DTFLOP_CUDA(cudaMemcpyAsync(dst.get(), src.get(), n, cudaMemcpyDeviceToDevice, s.get()));
-  DTFLOP_CUDA(cudaMemsetAsync(dst.get(), 0xA5, n, s.get()));
-  std::vector<double> t;
-  for (int i = 0; i < reps; ++i) {
-    start.record(s);
-    DTFLOP_CUDA(cudaMemcpyAsync(dst.get(), src.get(), n, cudaMemcpyDeviceToDevice, s.get()));
-    stop.record(s);
-    t.push_back(detail::elapsed(start, stop));
-  }
-  check_pattern(dst, n, seed, s, "device->device cudaMemcpy");
-  return t;
+  });
 }
 
 std::vector<double> time_copy_kernel(std::int64_t bytes, int reps, int warmup) {
@@ -265,27 +309,13 @@ std::vector<double> time_copy_kernel(std::int64_t bytes, int reps, int warmup) {
   const std::size_t words16 = n / 16;
   DeviceBuffer src(n), dst(n);
   Stream s;
-  Event start, stop;
   const std::uint32_t seed = 0xC0B1u;
   detail::fill_pattern_device(src.get<std::uint32_t>(), n / 4, seed, s);
   const std::size_t per_block = static_cast<std::size_t>(kCopyThreads) * kCopyUnroll;
   const auto blocks = static_cast<unsigned>((words16 + per_block - 1) / per_block);
-  auto launch = [&] {
-    copy_kernel<<<blocks, kCopyThreads, 0, s.get()>>>(src.get<const uint4>(), dst.get<uint4>(),
-                                                      words16);
-    DTFLOP_CUDA_LAUNCHED();
-  };
-  for (int i = 0; i < warmup; ++i) launch();
-  DTFLOP_CUDA(cudaMemsetAsync(dst.get(), 0xA5, n, s.get()));
-  std::vector<double> t;
-  for (int i = 0; i < reps; ++i) {
-    start.record(s);
-    launch();
-    stop.record(s);
-    t.push_back(detail::elapsed(start, stop));
-  }
-  check_pattern(dst, n, seed, s, "device copy kernel");
-  return t;
+  return time_copies(s, dst, n, seed, warmup, reps, "device copy kernel", [&] {
+    copy_kernel<<<blocks, kCopyThreads, 0, s.get()>>>(src.get<const uint4>(), dst.get<uint4>(), words16);
+  });
 }
 
 std::vector<double> time_l2_copy(std::int64_t bytes, int passes, int reps, int warmup) {
@@ -299,26 +329,13 @@ std::vector<double> time_l2_copy(std::int64_t bytes, int passes, int reps, int w
   const std::size_t words16 = n / 16;
   DeviceBuffer src(n), dst(n);
   Stream s;
-  Event start, stop;
   const std::uint32_t seed = 0xC0B2u;
   detail::fill_pattern_device(src.get<std::uint32_t>(), n / 4, seed, s);
   // As many blocks as run at once: every multiprocessor busy, none waiting for a slot.
   const auto blocks = static_cast<unsigned>(sms * std::max(per_sm, 1));
-  auto launch = [&] {
+  return time_copies(s, dst, n, seed, warmup, reps, "L2-resident copy kernel", [&] {
     l2_copy_kernel<<<blocks, kCopyThreads, 0, s.get()>>>(src.get<const uint4>(), dst.get<uint4>(), words16, passes);
-    DTFLOP_CUDA_LAUNCHED();
-  };
-  for (int i = 0; i < warmup; ++i) launch();
-  DTFLOP_CUDA(cudaMemsetAsync(dst.get(), 0xA5, n, s.get()));
-  std::vector<double> t;
-  for (int i = 0; i < reps; ++i) {
-    start.record(s);
-    launch();
-    stop.record(s);
-    t.push_back(detail::elapsed(start, stop));
-  }
-  check_pattern(dst, n, seed, s, "L2-resident copy kernel");
-  return t;
+  });
 }
 
 std::vector<double> time_graph_launches(int batch, int reps) {
@@ -326,36 +343,18 @@ std::vector<double> time_graph_launches(int batch, int reps) {
   detail::use_device();
   Stream s;
   Event start, stop;
-  cudaGraph_t graph = nullptr;
-  DTFLOP_CUDA(cudaStreamBeginCapture(s.get(), cudaStreamCaptureModeThreadLocal));
-  for (int i = 0; i < batch; ++i) empty_kernel<<<1, 32, 0, s.get()>>>();
-  const cudaError_t launched = cudaGetLastError();
-  const cudaError_t captured = cudaStreamEndCapture(s.get(), &graph);
-  if (launched != cudaSuccess || captured != cudaSuccess) {
-    if (graph) cudaGraphDestroy(graph);
-    DTFLOP_CUDA(launched);
-    DTFLOP_CUDA(captured);
-  }
-  cudaGraphExec_t exec = nullptr;
-  const cudaError_t made = cudaGraphInstantiate(&exec, graph, 0);
-  cudaGraphDestroy(graph);
-  DTFLOP_CUDA(made);
+  const GraphBatch g(s, [&] {
+    for (int i = 0; i < batch; ++i) empty_kernel<<<1, 32, 0, s.get()>>>();
+  });
+  g.launch(s);  // the first launch uploads the graph: out of the figures
+  s.sync();
   std::vector<double> t;
-  try {
-    // The first launch uploads the graph: out of the figures.
-    DTFLOP_CUDA(cudaGraphLaunch(exec, s.get()));
-    s.sync();
-    for (int k = 0; k < reps; ++k) {
-      start.record(s);
-      DTFLOP_CUDA(cudaGraphLaunch(exec, s.get()));
-      stop.record(s);
-      t.push_back(detail::elapsed(start, stop) / batch);
-    }
-  } catch (...) {
-    cudaGraphExecDestroy(exec);
-    throw;
+  for (int k = 0; k < reps; ++k) {
+    start.record(s);
+    g.launch(s);
+    stop.record(s);
+    t.push_back(detail::elapsed(start, stop) / batch);
   }
-  DTFLOP_CUDA(cudaGraphExecDestroy(exec));
   return t;
 }
 
@@ -443,34 +442,17 @@ WaveTiming time_waves(int batch, int reps) {
     // The batch is a CUDA graph: the device starts its kernels one after another, so a kernel
     // shorter than the host's launch interval is timed as itself, not as that interval (launched
     // from the host, 4 and 8 rounds took the same 4.5 us on an H200 and the slope could vanish).
-    cudaGraph_t graph = nullptr;
-    DTFLOP_CUDA(cudaStreamBeginCapture(s.get(), cudaStreamCaptureModeThreadLocal));
-    for (int i = 0; i < batch; ++i) wave_kernel<<<blocks, threads, smem, s.get()>>>(out.get<int>());
-    const cudaError_t launched = cudaGetLastError();
-    const cudaError_t captured = cudaStreamEndCapture(s.get(), &graph);
-    if (launched != cudaSuccess || captured != cudaSuccess) {
-      if (graph) cudaGraphDestroy(graph);
-      DTFLOP_CUDA(launched);
-      DTFLOP_CUDA(captured);
-    }
-    cudaGraphExec_t exec = nullptr;
-    const cudaError_t made = cudaGraphInstantiate(&exec, graph, 0);
-    cudaGraphDestroy(graph);
-    DTFLOP_CUDA(made);
+    const GraphBatch g(s, [&] {
+      for (int i = 0; i < batch; ++i) wave_kernel<<<blocks, threads, smem, s.get()>>>(out.get<int>());
+    });
+    for (int i = 0; i < 2; ++i) g.launch(s);  // upload, warm-up
     std::vector<double> t;
-    try {
-      for (int i = 0; i < 2; ++i) DTFLOP_CUDA(cudaGraphLaunch(exec, s.get()));  // upload, warm-up
-      for (int k = 0; k < reps; ++k) {
-        start.record(s);
-        DTFLOP_CUDA(cudaGraphLaunch(exec, s.get()));
-        stop.record(s);
-        t.push_back(detail::elapsed(start, stop) / batch);
-      }
-    } catch (...) {
-      cudaGraphExecDestroy(exec);
-      throw;
+    for (int k = 0; k < reps; ++k) {
+      start.record(s);
+      g.launch(s);
+      stop.record(s);
+      t.push_back(detail::elapsed(start, stop) / batch);
     }
-    DTFLOP_CUDA(cudaGraphExecDestroy(exec));
     std::nth_element(t.begin(), t.begin() + static_cast<std::ptrdiff_t>(t.size() / 2), t.end());
     r.waves.push_back(waves);
     r.seconds.push_back(t[t.size() / 2]);

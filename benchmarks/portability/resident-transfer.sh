@@ -13,6 +13,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 D=$(realpath "${1:-build/dtflop}")
+ROW=$(realpath benchmarks/portability/row.py)
 RUN=$(realpath "${2:-results/portability/transfer-2026-11-25}")
 O=${3:-transfer-out}
 mkdir -p "$O"
@@ -32,16 +33,7 @@ done
 v() {  # label validate-arguments...
   local label=$1; shift
   "$D" validate "$@" --json 2>/dev/null > v.json || true
-  python3 - "$label" <<'PY'
-import json, sys
-try:
-    d = json.load(open('v.json'))
-except Exception:
-    print(f'| {sys.argv[1]} | - | validation failed | | | |'); sys.exit()
-a, i, e = d['groups']['all']['total'], d['interval90'], d['error']
-print(f"| {sys.argv[1]} | {a['n']} | {100*a['mean_rel']:.2f}% / {100*a['max_rel']:.2f}% | {100*a['bias']:+.1f}% "
-      f"| {e['rms_log']:.3f} | {i['inside']}/{i['scored']} ({100*i['coverage']:.0f}%) |")
-PY
+  python3 "$ROW" "$label" v.json
 }
 {
   echo "| machine, backend, basis | n | held-out total: mean / max | bias | rms log | 90% interval holds |"
