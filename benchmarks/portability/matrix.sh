@@ -45,14 +45,9 @@ for m in h100 h200; do
 done
 for b in cpu-seq cpu-par; do cal vm $b --backend $b; done
 
-v() {  # label validate-arguments...
-  local label=$1; shift
-  "$D" validate "$@" --json 2>/dev/null > v.json || true
-  python3 "$ROW" "$label" v.json
-}
+v() { python3 "$ROW" "$D" "$@"; }  # label validate-arguments...: one row of the table
 {
-  echo "| machine, backend, basis | n | held-out total: mean / max | bias | rms log | 90% interval holds |"
-  echo "| --- | --- | --- | --- | --- | --- |"
+  python3 "$ROW" --header
   for s in "cuda-seed-pinned --backend cuda-seed --match host-memory=pinned" \
            "cuda-seed-pageable --backend cuda-seed --match host-memory=pageable" "cuda-resident --backend cuda-resident"; do
     set -- $s; name=$1; shift

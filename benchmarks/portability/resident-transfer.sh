@@ -30,14 +30,9 @@ for m in h100 h200; do
     -o "$O/$m-fitted-cuda-resident.json" --write-calibration "$O/$m-cuda-resident.cal.json" \
     > "$O/$m-calibrate-cuda-resident.txt" 2>&1
 done
-v() {  # label validate-arguments...
-  local label=$1; shift
-  "$D" validate "$@" --json 2>/dev/null > v.json || true
-  python3 "$ROW" "$label" v.json
-}
+v() { python3 "$ROW" "$D" "$@"; }  # label validate-arguments...: one row of the table
 {
-  echo "| machine, backend, basis | n | held-out total: mean / max | bias | rms log | 90% interval holds |"
-  echo "| --- | --- | --- | --- | --- | --- |"
+  python3 "$ROW" --header
   for m in h100 h200; do
     o=$([ $m = h100 ] && echo h200 || echo h100)
     v "$m cuda-resident, calibrated here" --store $m-held.jsonl --machine "$O/$m-fitted-cuda-resident.json" --backend cuda-resident
