@@ -207,7 +207,7 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
     c.N_GG += roi_values + 512;
     c.launches += 2;
   }
-  c.N_G = analysis_flops(s) + field_flops(s);
+  c.N_G = analysis_flops(s) + field_flops(s) + (s.interp == Interp::fe ? kFlopsPerFeWarpCombine * s.points : 0);
   // The kernels' working set: the region of interest and its labels (4 bytes a pixel); the
   // components' records (6 statistics, x and y as doubles, weight, status, 3 pixel counts: 60
   // bytes); the reference dots (position 16, match 4, displacement 8, validity 1); the points

@@ -331,35 +331,55 @@ __global__ void k_mls(int n, const double2* pts, const float* rho, const unsigne
   out[m] = mp.field(r, u0.x, u0.y);
 }
 
+// One warp a point: its lanes take the point's support triangles in turn, so 32 triangles' gathers
+// (dots, validity, displacements: three dependent loads each) are in flight where one thread would
+// wait on each in order (a thread a point took 64-157 us for 500-1500 points of ~170 triangles on
+// an H100, a latency chain the model's bandwidth terms cannot price), then the warp adds up its
+// lanes' partial sums (5 x 31 additions, counted in cuda_counts) and lane 0 writes the field.
 __global__ void k_fe(int n, const int* tri, const float* N, const int* offsets, const int* support, const float* coef,
                      const int* tri_dots, const float* tri_gx, const float* tri_gy, const unsigned char* geometry,
                      const float2* U, const unsigned char* valid, FieldValue<float>* out) {
-  const int m = blockIdx.x * blockDim.x + threadIdx.x;
-  if (m >= n) return;
-  FieldValue<float> f;
-  f.status = static_cast<PointStatus>(geometry[m]);
-  if (f.status == PointStatus::ok) {
-    const int a = tri[3 * m], b = tri[3 * m + 1], c = tri[3 * m + 2];
-    if (!valid[a] || !valid[b] || !valid[c]) {
-      f.status = PointStatus::lost_vertex;
-    } else {
-      FePoint<float> fp;
-      float Ux[3], Uy[3];
-      const int v[3] = {a, b, c};
-      for (int k = 0; k < 3; ++k) { const float2 u = U[v[k]]; Ux[k] = u.x; Uy[k] = u.y; }
-      fp.own(&N[3 * m], Ux, Uy);
-      for (int e = offsets[m]; e < offsets[m + 1]; ++e) {
-        const int q = 3 * support[e];
-        const int d0 = tri_dots[q], d1 = tri_dots[q + 1], d2 = tri_dots[q + 2];
-        if (!valid[d0] || !valid[d1] || !valid[d2]) continue;
-        const float2 u0 = U[d0], u1 = U[d1], u2 = U[d2];
-        const float tx[3] = {u0.x, u1.x, u2.x}, ty[3] = {u0.y, u1.y, u2.y};
-        fp.add(coef[e], &tri_gx[q], &tri_gy[q], tx, ty);
+  const int lane = static_cast<int>(threadIdx.x) & 31;
+  const long long warps = (static_cast<long long>(gridDim.x) * blockDim.x) / 32;
+  for (long long w = (static_cast<long long>(blockIdx.x) * blockDim.x + threadIdx.x) / 32; w < n; w += warps) {
+    const int m = static_cast<int>(w);  // the same for the whole warp: its shuffles below are whole-warp
+    FieldValue<float> f;
+    f.status = static_cast<PointStatus>(geometry[m]);
+    if (f.status == PointStatus::ok) {
+      const int a = tri[3 * m], b = tri[3 * m + 1], c = tri[3 * m + 2];
+      if (!valid[a] || !valid[b] || !valid[c]) {
+        f.status = PointStatus::lost_vertex;
+      } else {
+        FePoint<float> fp;
+        for (int e = offsets[m] + lane; e < offsets[m + 1]; e += 32) {
+          const int q = 3 * support[e];
+          const int d0 = tri_dots[q], d1 = tri_dots[q + 1], d2 = tri_dots[q + 2];
+          if (!valid[d0] || !valid[d1] || !valid[d2]) continue;
+          const float2 u0 = U[d0], u1 = U[d1], u2 = U[d2];
+          const float tx[3] = {u0.x, u1.x, u2.x}, ty[3] = {u0.y, u1.y, u2.y};
+          fp.add(coef[e], &tri_gx[q], &tri_gy[q], tx, ty);
+        }
+        for (int d = 16; d > 0; d /= 2) {
+          fp.gxx += __shfl_down_sync(0xffffffffu, fp.gxx, d);
+          fp.gxy += __shfl_down_sync(0xffffffffu, fp.gxy, d);
+          fp.gyx += __shfl_down_sync(0xffffffffu, fp.gyx, d);
+          fp.gyy += __shfl_down_sync(0xffffffffu, fp.gyy, d);
+          fp.s += __shfl_down_sync(0xffffffffu, fp.s, d);
+          fp.n += __shfl_down_sync(0xffffffffu, fp.n, d);
+        }
+        float Ux[3], Uy[3];
+        const int v[3] = {a, b, c};
+        for (int k = 0; k < 3; ++k) {
+          const float2 u = U[v[k]];
+          Ux[k] = u.x;
+          Uy[k] = u.y;
+        }
+        fp.own(&N[3 * m], Ux, Uy);
+        f = fp.field();
       }
-      f = fp.field();
     }
+    if (lane == 0) out[m] = f;
   }
-  out[m] = f;
 }
 
 int grid_for(long long n, int block) {
@@ -453,7 +473,7 @@ void launch_fe(int n, const int* tri, const float* N, const int* offsets, const 
                const int* tri_dots, const float* tri_gx, const float* tri_gy, const unsigned char* geometry,
                const float2* U, const unsigned char* valid, FieldValue<float>* out, int block, cudaStream_t s) {
   if (n <= 0) return;
-  k_fe<<<grid_for(n, block), block, 0, s>>>(n, tri, N, offsets, support, coef, tri_dots, tri_gx, tri_gy, geometry, U,
+  k_fe<<<grid_for(32LL * n, block), block, 0, s>>>(n, tri, N, offsets, support, coef, tri_dots, tri_gx, tri_gy, geometry, U,
                                             valid, out);
   DTFLOP_CUDA_LAUNCHED();
 }

@@ -63,7 +63,8 @@ void launch_mls(int n, const double2* pts, const float* rho, const unsigned char
                 int min_dots, float min_pivot, FieldValue<float>* out, int block, cudaStream_t s);
 // FE: per point its triangle `tri` (3) and shape functions `N` (3); the recovery's triangles
 // `support` with coefficients `coef` (CSR by `offsets`); per triangle its dots `tri_dots` and
-// gradient coefficients `tri_gx`, `tri_gy` (3 each). kernels.hpp, FePoint.
+// gradient coefficients `tri_gx`, `tri_gy` (3 each). kernels.hpp, FePoint. One warp a point, so
+// `block` / 32 points a block.
 void launch_fe(int n, const int* tri, const float* N, const int* offsets, const int* support, const float* coef,
                const int* tri_dots, const float* tri_gx, const float* tri_gy, const unsigned char* geometry,
                const float2* U, const unsigned char* valid, FieldValue<float>* out, int block, cudaStream_t s);

@@ -385,5 +385,8 @@ struct FePoint {
 };
 constexpr std::int64_t kFlopsPerFeEntry = 29;
 constexpr std::int64_t kFlopsPerFePoint = 10 + 5 + kFlopsStrain;
+// The device's FE kernel gives a point a warp: its 32 lanes' partial sums of the five sums above
+// are added up at the end (5 x 31 additions a point).
+constexpr std::int64_t kFlopsPerFeWarpCombine = 5 * 31;
 
 }  // namespace dtflop::dct

@@ -321,7 +321,7 @@ class DctWorkload final : public wl::Workload {
          "threads per block of the per-pixel kernels (histogram, threshold and labels, union, compress, ids, "
          "statistics); a multiple of 32",
          kDefaultLayout.block_pixels, 32, 1024, {}, {"cuda"}, ""},
-        {"block-points", Kind::integer, "threads (points) per block of the MLS / FE field kernel; a multiple of 32, at most what the kernel's "
+        {"block-points", Kind::integer, "threads per block of the MLS / FE field kernel (MLS: a point a thread; FE: a point a warp); a multiple of 32, at most what the kernel's "
          "registers allow on the GPU (768 on an H100: more is refused before a frame)",
          kDefaultLayout.block_points, 32, 1024, {}, {"cuda"}, ""},
         {"block-dots", Kind::integer,

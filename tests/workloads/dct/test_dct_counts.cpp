@@ -94,8 +94,9 @@ TEST(DctCounts, CudaMatchesFormulas) {
   EXPECT_EQ(f.launches, 9);
   EXPECT_EQ(f.transfers_GC, 9);  // no threshold to read back
   // Per recovery triangle 20 + 8 + 1 FLOPs; per point its own triangle (10), 1 / s and the
-  // scaling (5), the Green-Lagrange strain (16).
-  EXPECT_EQ(f.N_G, 14LL * 2'000'000 + 11LL * 4'500'000 + 50LL * 1600 + 29LL * 2048 * 90 + 31LL * 2048);
+  // scaling (5), the Green-Lagrange strain (16); on the device a point is a warp's, whose 32
+  // lanes' partial sums of gxx, gxy, gyx, gyy and s are added up (5 x 31).
+  EXPECT_EQ(f.N_G, 14LL * 2'000'000 + 11LL * 4'500'000 + 50LL * 1600 + 29LL * 2048 * 90 + 31LL * 2048 + 155LL * 2048);
   EXPECT_EQ(f.host_memory, HostMemory::pageable);
   // On the CPU, FE streams a recovery triangle's index and coefficient per support entry and a
   // point's 3 triangle dots, 3 shape functions and 8 outputs; the triangles' dots, gradients and
