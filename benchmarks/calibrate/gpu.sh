@@ -17,6 +17,9 @@
 #                                            kernels on one grid, dense already) takes two
 #   bash benchmarks/calibrate/gpu.sh resident   both sets for cuda-resident alone, with a probe
 #                                            and the GPU tests (about 2 minutes)
+#   bash benchmarks/calibrate/gpu.sh seed       both sets for cuda-seed alone, pageable and pinned,
+#                                            ROUNDS rounds (default 3), with a probe and the GPU
+#                                            tests
 # Each sweep is resumable and bounded in time, so a slow one cannot take the whole lease;
 # whatever was measured comes back in $OUT (or ./gpu-out). Fitting and validation run
 # afterwards on the developer's machine from the stores (docs/PERFORMANCE.md; the stores of
@@ -29,7 +32,7 @@ export LD_LIBRARY_PATH=$PWD/$bundle/lib:${LD_LIBRARY_PATH:-}
 B=$bundle/bin
 O=${OUT:-gpu-out}
 part=${1:-}
-[[ "$part" == all || "$part" == resident ]] || { echo "usage: $0 all|resident" >&2; exit 2; }
+[[ "$part" == all || "$part" == resident || "$part" == seed ]] || { echo "usage: $0 all|resident|seed" >&2; exit 2; }
 mkdir -p "$O"
 log="$O/log-$part.txt"
 say() { echo "== $* ($(date -u +%H:%M:%S))" | tee -a "$log"; }
@@ -93,6 +96,17 @@ elif [[ "$part" == resident ]]; then
   sweep 60 fit.jsonl --seed 7 --backend cuda-resident --plan random:50 --rounds 3
   sweep 90 fit.jsonl --backend cuda-resident --plan seed-test1 --rounds 2
   sweep 60 held.jsonl --backend cuda-resident --plan random:50 --rounds 3
+elif [[ "$part" == seed ]]; then
+  probe_quick
+  gpu_tests
+  for ((r = 1; r <= ${ROUNDS:-3}; ++r)); do
+    for memory in pageable pinned; do
+      sweep 60 fit.jsonl --backend cuda-seed --host-memory $memory --plan seed-test2 --rounds $r
+      sweep 60 fit.jsonl --seed 7 --backend cuda-seed --host-memory $memory --plan random:50 --rounds $r
+      sweep 60 held.jsonl --backend cuda-seed --host-memory $memory --plan random:50 --rounds $r
+    done
+    if (( r <= 2 )); then sweep 120 fit.jsonl --backend cuda-seed --plan seed-test1 --rounds $r; fi
+  done
 fi
 say done
 wc -l "$O"/*.jsonl | tee -a "$log"
