@@ -35,7 +35,7 @@ const double kLogBound = std::log(1e6);      // how far from its start a fitted 
 double default_start(Param p) {
   const auto unit = info(p).unit;
   if (p == Param::L_tree) return 30e-9;  // a step of a k-d tree: a few dependent loads
-  if (p == Param::L_pixel) return 1e-9;  // a step of a scalar pixel loop: a few cycles
+  if (p == Param::L_pixel || p == Param::L_pixel_all) return 1e-9;  // a step of a scalar pixel loop: a few cycles
   if (p == Param::V_CS) return 1e9;      // one addition per few cycles
   if (p == Param::L_net) return 2e-6;    // a message between processes of one host
   if (p == Param::B_net) return 2e9;
@@ -63,7 +63,7 @@ Bound physical_bounds(Param p, const MachineProfile& start, double start_value) 
     return {0.02 * probed->value, 100 * probed->value,
             fmt::format("0.02x .. 100x the probed {}", format_quantity(probed->value, unit))};
   if (unit == "x") return {0.1, 100, "a cost ratio of one FLOP to another"};
-  if (p == Param::L_pixel) return {5e-11, 1e-7, "a step of a scalar pixel loop: 0.05 ns .. 100 ns"};
+  if (p == Param::L_pixel || p == Param::L_pixel_all) return {5e-11, 1e-7, "a step of a scalar pixel loop: 0.05 ns .. 100 ns"};
   if (unit == "s") return {1e-10, 1e-2, "an event of the machine: 0.1 ns .. 10 ms"};
   if (unit == "B") return {1, 1024.0 * 1024 * 1024, "a copy size: 1 B .. 1 GiB"};
   return {start_value * 1e-6, start_value * 1e6, "no probe: a million-fold either side of its start"};
@@ -122,9 +122,10 @@ std::string fmt_value(double v, Param p) { return fmt::format("{:.4g} {}", v, in
 
 // The parameters a sample's counts exercise: every refinement the model has is priced, those the
 // start profile lacks found by the fit (staging, serial chains, all-thread windows, the GPU's L2
-// where its size is known, graph launches).
+// where its size is known, graph launches, all-thread pixel steps).
 std::vector<Param> exercised_params(const CostCounts& c, Variant v, const MachineProfile& start) {
-  return required_params(c, v, model_llc_bytes(start.identity), true, true, true, start.identity.gpu_l2_bytes, true);
+  return required_params(c, v, model_llc_bytes(start.identity), true, true, true, start.identity.gpu_l2_bytes, true,
+                         true);
 }
 
 }  // namespace

@@ -154,8 +154,8 @@ MissingParameter missing_parameters(const std::vector<Param>& missing, Variant v
 }  // namespace
 
 std::vector<Param> required_params(const CostCounts& c, Variant variant, std::int64_t profile_llc, bool staged,
-                                   bool serial, bool all_threads, std::int64_t gpu_l2, bool graph) {
-  return required_params(c, variant, Pricing{profile_llc, staged, all_threads, serial, gpu_l2, graph});
+                                   bool serial, bool all_threads, std::int64_t gpu_l2, bool graph, bool pixel_all) {
+  return required_params(c, variant, Pricing{profile_llc, staged, all_threads, serial, gpu_l2, graph, pixel_all});
 }
 
 Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant) {

@@ -84,9 +84,10 @@ struct Prediction {
 // a fit is to find them).
 // `gpu_l2`: the GPU's L2 cache where the share of N_GG it serves is priced at B_L2 (the profile has
 // B_L2 or a fit is to find it), else 0. `graph`: price a CUDA graph's kernels at L_graph (likewise).
+// `pixel_all`: price pixel steps on several threads at L_pixel_all (likewise).
 std::vector<Param> required_params(const CostCounts& counts, Variant variant, std::int64_t profile_llc = 0,
                                    bool staged = false, bool serial = false, bool all_threads = false,
-                                   std::int64_t gpu_l2 = 0, bool graph = false);
+                                   std::int64_t gpu_l2 = 0, bool graph = false, bool pixel_all = false);
 // Does the profile have the three staging figures of pageable device->host copies?
 bool has_staging(const MachineProfile& profile);
 // Seconds a pageable device->host copy of `bytes` takes past its latency:

@@ -71,6 +71,7 @@ const std::vector<ParamInfo>& all_params() {
       {Param::B_L2, "B_L2", "B/s", "device bandwidth seen by a kernel whose working set stays in the GPU's L2 cache (read+write)"},
       {Param::L_graph, "L_graph", "s", "one kernel of a CUDA graph, device side: what a kernel launched from a graph costs beside its work"},
       {Param::L_pixel, "L_pixel", "s", "one step of host scalar pixel work: a pixel counted into a histogram, labelled, classified, or a label of its neighbourhood read"},
+      {Param::L_pixel_all, "L_pixel_all", "s", "L_pixel with every hardware thread at work: the wall time of a step of pixel work the threads share"},
   };
   return table;
 }
@@ -122,6 +123,7 @@ bool device_param(Param p) {
     case Param::K_CA_all:
     case Param::L_tree:
     case Param::L_pixel:
+    case Param::L_pixel_all:
     case Param::L_net:
     case Param::B_net:
       return false;

@@ -66,6 +66,7 @@ enum class Param {
   L_pixel,         // one step of host scalar pixel work (pixel_steps)                      [s]
   B_L2,            // device bandwidth seen by a kernel, working set in the L2 cache (r+w)  [B/s]
   L_graph,         // one kernel of a CUDA graph, device side (graph_launches)              [s]
+  L_pixel_all,     // L_pixel with every hardware thread at work (cpu_threads > 1)          [s]
 };
 
 struct ParamInfo {

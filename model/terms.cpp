@@ -50,7 +50,8 @@ std::string Variants::str() const {
 
 Pricing Pricing::of(const MachineProfile& m) {
   return {model_llc_bytes(m.identity), has_staging(m), m.has(Param::K_CW_all) || m.has(Param::K_CA_all),
-          m.has(Param::V_CS), m.has(Param::B_L2) ? m.identity.gpu_l2_bytes : 0, m.has(Param::L_graph)};
+          m.has(Param::V_CS), m.has(Param::B_L2) ? m.identity.gpu_l2_bytes : 0, m.has(Param::L_graph),
+          m.has(Param::L_pixel_all)};
 }
 
 namespace {
@@ -270,6 +271,16 @@ double allreduce_seconds(const MachineProfile& m, const CostCounts& c, Variant, 
   return s;
 }
 
+// lat_pixel. A step of pixel work costs L_pixel on one thread; on several, the wall time of a step
+// the threads share, L_pixel_all, where the profile has it (docs/model.md 2.6).
+Param l_pixel(const CostCounts& c, const Pricing& x) {
+  return x.pixel_all && c.cpu_threads > 1 ? Param::L_pixel_all : Param::L_pixel;
+}
+std::vector<Param> pixel_needs(const CostCounts& c, Variant, const Pricing& x) { return {l_pixel(c, x)}; }
+double pixel_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing& x) {
+  return static_cast<double>(c.pixel_steps) * m.get(l_pixel(c, x)).value;
+}
+
 // The two simple shapes: P N / B, values moved over a bandwidth, and n L, events at a fixed cost.
 template <std::int64_t CostCounts::*N, Pick B>
 constexpr Price per_byte() {
@@ -331,8 +342,9 @@ const std::vector<Term>& terms() {
        per_event<&C::cpu_syncs, only<Param::L_sync>>()},
       {"lat_tree", &P::lat_tree, Phase::C, kLatencyVariants, sum, "tree_steps", "L_tree", "host k-d tree steps",
        per_event<&C::tree_steps, only<Param::L_tree>>()},
-      {"lat_pixel", &P::lat_pixel, Phase::C, kLatencyVariants, sum, "pixel_steps", "L_pixel",
-       "host scalar pixel steps", per_event<&C::pixel_steps, only<Param::L_pixel>>()},
+      {"lat_pixel", &P::lat_pixel, Phase::C, kLatencyVariants, sum, "pixel_steps",
+       "L_pixel; L_pixel_all for cpu_threads > 1 where the profile has it", "host scalar pixel steps",
+       {positive<&C::pixel_steps>, pixel_needs, pixel_seconds}},
       {"lat_wait", &P::lat_wait, Phase::wait, kLatencyVariants, sum, "host_waits", "L_wait",
        "host waits for the device", per_event<&C::host_waits, only<Param::L_wait>>()},
       {"lat_net", &P::lat_net, Phase::net, kLatencyVariants, sum, "net_messages", "L_net",

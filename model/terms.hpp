@@ -77,6 +77,9 @@ struct Pricing {
                                   // profile has B_L2, or a fit is to find it); 0: all of it at B_GG
   bool graph = false;          // price a CUDA graph's kernels (graph_launches) at L_graph (the profile
                                // has it, or a fit is to find it); else at L_launch like the others
+  bool pixel_all = false;      // price pixel steps on cpu_threads > 1 at L_pixel_all (the profile has
+                               // it, or a fit is to find it); else at L_pixel, as profiles made before
+                               // the probe measured it were fitted
   static Pricing of(const MachineProfile& profile);
 };
 

@@ -1,13 +1,14 @@
-// Host scalar pixel work (L_pixel): the cost of one step of a scalar loop over pixels on one
-// thread, the work an image analysis does pixel by pixel and branch by branch (a histogram's
-// count, a window pixel classified, a label of its neighbourhood read) that no FLOP rate or
-// bandwidth prices. Measured with the two loop shapes the DCT workload counts as pixel_steps
-// (docs/model.md 2.6): a 256-bin histogram of an 8-bit frame (one step a pixel), and the
-// classification of the windows around labelled discs, where every background window pixel
-// reads the labels of its 5 x 5 neighbourhood through a bounds-checked accessor (one step a
-// window pixel and one a label read). The time of a repetition over its steps gives L_pixel.
-// A floor, as cpu-tree's L_tree is: the workload's labelling does more per pixel, which a fit
-// finds (docs/PERFORMANCE.md).
+// Host scalar pixel work (L_pixel, L_pixel_all): what one step of the DCT CPU backends' image
+// analysis costs on this machine, the work done pixel by pixel and branch by branch (a histogram's
+// count, a pixel labelled, a window pixel classified, a label of its neighbourhood read) that no
+// FLOP rate or bandwidth prices. The probe runs that analysis' own steps on a frame of dark discs,
+// with the libraries the workload uses: a 256-bin histogram (one step a pixel), OpenCV's threshold
+// and 8-connected labelling with statistics (one step a pixel), and the classification of each
+// component's window, every background window pixel reading the labels of its 5 x 5 neighbourhood
+// through a bounds-checked accessor (one step a window pixel and one a label read): the steps the
+// workload counts as pixel_steps (docs/model.md 2.6). The time of a pass over its steps gives
+// L_pixel on one thread (cpu-seq), and L_pixel_all on every usable CPU (cpu-par: OpenCV's threads
+// for the threshold and the labelling, the windows split between them, the histogram on one).
 #include <array>
 #include <chrono>
 #include <cstdint>
@@ -15,9 +16,12 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "probes/measure.hpp"
 #include "probes/probe.hpp"
+#include "probes/team.hpp"
 
 namespace dtflop::probes {
 namespace {
@@ -30,29 +34,22 @@ constexpr int kGrow = kMargin + 2;  // a window is a disc's box grown by the mar
 
 struct Frame {
   std::vector<std::uint8_t> image;
-  std::vector<std::int32_t> labels;  // 0: background, k: disc k
-  std::vector<std::array<int, 2>> centres;
 };
 
 // Discs on a jittered grid (they never touch: 48 px apart, 17 px across), a noisy background.
 Frame make_frame() {
   Frame f;
   f.image.resize(static_cast<std::size_t>(kSide) * kSide);
-  f.labels.assign(f.image.size(), 0);
   std::mt19937_64 rng(20261124);
   std::uniform_int_distribution<int> grey(180, 220), jitter(-6, 6);
   for (auto& v : f.image) v = static_cast<std::uint8_t>(grey(rng));
   const int per_row = 20, pitch = kSide / per_row;
   for (int k = 0; k < kDiscs; ++k) {
     const int cx = (k % per_row) * pitch + pitch / 2 + jitter(rng), cy = (k / per_row) * pitch + pitch / 2 + jitter(rng);
-    f.centres.push_back({cx, cy});
     for (int y = cy - kRadius; y <= cy + kRadius; ++y)
       for (int x = cx - kRadius; x <= cx + kRadius; ++x)
-        if ((x - cx) * (x - cx) + (y - cy) * (y - cy) <= kRadius * kRadius) {
-          const std::size_t i = static_cast<std::size_t>(y) * kSide + x;
-          f.labels[i] = k + 1;
-          f.image[i] = 40;
-        }
+        if ((x - cx) * (x - cx) + (y - cy) * (y - cy) <= kRadius * kRadius)
+          f.image[static_cast<std::size_t>(y) * kSide + x] = 40;
   }
   return f;
 }
@@ -60,75 +57,141 @@ Frame make_frame() {
 struct Steps {
   std::int64_t steps = 0;     // pixels visited + labels read
   std::int64_t counted = 0;   // histogram total
+  std::int64_t components = 0;  // components the labelling found (background apart)
+  std::int64_t bad_area = 0;    // of them, with another area than a disc's
   std::int64_t classes[3] = {0, 0, 0};  // own, ring, ignored: must add up to the window pixels
 };
 
-// One repetition: the histogram, then every disc's window classified as the workload does.
-Steps pass(const Frame& f) {
+// Buffers kept across passes, as the workload keeps its mask and labels across frames.
+struct Buffers {
+  cv::Mat mask, labels, stats, centroids;
+};
+
+// Sets OpenCV's thread count for a scope and restores it after.
+class OpenCvThreads {
+ public:
+  explicit OpenCvThreads(int n) : old_(cv::getNumThreads()) { cv::setNumThreads(n); }
+  ~OpenCvThreads() { cv::setNumThreads(old_); }
+  OpenCvThreads(const OpenCvThreads&) = delete;
+  OpenCvThreads& operator=(const OpenCvThreads&) = delete;
+
+ private:
+  int old_;
+};
+
+// The pixels of one disc: its area, which every component the labelling finds must have.
+std::int64_t disc_area() {
+  std::int64_t n = 0;
+  for (int y = -kRadius; y <= kRadius; ++y)
+    for (int x = -kRadius; x <= kRadius; ++x) n += x * x + y * y <= kRadius * kRadius;
+  return n;
+}
+
+// One repetition on `threads` threads: the histogram, the threshold and the labelling, then every
+// component's window classified as the workload does.
+Steps pass(const Frame& f, Buffers& b, int threads) {
+  OpenCvThreads scope(threads);
   Steps s;
   std::array<std::int64_t, 256> hist{};
   for (std::uint8_t v : f.image) ++hist[v];
   for (std::int64_t h : hist) s.counted += h;
-  s.steps += static_cast<std::int64_t>(f.image.size());
-  auto label = [&](int x, int y) -> int {
-    if (x < 0 || y < 0 || x >= kSide || y >= kSide) return -1;
-    const int l = f.labels[static_cast<std::size_t>(y) * kSide + x];
-    return l == 0 ? -1 : l;
-  };
-  for (int k = 0; k < kDiscs; ++k) {
-    const int id = k + 1, cx = f.centres[k][0], cy = f.centres[k][1];
-    for (int y = cy - kRadius - kGrow; y <= cy + kRadius + kGrow; ++y)
-      for (int x = cx - kRadius - kGrow; x <= cx + kRadius + kGrow; ++x) {
-        ++s.steps;
-        const int l = label(x, y);
-        if (l == id) {
-          ++s.classes[0];
-          continue;
-        }
-        if (l != -1) {
-          ++s.classes[2];
-          continue;
-        }
-        bool self = false, other = false;
-        for (int dy = -kMargin; dy <= kMargin; ++dy)
-          for (int dx = -kMargin; dx <= kMargin; ++dx) {
-            const int n = label(x + dx, y + dy);
-            self |= n == id;
-            other |= n != -1 && n != id;
+  const cv::Mat image(kSide, kSide, CV_8U, const_cast<std::uint8_t*>(f.image.data()));
+  cv::threshold(image, b.mask, 128, 255, cv::THRESH_BINARY_INV);  // the discs (40) are dark on 180..220
+  const int n = cv::connectedComponentsWithStats(b.mask, b.labels, b.stats, b.centroids, 8, CV_32S, cv::CCL_DEFAULT);
+  s.steps += 2 * static_cast<std::int64_t>(f.image.size());  // a histogram step and a labelling step a pixel
+  s.components = n - 1;
+  const std::int64_t area = disc_area();
+  std::vector<Steps> each(static_cast<std::size_t>(std::max(0, n - 1)));
+  auto classify = [&](const cv::Range& range) {
+    for (int id = range.start; id < range.end; ++id) {
+      Steps& e = each[static_cast<std::size_t>(id - 1)];
+      if (b.stats.at<int>(id, cv::CC_STAT_AREA) != area) ++e.bad_area;
+      const int x0 = b.stats.at<int>(id, cv::CC_STAT_LEFT) - kGrow, y0 = b.stats.at<int>(id, cv::CC_STAT_TOP) - kGrow;
+      const int x1 = x0 + b.stats.at<int>(id, cv::CC_STAT_WIDTH) + 2 * kGrow;
+      const int y1 = y0 + b.stats.at<int>(id, cv::CC_STAT_HEIGHT) + 2 * kGrow;
+      auto label = [&](int x, int y) -> int {
+        if (x < 0 || y < 0 || x >= kSide || y >= kSide) return -1;
+        const int l = b.labels.at<int>(y, x);
+        return l == 0 ? -1 : l;
+      };
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) {
+          ++e.steps;
+          const int l = label(x, y);
+          if (l == id) {
+            ++e.classes[0];
+            continue;
           }
-        s.steps += (2 * kMargin + 1) * (2 * kMargin + 1);
-        ++s.classes[other ? 2 : self ? 0 : 1];
-      }
+          if (l != -1) {
+            ++e.classes[2];
+            continue;
+          }
+          bool self = false, other = false;
+          for (int dy = -kMargin; dy <= kMargin; ++dy)
+            for (int dx = -kMargin; dx <= kMargin; ++dx) {
+              const int m = label(x + dx, y + dy);
+              self |= m == id;
+              other |= m != -1 && m != id;
+            }
+          e.steps += (2 * kMargin + 1) * (2 * kMargin + 1);
+          ++e.classes[other ? 2 : self ? 0 : 1];
+        }
+    }
+  };
+  if (threads > 1) cv::parallel_for_(cv::Range(1, n), classify);
+  else classify(cv::Range(1, n));
+  for (const Steps& e : each) {
+    s.steps += e.steps;
+    s.bad_area += e.bad_area;
+    for (int k = 0; k < 3; ++k) s.classes[k] += e.classes[k];
   }
   return s;
+}
+
+// L_pixel (threads = 1) or L_pixel_all: the median time of a pass over its steps.
+Measurement measure(const Frame& f, int reps, int threads) {
+  const std::int64_t window = static_cast<std::int64_t>(kDiscs) * (2 * (kRadius + kGrow) + 1) * (2 * (kRadius + kGrow) + 1);
+  Buffers b;
+  std::vector<double> per_step;
+  std::int64_t steps = 0;
+  for (int k = -1; k < reps; ++k) {  // k = -1: warm-up, untimed
+    const auto t0 = std::chrono::steady_clock::now();
+    const Steps s = pass(f, b, threads);
+    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    // The loops ran: every pixel counted once, every disc labelled whole and apart, every window
+    // pixel classified once, some of them as ring (the background plane's pixels).
+    if (s.counted != static_cast<std::int64_t>(f.image.size()) || s.components != kDiscs || s.bad_area != 0 ||
+        s.classes[0] + s.classes[1] + s.classes[2] != window || s.classes[1] == 0)
+      throw ValidationError(fmt::format(
+          "the pixel loops counted {} of {} pixels, labelled {} of {} discs ({} of another area) and classified {} of "
+          "{} window pixels",
+          s.counted, f.image.size(), s.components, kDiscs, s.bad_area, s.classes[0] + s.classes[1] + s.classes[2],
+          window));
+    steps = s.steps;
+    if (k >= 0) per_step.push_back(t / static_cast<double>(s.steps));
+  }
+  const bool all = threads > 1;
+  return time_measurement(
+      all ? "pixel_all" : "pixel",
+      fmt::format("one step of the image analysis' pixel work ({})", all ? fmt::format("{} threads", threads) : "one thread"),
+      per_step, all ? Param::L_pixel_all : Param::L_pixel,
+      fmt::format("a 256-bin histogram of a {0}x{0} 8-bit frame, OpenCV's threshold and 8-connected labelling with "
+                  "statistics, and the classification of {1} discs' windows (5x5 label scans), {2} steps (docs/model.md "
+                  "2.6) on {3}; time / steps, median of {4}",
+                  kSide, kDiscs, steps, all ? fmt::format("{} threads", threads) : "one thread", reps));
 }
 
 ProbeReport run(const ProbeOptions& o) {
   ProbeReport r;
   const int reps = o.effort == Effort::full ? 31 : o.effort == Effort::quick ? 11 : 3;
   const Frame f = make_frame();
-  const std::int64_t window = static_cast<std::int64_t>(kDiscs) * (2 * (kRadius + kGrow) + 1) * (2 * (kRadius + kGrow) + 1);
-  std::vector<double> per_step;
-  std::int64_t steps = 0;
-  for (int k = -1; k < reps; ++k) {  // k = -1: warm-up, untimed
-    const auto t0 = std::chrono::steady_clock::now();
-    const Steps s = pass(f);
-    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    // The loops ran: every pixel counted once, every window pixel classified once, some of them
-    // as ring (the background plane's pixels).
-    if (s.counted != static_cast<std::int64_t>(f.image.size()) ||
-        s.classes[0] + s.classes[1] + s.classes[2] != window || s.classes[1] == 0)
-      throw ValidationError(fmt::format("the pixel loops counted {} of {} pixels and classified {} of {} window pixels",
-                                        s.counted, f.image.size(), s.classes[0] + s.classes[1] + s.classes[2], window));
-    steps = s.steps;
-    if (k >= 0) per_step.push_back(t / static_cast<double>(s.steps));
+  r.measurements.push_back(measure(f, reps, 1));
+  std::string all;
+  if (const int threads = usable_cpus(); threads > 1) {
+    r.measurements.push_back(measure(f, reps, threads));
+    all = fmt::format(", {:.2f} ns on {} threads", r.measurements.back().value * 1e9, threads);
   }
-  r.measurements.push_back(time_measurement(
-      "pixel", "one step of scalar pixel work (one thread)", per_step, Param::L_pixel,
-      fmt::format("a 256-bin histogram of a {0}x{0} 8-bit frame and the classification of {1} discs' windows "
-                  "(5x5 label scans), {2} steps (docs/model.md 2.6); time / steps, median of {3}",
-                  kSide, kDiscs, steps, reps)));
-  o.say(fmt::format("  pixel step: {:.2f} ns", r.measurements[0].value * 1e9));
+  o.say(fmt::format("  pixel step: {:.2f} ns on one thread{}", r.measurements[0].value * 1e9, all));
   return r;
 }
 
@@ -136,6 +199,8 @@ ProbeReport run(const ProbeOptions& o) {
 }  // namespace dtflop::probes
 
 DTFLOP_PROBE_UNIT(probe_cpu_pixel) {
-  registry.add({"cpu-pixel", "host scalar pixel work: one step of a histogram or a window's label scan (one thread)",
+  registry.add({"cpu-pixel",
+                "host scalar pixel work: one step of the image analysis' histogram, labelling or window label scans "
+                "(one thread and all)",
                 false, 28, dtflop::probes::run});
 }

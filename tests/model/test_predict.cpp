@@ -205,6 +205,31 @@ TEST(Predict, ChainedWindowFlopsCostKCdTimesTheOthersBesideTheSlidingWindowOnes)
   EXPECT_THROW(predict(m, c, Variant::memory), InputError);
 }
 
+TEST(Predict, PixelStepsOnSeveralThreadsCostLPixelAllWhereTheProfileHasIt) {
+  auto m = test::round_profile();
+  m.set(Param::L_pixel, Parameter{2e-9, Provenance::probed, {}, {}, {}});
+  CostCounts c;
+  c.pixel_steps = 1'000'000;
+  c.cpu_threads = 2;
+  // A profile without L_pixel_all (probed before it, or fitted so) prices every step at L_pixel.
+  EXPECT_NEAR(predict(m, c, Variant::latency).lat_pixel, 2e-3, 1e-15);
+  m.set(Param::L_pixel_all, Parameter{0.8e-9, Provenance::probed, {}, {}, {}});
+  EXPECT_NEAR(predict(m, c, Variant::latency).lat_pixel, 0.8e-3, 1e-15);
+  // One thread is L_pixel whatever the profile holds.
+  c.cpu_threads = 1;
+  EXPECT_NEAR(predict(m, c, Variant::latency).lat_pixel, 2e-3, 1e-15);
+  // A fit finds L_pixel_all from samples on several threads, L_pixel from those on one.
+  const auto fit_needs = [](const CostCounts& k, Param p) {
+    const auto r = required_params(k, Variant::latency, 0, true, true, true, 0, true, true);
+    return std::find(r.begin(), r.end(), p) != r.end();
+  };
+  EXPECT_TRUE(fit_needs(c, Param::L_pixel));
+  EXPECT_FALSE(fit_needs(c, Param::L_pixel_all));
+  c.cpu_threads = 2;
+  EXPECT_TRUE(fit_needs(c, Param::L_pixel_all));
+  EXPECT_FALSE(fit_needs(c, Param::L_pixel));
+}
+
 TEST(Predict, WindowsOnSeveralThreadsUseTheAllThreadRatiosWhereTheProfileHasThem) {
   auto m = test::round_profile();  // K_CW = 1.5, V_C1 100 GFLOP/s
   m.set(Param::K_CA, Parameter{2.0, Provenance::probed, {}, {}, {}});
