@@ -153,6 +153,10 @@ MissingParameter missing_parameters(const std::vector<Param>& missing, Variant v
 
 }  // namespace
 
+std::vector<Param> priced_params(const MachineProfile& m, const CostCounts& c, Variant variant) {
+  return required_params(c, variant, Pricing::of(m));
+}
+
 std::vector<Param> required_params(const CostCounts& c, Variant variant, std::int64_t profile_llc, bool staged,
                                    bool serial, bool all_threads, std::int64_t gpu_l2, bool graph, bool pixel_all) {
   return required_params(c, variant, Pricing{profile_llc, staged, all_threads, serial, gpu_l2, graph, pixel_all});

@@ -88,6 +88,9 @@ struct Prediction {
 std::vector<Param> required_params(const CostCounts& counts, Variant variant, std::int64_t profile_llc = 0,
                                    bool staged = false, bool serial = false, bool all_threads = false,
                                    std::int64_t gpu_l2 = 0, bool graph = false, bool pixel_all = false);
+// The parameters predict(profile, counts, variant) reads: required_params() with what the profile
+// holds deciding the pricing (its serial rate, all-thread figures, L2, graph and pixel figures).
+std::vector<Param> priced_params(const MachineProfile& profile, const CostCounts& counts, Variant variant);
 // Does the profile have the three staging figures of pageable device->host copies?
 bool has_staging(const MachineProfile& profile);
 // Seconds a pageable device->host copy of `bytes` takes past its latency:

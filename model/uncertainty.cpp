@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "model/errors.hpp"
+#include "model/predict.hpp"
 #include "model/terms.hpp"
 
 namespace dtflop {
@@ -48,7 +49,7 @@ BasisError basis_of(const MachineProfile& profile, const CostCounts& counts, Var
                     const std::optional<BasisError>& probe_only) {
   BasisError b;
   bool fitted = false;
-  for (Param id : required_params(counts, variant, model_llc_bytes(profile.identity), has_staging(profile)))
+  for (Param id : priced_params(profile, counts, variant))
     if (const Parameter* par = profile.find(id)) fitted = fitted || par->provenance == Provenance::fitted;
   if (!fitted && probe_only) {
     b = *probe_only;
@@ -101,7 +102,7 @@ BasisError basis_of(const Calibration& c, Basis applied) {
 double parameter_log_sigma(const MachineProfile& profile, const CostCounts& counts, Variant variant) {
   const double h = 0.01;  // a 1% step in log space
   double var = 0;
-  for (Param id : required_params(counts, variant, model_llc_bytes(profile.identity), has_staging(profile))) {
+  for (Param id : priced_params(profile, counts, variant)) {
     const Parameter* par = profile.find(id);
     if (!par || !(par->value > 0)) continue;
     double s = 0;

@@ -181,6 +181,23 @@ TEST(Uncertainty, AParametersIntervalSpreadsTheTimeByItsElasticity) {
   EXPECT_NEAR(iv.sigma, std::hypot(std::log(1.1) / 1.959963984540054, 0.03), 1e-6);
 }
 
+TEST(Uncertainty, TheParametersTheProfilePricesWithAreTheOnesWhoseUncertaintyCounts) {
+  // Pixel steps on two threads are priced at L_pixel_all where the profile has it: its fitted
+  // interval, not L_pixel's, spreads the time, and it makes the basis "calibrated".
+  MachineProfile m = probed(test::round_profile());
+  m.set(Param::L_pixel, Parameter{2e-9, Provenance::probed, {}, {}, {}});
+  m.set(Param::L_pixel_all, Parameter{1e-9, Provenance::fitted, 0.1e-9, {}, {}});
+  m.metadata["fit_cv_rms_log"] = "0.03";
+  CostCounts c;
+  c.pixel_steps = 1'000'000;
+  c.cpu_threads = 2;
+  const Prediction p = predict(m, c, Variant::latency);
+  EXPECT_NEAR(p.total, 1e-3, 1e-12);
+  const BasisError b = basis_of(m, c, Variant::latency);
+  EXPECT_EQ(b.basis, Basis::calibrated);
+  EXPECT_NEAR(interval_of(p, m, c, b).sigma_params, std::log(1.1) / 1.959963984540054, 1e-6);
+}
+
 TEST(Uncertainty, TheDeadlineVerdictIsTheProbabilityOfMeetingIt) {
   Interval iv;
   iv.sigma = 0.1;
