@@ -10,6 +10,8 @@
 #   export LD_LIBRARY_PATH=$PWD/.carry/lib:$(python3 -c 'import nvidia.nccl, os; print(os.path.join(nvidia.nccl.__path__[0], "lib"))')
 #   [DTFLOP=.carry/bin/dtflop] [N=16000] [K=33] [STEPS=20] [REPS=5] [SETS=40] bash benchmarks/multigpu/scaling.sh OUT
 #
+# (SETS=0: the scaling table alone; an OUT/probed.json already there is used as it is.)
+#
 # Memory: per band q twice and l, 3 x 4 n_y n_x / G bytes on its GPU (3 GiB on one GPU at 16000^2),
 # and ~10 GiB of host memory while the float64 problem is made.
 # Writes OUT/probed.json (dtflop probe: gpu-peer fills L_peer, B_peer, L_allreduce, B_allreduce
@@ -65,7 +67,9 @@ for p, g in rows:
 PY
 
 # Random sets: grids n x n with n in [2000, 8000], kernels odd in [3, 65], on every placement
-# above; the training set (seed 1) is fitted, the held-out one (seed 2) only validated.
+# above; the training set (seed 1) is fitted, the held-out one (seed 2) only validated. SETS=0
+# stops after the scaling table.
+[ "$SETS" -gt 0 ] || exit 0
 say "random sets"
 plan() {  # seed file
   python3 - "$1" "$SETS" "${counts[@]}" > "$2" <<'PY'

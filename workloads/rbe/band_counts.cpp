@@ -41,8 +41,11 @@ BandPlan band_plan(const Shape& s, int partitions) {
 BandLaunches band_launches(const BandPlan& p, std::size_t b) {
   const std::int64_t rows = p.bands.at(b).rows;
   const bool above = b > 0, below = b + 1 < p.bands.size();
-  const std::int64_t lo = above ? p.halo_before : 0;
-  const std::int64_t hi = below ? rows - p.halo_after : rows;
+  // The edge rows: those that read a halo, and those sent to a neighbour (cuda-bands sends them
+  // as soon as the edge launch has written them), so max(h_b, h_a) on each side with a neighbour.
+  const std::int64_t reach = std::max(p.halo_before, p.halo_after);
+  const std::int64_t lo = above ? reach : 0;
+  const std::int64_t hi = below ? rows - reach : rows;
   BandLaunches l;
   if (lo >= hi) {  // too low for rows that need no halo
     l.edges.push_back({0, rows});

@@ -52,10 +52,11 @@ struct RowRange {
   std::int64_t rows() const { return end - begin; }
   bool operator==(const RowRange&) const = default;
 };
-// The launches of band b in one step. `inner`: the rows whose inputs are all the band's own
-// (rows [h_b, rows - h_a), the side towards a grid edge needing no halo), computed while the
-// halos travel; `edges`: the rows next to a neighbour, computed once its halo has arrived. When a
-// band is too low to have inner rows, `inner` is empty and `edges` is one launch of all its rows.
+// The launches of band b in one step. `edges`: the max(h_b, h_a) rows next to each neighbour,
+// which hold the rows that read its halo and the rows sent to it, computed first once the halo
+// has arrived; `inner`: the rest (the side towards a grid edge included), computed while the
+// next step's halos travel. When a band is too low to have inner rows, `inner` is empty and
+// `edges` is one launch of all its rows.
 struct BandLaunches {
   std::vector<RowRange> inner;
   std::vector<RowRange> edges;

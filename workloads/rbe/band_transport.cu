@@ -1,6 +1,6 @@
 // cuda-bands' same-device transport (band_transport.hpp): the partitions share one GPU, so a
-// halo message is a device-to-device copy on the receiver's message stream, after the sender's
-// step, and the all-reduce is a reduction kernel on every band's message stream, after every
+// halo message is a device-to-device copy on the receiver's message stream, once the sender's
+// edge rows are written, and the all-reduce is a reduction kernel on every band's message stream, after every
 // band's step, adding the partial sums in band order (the same total on every band).
 #include <cuda_runtime.h>
 
@@ -40,7 +40,7 @@ class DeviceTransport final : public BandTransport {
     DTFLOP_CUDA(cudaSetDevice(bands_.front().device));
     for (const HaloMessage& m : messages) {
       const cudaStream_t s = bands_.at(m.to).comm;
-      DTFLOP_CUDA(cudaStreamWaitEvent(s, bands_.at(m.from).ready, 0));
+      DTFLOP_CUDA(cudaStreamWaitEvent(s, bands_.at(m.from).sent, 0));
       DTFLOP_CUDA(cudaMemcpyAsync(m.dst, m.src, m.count * sizeof(float), cudaMemcpyDeviceToDevice, s));
     }
   }

@@ -25,7 +25,10 @@ struct BandEnds {
   cudaStream_t comm = nullptr;   // the band's stream for its messages and the all-reduce
   cudaEvent_t ready = nullptr;   // recorded after the band's last kernel of a step: its own rows and its
                                  // partial sum are final. The caller makes `comm` wait for it before it
-                                 // calls exchange() or allreduce().
+                                 // calls allreduce().
+  cudaEvent_t sent = nullptr;    // recorded once the rows the band sends are written (its edge rows; where
+                                 // it has none, `ready`). The caller makes `comm` wait for it before it
+                                 // calls exchange().
 };
 
 // `count` floats from band `from`'s buffer at `src` to band `to`'s at `dst`.
@@ -40,8 +43,8 @@ class BandTransport {
  public:
   virtual ~BandTransport() = default;
   virtual std::string_view name() const = 0;
-  // Enqueues the messages (each band's sends and receives on its own `comm`). Whatever reads or
-  // writes another band's memory waits for that band's `ready` event itself.
+  // Enqueues the messages (each band's sends and receives on its own `comm`). Whatever reads
+  // another band's memory waits for that band's `sent` event itself.
   virtual void exchange(std::span<const HaloMessage> messages) = 0;
   // Enqueues on each band's `comm`: *total[b] = the sum over bands a of *partial[a] (one float64
   // each), the same value on every band.

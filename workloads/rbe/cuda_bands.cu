@@ -3,17 +3,20 @@
 // buffers hold its own rows with h_b halo rows above and h_a below (zeros at the grid's edges).
 // Step k, per band, on three streams:
 //
-//   message stream  [wait: the band's step k - 1]  halo exchange with the neighbours (record
-//                   halo[k])   all-reduce of step k - 1's partial sums -> T_{k-1}   scale kernel
-//                   (record sum_ready[k])
-//   edge stream     [wait sum_ready[k - 1], the neighbours' halo[k - 1], halo[k]]  edge rows
-//                   (record edges_done)
+//   message stream  [wait: the band's edge rows of step k - 1]  halo exchange with the
+//                   neighbours (record halo[k])  [wait: the band's step k - 1]  all-reduce of
+//                   step k - 1's partial sums -> T_{k-1}   scale kernel (record sum_ready[k])
+//   edge stream     [wait sum_ready[k - 1], the neighbours' halo[k - 1], the band's step k - 1,
+//                   halo[k]]  edge rows (record edges_done)
 //   compute stream  [wait sum_ready[k - 1], the neighbours' halo[k - 1]]  inner rows (no halo
 //                   needed)  [wait edges_done]  (record ready)
 //
-// so the halos travel while the inner rows are computed, the edge rows run beside the inner
-// ones as soon as their halos are in (the edge stream has the device's greatest priority), and
-// no step waits for the all-reduce of the step just before it.
+// so step k's halos travel while step k - 1's inner rows are computed (the edge rows of a step
+// hold every row a band sends), the edge rows run first in each step, and no step waits for the
+// all-reduce of the step just before it. The message and edge streams have the device's
+// greatest priority: their blocks start as soon as a multiprocessor has room, not after the
+// inner rows' last block (the first build, with normal-priority messages sent after the whole
+// step, left 2 bands on 2 H200s at 1.79x one GPU's step).
 //
 // Lagged normalization. The fused kernel divides step k's output by A_c E_k (resident_sweep.hpp:
 // sum_in); cuda-resident takes E_k = T_{k-1}, the total of the step's input, which here would put
@@ -204,7 +207,7 @@ class CudaBands final : public Backend {
       const double last = 1.0 / grid_.cell_area();  // scale 1: the prior is normalized
       s.last.upload(&last, 1);
       s.compute.emplace();
-      s.comm.emplace();
+      s.comm.emplace(Stream::Urgent{});  // a message's blocks start as soon as a multiprocessor has room
       s.edge.emplace(Stream::Urgent{});
       s.ready.emplace();
       s.edges_done.emplace();
@@ -231,7 +234,8 @@ class CudaBands final : public Backend {
     }
     if (G > 1) {
       std::vector<BandEnds> ends;
-      for (auto& s : bands_) ends.push_back({s.device, s.comm->get(), s.ready->get()});
+      for (auto& s : bands_)
+        ends.push_back({s.device, s.comm->get(), s.ready->get(), (s.launches.edges.empty() ? s.ready : s.edges_done)->get()});
       transport_ = placement.path == PeerPath::link ? make_nccl_transport(std::move(ends))
                                                     : make_device_transport(std::move(ends));
     }
@@ -428,9 +432,13 @@ class CudaBands final : public Backend {
       const int prev = cur_ ^ int(k & 1);
       const std::size_t now = std::size_t(k & 1), before = std::size_t((k + 1) & 1);  // events of k, k - 1
       if (many) {
-        for (auto& s : bands_) {  // after the band's step k - 1 (also what the all-reduce waits for)
+        // The rows a band sends are its edge rows of step k - 1 (band_launches makes the edge
+        // launches cover them), so the exchange goes once those are written, while step k - 1's
+        // inner rows still run. The neighbours' rows land in halo rows of the same buffer, which
+        // the band's edge rows of step k - 2 read: done before its edges of step k - 1 (one stream).
+        for (auto& s : bands_) {
           DTFLOP_CUDA(cudaSetDevice(s.device));
-          DTFLOP_CUDA(cudaStreamWaitEvent(s.comm->get(), s.ready->get(), 0));
+          DTFLOP_CUDA(cudaStreamWaitEvent(s.comm->get(), (s.launches.edges.empty() ? s.ready : s.edges_done)->get(), 0));
         }
         transport_->exchange(messages_[prev]);
         for (auto& s : bands_) {
@@ -461,6 +469,7 @@ class CudaBands final : public Backend {
         DTFLOP_CUDA(cudaSetDevice(s.device));
         const cudaStream_t on = s.edge->get();
         wait_inputs(b, on);
+        DTFLOP_CUDA(cudaStreamWaitEvent(on, s.ready->get(), 0));  // step k - 1 read the rows they overwrite
         DTFLOP_CUDA(cudaStreamWaitEvent(on, s.halo[now]->get(), 0));
         for (const RowRange& r : s.launches.edges) launch(s, r, on);
         DTFLOP_CUDA(cudaEventRecord(s.edges_done->get(), on));

@@ -66,7 +66,7 @@ TEST(RbeBands, RefusesBandsLowerThanTheKernelsReach) {
   EXPECT_NO_THROW((void)band_plan({100, 100, 1, 1}, kMaxPartitions));
 }
 
-TEST(RbeBands, LaunchesComputeInnerRowsBeforeTheEdges) {
+TEST(RbeBands, LaunchesSplitTheEdgeRowsFromTheInnerRows) {
   const BandPlan p = band_plan({1000, 1000, 33, 33}, 3);
   const auto top = band_launches(p, 0), mid = band_launches(p, 1), bottom = band_launches(p, 2);
   // The top band needs no halo above it: its inner rows start at 0.
@@ -96,6 +96,34 @@ TEST(RbeBands, LaunchesComputeInnerRowsBeforeTheEdges) {
           for (std::int64_t y = r.begin; y < r.end; ++y) ++covered[std::size_t(y)];
       for (int c : covered) EXPECT_EQ(c, 1) << "G " << G << " band " << b;
     }
+}
+
+// cuda-bands sends a band's rows once its edge launch has written them: the edges must hold
+// every row sent to a neighbour and every row that reads a neighbour's halo, also where the
+// kernel reaches further one way than the other (I_y even).
+TEST(RbeBands, EdgeLaunchesHoldEveryRowSentAndEveryRowReadingAHalo) {
+  for (std::int64_t Iy : {2, 4, 9, 10}) {
+    const BandPlan p = band_plan({64, 90, 3, Iy}, 3);
+    ASSERT_EQ(p.halo_before + p.halo_after, Iy - 1);
+    for (std::size_t b = 0; b < 3; ++b) {
+      const std::int64_t rows = p.bands[b].rows;
+      std::vector<int> edge(std::size_t(rows), 0);
+      for (const RowRange& r : band_launches(p, b).edges)
+        for (std::int64_t y = r.begin; y < r.end; ++y) edge[std::size_t(y)] = 1;
+      std::vector<std::int64_t> must;  // rows sent or reading a halo
+      if (b > 0)
+        for (std::int64_t y = 0; y < std::max(p.halo_after, p.halo_before); ++y) must.push_back(y);
+      if (b < 2)
+        for (std::int64_t y = rows - std::max(p.halo_after, p.halo_before); y < rows; ++y) must.push_back(y);
+      for (std::int64_t y : must) EXPECT_EQ(edge[std::size_t(y)], 1) << "I_y " << Iy << " band " << b << " row " << y;
+    }
+  }
+  // I_y = 4: one halo row one way and two the other; every edge is 2 rows.
+  const BandPlan q = band_plan({64, 90, 3, 4}, 3);
+  EXPECT_EQ(std::max(q.halo_before, q.halo_after), 2);
+  EXPECT_EQ(std::min(q.halo_before, q.halo_after), 1);
+  EXPECT_EQ(band_launches(q, 1).edges, (std::vector<RowRange>{{0, 2}, {28, 30}}));
+  EXPECT_EQ(band_launches(q, 1).inner, (std::vector<RowRange>{{2, 28}}));
 }
 
 TEST(RbeBands, HaloSendsAreWholePitchedRows) {
