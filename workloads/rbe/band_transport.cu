@@ -1,7 +1,8 @@
 // cuda-bands' same-device transport (band_transport.hpp): the partitions share one GPU, so a
 // halo message is a device-to-device copy on the receiver's message stream, once the sender's
-// edge rows are written, and the all-reduce is a reduction kernel on every band's message stream, after every
-// band's step, adding the partial sums in band order (the same total on every band).
+// edge rows are written, and the all-reduce is a reduction kernel on every band's message
+// stream, after every band's step, adding the partial sums in band order (the same total on
+// every band).
 #include <cuda_runtime.h>
 
 #include <string>

@@ -12,8 +12,9 @@
 //                   needed)  [wait edges_done]  (record ready)
 //
 // so step k's halos travel while step k - 1's inner rows are computed (the edge rows of a step
-// hold every row a band sends), the edge rows run first in each step, and no step waits for the
-// all-reduce of the step just before it. The message and edge streams have the device's
+// hold every row a band sends), the edge rows' blocks start before the inner rows' (stream
+// priority: nothing else orders them), and no step waits for the all-reduce of the step just
+// before it. The message and edge streams have the device's
 // greatest priority: their blocks start as soon as a multiprocessor has room, not after the
 // inner rows' last block (the first build, with normal-priority messages sent after the whole
 // step, left 2 bands on 2 H200s at 1.79x one GPU's step).
@@ -463,7 +464,7 @@ class CudaBands final : public Backend {
         for (std::size_t a : {b - 1, b + 1})
           if (a < G) DTFLOP_CUDA(cudaStreamWaitEvent(on, bands_[a].halo[before]->get(), 0));
       };
-      for (std::size_t b = 0; b < G; ++b) {  // the edge rows, as soon as their halos are in
+      for (std::size_t b = 0; b < G; ++b) {  // the edge rows, once step k - 1 is done and their halos are in
         BandState& s = bands_[b];
         if (!many || s.launches.edges.empty()) continue;
         DTFLOP_CUDA(cudaSetDevice(s.device));

@@ -110,11 +110,15 @@ TEST(RbeBands, EdgeLaunchesHoldEveryRowSentAndEveryRowReadingAHalo) {
       std::vector<int> edge(std::size_t(rows), 0);
       for (const RowRange& r : band_launches(p, b).edges)
         for (std::int64_t y = r.begin; y < r.end; ++y) edge[std::size_t(y)] = 1;
-      std::vector<std::int64_t> must;  // rows sent or reading a halo
-      if (b > 0)
-        for (std::int64_t y = 0; y < std::max(p.halo_after, p.halo_before); ++y) must.push_back(y);
-      if (b < 2)
-        for (std::int64_t y = rows - std::max(p.halo_after, p.halo_before); y < rows; ++y) must.push_back(y);
+      std::vector<std::int64_t> must;  // rows sent, and rows reading a halo, side by side
+      if (b > 0) {
+        for (std::int64_t y = 0; y < p.halo_after; ++y) must.push_back(y);   // sent up
+        for (std::int64_t y = 0; y < p.halo_before; ++y) must.push_back(y);  // read the halo above
+      }
+      if (b < 2) {
+        for (std::int64_t y = rows - p.halo_before; y < rows; ++y) must.push_back(y);  // sent down
+        for (std::int64_t y = rows - p.halo_after; y < rows; ++y) must.push_back(y);   // read the halo below
+      }
       for (std::int64_t y : must) EXPECT_EQ(edge[std::size_t(y)], 1) << "I_y " << Iy << " band " << b << " row " << y;
     }
   }
