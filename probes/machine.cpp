@@ -78,6 +78,7 @@ MachineReport probe_machine(const ProbeOptions& o, std::span<const std::string> 
     r.probe = p.name;
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - s0).count();
     if (r.skipped) o.say(fmt::format("  skipped: {}", *r.skipped));
+    else o.say(fmt::format("  {}: {:.1f} s", p.name, r.seconds));
     m.reports.push_back(std::move(r));
   }
   m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -144,6 +145,8 @@ MachineProfile make_profile(const MachineReport& report) {
   for (const auto& [series, text] : sweeps) md["probe.transfers." + series] = text;
   md["probe.effort"] = to_string(report.effort);
   md["probe.seconds"] = fmt::format("{:.1f}", report.seconds);
+  for (const auto& r : report.reports)  // each probe's own time (a slow one on a large host shows here)
+    if (!r.skipped) md["probe.seconds." + r.probe] = fmt::format("{:.1f}", r.seconds);
   md["probe.cpu_isa"] = std::string(cpu::to_string(cpu::best_isa()));
   const CpuInfo ci = cpu_info();
   if (ci.clock_ghz) md["probe.cpu_clock_source"] = ci.clock_source;
