@@ -14,7 +14,7 @@
 #
 # Memory: per band q twice and l, 3 x 4 n_y n_x / G bytes on its GPU (3 GiB on one GPU at 16000^2),
 # and ~10 GiB of host memory while the float64 problem is made.
-# Writes OUT/probed.json (dtflop probe: gpu-peer fills L_peer, B_peer, L_allreduce, B_allreduce
+# Writes OUT/probed.json (dtflop probe, its GPU probes: gpu-peer fills L_peer, B_peer, L_allreduce, B_allreduce
 # where two GPUs are visible), OUT/run-P<p>-G<g>.json (dtflop run --json), OUT/scaling.txt, the
 # plans OUT/train.json and OUT/held.json, the stores OUT/train.jsonl and OUT/held.jsonl,
 # OUT/fitted.json (dtflop calibrate) and OUT/validate.txt (dtflop validate on the held-out set).
@@ -39,7 +39,10 @@ visible=$(nvidia-smi -L 2>/dev/null | wc -l)
 counts=()
 for g in 1 2 4; do [ "$g" -le "$visible" ] && counts+=("$g"); done
 say "probe ($visible GPUs visible)"
-[ -e "$O/probed.json" ] || "$D" probe -o "$O/probed.json" > "$O/probe.txt" 2>&1
+# The GPU probes only: cuda-bands prices nothing the CPU probes give, and on a lent 64-thread
+# host the whole probe took 6 minutes (2026-11-26).
+[ -e "$O/probed.json" ] || "$D" probe --only gpu-transfers,gpu-memory,gpu-peer,gpu-fma,gpu-rows,gpu-tiles,gpu-atomics,gpu-launch \
+  -o "$O/probed.json" > "$O/probe.txt" 2>&1
 
 run() {  # partitions gpus
   local f="$O/run-P$1-G$2.json"
