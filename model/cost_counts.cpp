@@ -54,6 +54,8 @@ const std::vector<CountField>& count_fields() {
        A::sum, &C::N_C},
       {"N_CA", &C::N_CA, "FLOPs", "of N_C, of aligned vector windows (each row loaded once for two FMAs)", A::sum, &C::N_C},
       {"N_CS", &C::N_CS, "FLOPs", "of N_C, of one serial chain of dependent additions (a plain sum)", A::sum, &C::N_C},
+      {"N_CM", &C::N_CM, "FLOPs", "of N_C, of moving-least-squares fields (chains of rotations, roots and divisions)",
+       A::sum, &C::N_C},
       {"N_CC", &C::N_CC, "values", "through host memory by CPU work"},
       {"tree_steps", &C::tree_steps, "steps", "of host k-d tree builds and searches"},
       {"pixel_steps", &C::pixel_steps, "steps", "of host scalar pixel loops: pixels visited, neighbourhood labels read"},
@@ -98,11 +100,11 @@ void check_consistent(const CostCounts& c) {
                                    f.name, n, whole.name, total, f.name, f.unit, f.meaning));
   }
   // The two kinds of sliding-window FLOPs are priced apart, so none is in both.
-  if (c.N_CW + c.N_CD + c.N_CA + c.N_CS > c.N_C)
-    throw InputError(fmt::format("the counts give N_CW = {}, N_CD = {}, N_CA = {} and N_CS = {}, together more than "
-                                 "N_C = {} (a CPU FLOP is of one of these kinds at most): the workload's counts are "
-                                 "inconsistent",
-                                 c.N_CW, c.N_CD, c.N_CA, c.N_CS, c.N_C));
+  if (c.N_CW + c.N_CD + c.N_CA + c.N_CS + c.N_CM > c.N_C)
+    throw InputError(fmt::format("the counts give N_CW = {}, N_CD = {}, N_CA = {}, N_CS = {} and N_CM = {}, together "
+                                 "more than N_C = {} (a CPU FLOP is of one of these kinds at most): the workload's "
+                                 "counts are inconsistent",
+                                 c.N_CW, c.N_CD, c.N_CA, c.N_CS, c.N_CM, c.N_C));
 }
 
 CostCounts& CostCounts::operator+=(const CostCounts& o) {

@@ -63,6 +63,12 @@ struct CostCounts {
                                 // addition waits for the one before (no other chain beside it).
                                 // Priced at V_CS, the rate of such a chain (latency, memory and
                                 // extended variants); 0 = none. Not also in N_CW or N_CD
+  std::int64_t N_CM = 0;        // of N_C, the FLOPs of moving-least-squares fields on the CPU: per
+                                // support dot of a point its Givens rotations, square roots and
+                                // divisions, each waiting for the one before; per point the solves.
+                                // Priced at V_CM (V_CM_all for cpu_threads > 1), the rate of that
+                                // code (latency, memory and extended variants); 0 = none. Not also
+                                // in N_CW, N_CD, N_CA or N_CS
   std::int64_t N_GS = 0;        // values kernels copy from device memory into shared-memory tiles
                                 // (halos included), counted per round of blocks on the busiest
                                 // multiprocessor times the multiprocessors, like N_G (latency+)

@@ -110,16 +110,6 @@ bool fitted_only(Param p) {
   }
 }
 
-std::vector<Param> required_params(const CostCounts& c, Variant variant, const Pricing& x) {
-  std::vector<Param> out;
-  for (const Term& t : terms()) {
-    if (!t.applies(variant) || !t.price.counted(c)) continue;
-    for (Param p : t.price.needs(c, variant, x))
-      if (std::find(out.begin(), out.end(), p) == out.end()) out.push_back(p);
-  }
-  return out;
-}
-
 std::vector<Param> lacking(const MachineProfile& m, const CostCounts& c, Variant variant) {
   std::vector<Param> out;
   for (Param p : required_params(c, variant, Pricing::of(m)))
@@ -157,9 +147,14 @@ std::vector<Param> priced_params(const MachineProfile& m, const CostCounts& c, V
   return required_params(c, variant, Pricing::of(m));
 }
 
-std::vector<Param> required_params(const CostCounts& c, Variant variant, std::int64_t profile_llc, bool staged,
-                                   bool serial, bool all_threads, std::int64_t gpu_l2, bool graph, bool pixel_all) {
-  return required_params(c, variant, Pricing{profile_llc, staged, all_threads, serial, gpu_l2, graph, pixel_all});
+std::vector<Param> required_params(const CostCounts& c, Variant variant, const Pricing& x) {
+  std::vector<Param> out;
+  for (const Term& t : terms()) {
+    if (!t.applies(variant) || !t.price.counted(c)) continue;
+    for (Param p : t.price.needs(c, variant, x))
+      if (std::find(out.begin(), out.end(), p) == out.end()) out.push_back(p);
+  }
+  return out;
 }
 
 Prediction predict(const MachineProfile& m, const CostCounts& c, Variant variant) {

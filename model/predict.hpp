@@ -73,22 +73,8 @@ struct Prediction {
   double device_overheads() const;
 };
 
-// Which parameters a prediction of `counts` with `variant` needs (only those whose counts
-// are non-zero) on a machine whose last-level cache holds `profile_llc` bytes (0: unknown).
-// Useful to report everything missing at once.
-// `staged`: price pageable device->host copies whose sizes are counted with the staging figures
-// (B_GC_staged, S_GC_staged, S_GC_flat): true where the profile has them (has_staging) or a fit
-// is to find them.
-// `serial`: price serial chains (N_CS) at V_CS: true where the profile has it or a fit is to find it.
-// `all_threads`: price windows on several threads with K_CW_all, K_CA_all (the profile has them or
-// a fit is to find them).
-// `gpu_l2`: the GPU's L2 cache where the share of N_GG it serves is priced at B_L2 (the profile has
-// B_L2 or a fit is to find it), else 0. `graph`: price a CUDA graph's kernels at L_graph (likewise).
-// `pixel_all`: price pixel steps on several threads at L_pixel_all (likewise).
-std::vector<Param> required_params(const CostCounts& counts, Variant variant, std::int64_t profile_llc = 0,
-                                   bool staged = false, bool serial = false, bool all_threads = false,
-                                   std::int64_t gpu_l2 = 0, bool graph = false, bool pixel_all = false);
-// The parameters predict(profile, counts, variant) reads: required_params() with what the profile
+// The parameters predict(profile, counts, variant) reads: required_params() (model/terms.hpp) with
+// what the profile
 // holds deciding the pricing (its serial rate, all-thread figures, L2, graph and pixel figures).
 std::vector<Param> priced_params(const MachineProfile& profile, const CostCounts& counts, Variant variant);
 // Does the profile have the three staging figures of pageable device->host copies?

@@ -72,6 +72,8 @@ const std::vector<ParamInfo>& all_params() {
       {Param::L_graph, "L_graph", "s", "one kernel of a CUDA graph, device side: what a kernel launched from a graph costs beside its work"},
       {Param::L_pixel, "L_pixel", "s", "one step of host scalar pixel work: a pixel counted into a histogram, labelled, classified, or a label of its neighbourhood read"},
       {Param::L_pixel_all, "L_pixel_all", "s", "L_pixel with every hardware thread at work: the wall time of a step of pixel work the threads share"},
+      {Param::V_CM, "V_CM", "FLOP/s", "CPU rate of moving-least-squares field arithmetic (a support dot's chain of rotations, square roots and divisions), one thread"},
+      {Param::V_CM_all, "V_CM_all", "FLOP/s", "V_CM with every hardware thread at work: the FLOPs of all threads per second of wall time"},
   };
   return table;
 }
@@ -124,6 +126,8 @@ bool device_param(Param p) {
     case Param::L_tree:
     case Param::L_pixel:
     case Param::L_pixel_all:
+    case Param::V_CM:
+    case Param::V_CM_all:
     case Param::L_net:
     case Param::B_net:
       return false;

@@ -67,6 +67,8 @@ enum class Param {
   B_L2,            // device bandwidth seen by a kernel, working set in the L2 cache (r+w)  [B/s]
   L_graph,         // one kernel of a CUDA graph, device side (graph_launches)              [s]
   L_pixel_all,     // L_pixel with every hardware thread at work (cpu_threads > 1)          [s]
+  V_CM,            // rate of moving-least-squares field FLOPs (N_CM), one thread            [FLOP/s]
+  V_CM_all,        // V_CM with every hardware thread at work (cpu_threads > 1)             [FLOP/s]
 };
 
 struct ParamInfo {

@@ -51,7 +51,7 @@ std::string Variants::str() const {
 Pricing Pricing::of(const MachineProfile& m) {
   return {model_llc_bytes(m.identity), has_staging(m), m.has(Param::K_CW_all) || m.has(Param::K_CA_all),
           m.has(Param::V_CS), m.has(Param::B_L2) ? m.identity.gpu_l2_bytes : 0, m.has(Param::L_graph),
-          m.has(Param::L_pixel_all)};
+          m.has(Param::L_pixel_all), m.has(Param::V_CM), m.has(Param::V_CM_all)};
 }
 
 namespace {
@@ -190,27 +190,42 @@ bool aligned_window(const CostCounts& c, Variant v) { return kHostMemoryVariants
 bool serial_chain(const CostCounts& c, Variant v, const Pricing& x) {
   return x.serial && kLatencyVariants.contains(v) && c.N_CS > 0;
 }
+// latency+: the FLOPs of moving-least-squares fields (N_CM) run at their own rate, V_CM on one
+// thread and V_CM_all on several where the profile has it (docs/model.md 2.6); a profile without
+// V_CM prices them at the CPU rate, as the fits made before the probe were.
+bool mls_fields(const CostCounts& c, Variant v, const Pricing& x) {
+  return x.mls && kLatencyVariants.contains(v) && c.N_CM > 0;
+}
+Param v_cm(const CostCounts& c, const Pricing& x) {
+  return x.mls_all && c.cpu_threads > 1 ? Param::V_CM_all : Param::V_CM;
+}
+// The FLOPs of N_C priced at their own rates (N_CS, N_CM), the rest at the CPU rate.
+std::int64_t apart_flops(const CostCounts& c, Variant v, const Pricing& x) {
+  return (serial_chain(c, v, x) ? c.N_CS : 0) + (mls_fields(c, v, x) ? c.N_CM : 0);
+}
 std::vector<Param> c_needs(const CostCounts& c, Variant v, const Pricing& x) {
   const bool serial = serial_chain(c, v, x);
   std::vector<Param> out;
-  if (c.N_C > (serial ? c.N_CS : 0)) out = cpu_params(v_c1(c), v_c(c), c.cpu_threads);
+  if (c.N_C > apart_flops(c, v, x)) out = cpu_params(v_c1(c), v_c(c), c.cpu_threads);
   const bool all = x.all_threads && c.cpu_threads > 1;
   if (sliding_window(c, v)) out.push_back(all ? Param::K_CW_all : Param::K_CW);
   if (chained_window(c, v)) out.push_back(Param::K_CD);
   if (aligned_window(c, v)) out.push_back(all ? Param::K_CA_all : Param::K_CA);
   if (serial) out.push_back(Param::V_CS);
+  if (mls_fields(c, v, x)) out.push_back(v_cm(c, x));
   return out;
 }
 double c_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing& x) {
   const bool serial = serial_chain(c, v, x);
   const bool all = x.all_threads && c.cpu_threads > 1;  // the windows' ratios with every thread at work
-  const double flops = priced_flops(c.N_C - (serial ? c.N_CS : 0), c.N_CW,
+  const double flops = priced_flops(c.N_C - apart_flops(c, v, x), c.N_CW,
                                     sliding_window(c, v) ? m.get(all ? Param::K_CW_all : Param::K_CW).value : 1.0) +
                        (chained_window(c, v) ? m.get(Param::K_CD).value - 1 : 0.0) * static_cast<double>(c.N_CD) +
                        (aligned_window(c, v) ? m.get(all ? Param::K_CA_all : Param::K_CA).value - 1 : 0.0) *
                            static_cast<double>(c.N_CA);
   const double rest = flops > 0 ? flops / cpu_rate(m, c.precision, c.cpu_threads) : 0.0;
-  return rest + (serial ? static_cast<double>(c.N_CS) / m.get(Param::V_CS).value : 0.0);
+  return rest + (serial ? static_cast<double>(c.N_CS) / m.get(Param::V_CS).value : 0.0) +
+         (mls_fields(c, v, x) ? static_cast<double>(c.N_CM) / m.get(v_cm(c, x)).value : 0.0);
 }
 
 // dt_CC. The CPU work's host memory traffic, over the bandwidth of cpu_threads threads; the
@@ -330,10 +345,11 @@ const std::vector<Term>& terms() {
       {"dt_GS", &P::dt_GS, Phase::G, kLatencyVariants, sum, "P N_GS", "B_GS", "shared-memory tile fills",
        per_byte<&C::N_GS, only<Param::B_GS>>()},
       {"dt_C_arith", &P::dt_C_arith, Phase::C, kEveryVariant, overlap,
-       "N_C + (K_CW - 1) N_CW + (K_CD - 1) N_CD + (K_CA - 1) N_CA, N_CS apart (latency+); seed: N_C",
+       "N_C + (K_CW - 1) N_CW + (K_CD - 1) N_CD + (K_CA - 1) N_CA, N_CS and N_CM apart (latency+); seed: N_C",
        "V_C1_fp32 or V_C1_fp64 (precision), and V_C_fp32 or V_C_fp64 for cpu_threads > 1 (2.3); K_CW (memory, "
        "extended, N_CW > 0); K_CD, K_CA (memory, extended, N_CD, N_CA > 0); K_CW_all, K_CA_all in place of K_CW, "
-       "K_CA for cpu_threads > 1 where the profile has them; V_CS (latency+, N_CS > 0)",
+       "K_CA for cpu_threads > 1 where the profile has them; V_CS (latency+, N_CS > 0); V_CM, or V_CM_all for "
+       "cpu_threads > 1 where the profile has it (latency+, N_CM > 0)",
        "CPU arithmetic", {positive<&C::N_C>, c_needs, c_seconds}},
       {"dt_CC", &P::dt_CC, Phase::C, kHostMemoryVariants, overlap, "P N_CC",
        "B_host_1, and B_host for cpu_threads > 1; B_llc_1 (and B_llc) when 0 < cpu_footprint < LLC (2.4)",

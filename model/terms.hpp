@@ -80,8 +80,17 @@ struct Pricing {
   bool pixel_all = false;      // price pixel steps on cpu_threads > 1 at L_pixel_all (the profile has
                                // it, or a fit is to find it); else at L_pixel, as profiles made before
                                // the probe measured it were fitted
+  bool mls = false;            // price MLS field FLOPs (N_CM) at V_CM (the profile has it, or a fit is to
+                               // find it); else at the CPU rate, as profiles made before the probe were
+  bool mls_all = false;        // price them on cpu_threads > 1 at V_CM_all (likewise); else at V_CM
   static Pricing of(const MachineProfile& profile);
 };
+
+// Which parameters a prediction of `counts` with `variant` needs (only those whose counts are
+// non-zero), priced as `pricing` says; useful to report everything missing at once. A default
+// Pricing prices as a profile with none of the optional figures would; Pricing::of(profile) as
+// predict() does.
+std::vector<Param> required_params(const CostCounts& counts, Variant variant, const Pricing& pricing = {});
 
 // How a term is priced: three functions of the counts.
 struct Price {

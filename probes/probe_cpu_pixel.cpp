@@ -20,6 +20,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "probes/measure.hpp"
+#include "probes/opencv_threads.hpp"
 #include "probes/probe.hpp"
 #include "probes/team.hpp"
 
@@ -65,18 +66,6 @@ struct Steps {
 // Buffers kept across passes, as the workload keeps its mask and labels across frames.
 struct Buffers {
   cv::Mat mask, labels, stats, centroids;
-};
-
-// Sets OpenCV's thread count for a scope and restores it after.
-class OpenCvThreads {
- public:
-  explicit OpenCvThreads(int n) : old_(cv::getNumThreads()) { cv::setNumThreads(n); }
-  ~OpenCvThreads() { cv::setNumThreads(old_); }
-  OpenCvThreads(const OpenCvThreads&) = delete;
-  OpenCvThreads& operator=(const OpenCvThreads&) = delete;
-
- private:
-  int old_;
 };
 
 // The pixels of one disc: its area, which every component the labelling finds must have.

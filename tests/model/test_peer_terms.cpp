@@ -8,6 +8,7 @@
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
 #include "model/predict.hpp"
+#include "model/terms.hpp"
 #include "tests/model/fixtures.hpp"
 
 namespace dtflop {

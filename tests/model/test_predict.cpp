@@ -4,6 +4,7 @@
 
 #include "model/errors.hpp"
 #include "model/predict.hpp"
+#include "model/terms.hpp"
 #include "tests/model/fixtures.hpp"
 
 namespace dtflop {
@@ -26,7 +27,7 @@ CostCounts sample_counts() {
 
 // Does a prediction of `c` with `v` need parameter `p` (staging figures priced when `staged`)?
 bool needs(const CostCounts& c, Variant v, Param p, bool staged = false) {
-  const auto r = required_params(c, v, 0, staged);
+  const auto r = required_params(c, v, Pricing{.staging = staged});
   return std::find(r.begin(), r.end(), p) != r.end();
 }
 
@@ -220,7 +221,8 @@ TEST(Predict, PixelStepsOnSeveralThreadsCostLPixelAllWhereTheProfileHasIt) {
   EXPECT_NEAR(predict(m, c, Variant::latency).lat_pixel, 2e-3, 1e-15);
   // A fit finds L_pixel_all from samples on several threads, L_pixel from those on one.
   const auto fit_needs = [](const CostCounts& k, Param p) {
-    const auto r = required_params(k, Variant::latency, 0, true, true, true, 0, true, true);
+    const auto r = required_params(k, Variant::latency,
+                                   Pricing{.staging = true, .all_threads = true, .serial = true, .graph = true, .pixel_all = true});
     return std::find(r.begin(), r.end(), p) != r.end();
   };
   EXPECT_TRUE(fit_needs(c, Param::L_pixel));
@@ -242,7 +244,7 @@ TEST(Predict, WindowsOnSeveralThreadsUseTheAllThreadRatiosWhereTheProfileHasThem
   plain.N_CW = plain.N_CA = 0;
   const double v = 1e6 / predict(m, plain, Variant::memory).dt_C_arith;
   const auto needs_with = [&](Param p) {
-    const auto r = required_params(c, Variant::memory, 0, false, false, true);  // as Pricing::of(m) sets it
+    const auto r = required_params(c, Variant::memory, Pricing{.all_threads = true});  // as Pricing::of(m) sets it
     return std::find(r.begin(), r.end(), p) != r.end();
   };
   // A profile without the all-thread ratios (made before them) prices with the one-thread ones.
@@ -260,7 +262,7 @@ TEST(Predict, WindowsOnSeveralThreadsUseTheAllThreadRatiosWhereTheProfileHasThem
   EXPECT_TRUE(needs_with(Param::K_CA));
   // A fit of multi-threaded samples finds the _all ratios.
   c.cpu_threads = 2;
-  const auto r = required_params(c, Variant::extended, 0, false, false, true);
+  const auto r = required_params(c, Variant::extended, Pricing{.all_threads = true});
   EXPECT_NE(std::find(r.begin(), r.end(), Param::K_CA_all), r.end());
   EXPECT_EQ(std::find(r.begin(), r.end(), Param::K_CA), r.end());
 }
@@ -276,7 +278,7 @@ TEST(Predict, ASerialChainRunsAtItsOwnRateOnOneThread) {
     EXPECT_NEAR(predict(m, c, v).dt_C, 1e-3 + 1.0 / 100e9, 1e-15) << to_string(v);
   EXPECT_NEAR(predict(m, c, Variant::seed).dt_C, 1'000'001 / 100e9, 1e-15);  // the seed: one rate
   const auto serial_needs = [&](Variant v) {
-    const auto r = required_params(c, v, 0, false, true);
+    const auto r = required_params(c, v, Pricing{.serial = true});
     return std::find(r.begin(), r.end(), Param::V_CS) != r.end();
   };
   EXPECT_TRUE(serial_needs(Variant::latency));
@@ -298,6 +300,45 @@ TEST(Predict, ASerialChainRunsAtItsOwnRateOnOneThread) {
   EXPECT_NEAR(predict(chain_only, c, Variant::latency).dt_C, 1e-3, 1e-15);
   // Not more than N_C, nor with the window kinds together.
   c.N_CW = 1;
+  EXPECT_THROW(predict(m, c, Variant::latency), InputError);
+}
+
+TEST(Predict, MlsFieldFlopsRunAtTheirOwnRateOnOneThreadOrAll) {
+  auto m = test::round_profile();  // V_C1_fp64 and V_C_fp64 as the fixture sets them
+  m.set(Param::V_CM, Parameter{2e9, Provenance::probed, {}, {}, {}});
+  CostCounts c;
+  c.precision = Precision::fp64;
+  c.N_C = 3'000'000;   // 10^6 FLOPs of image analysis at the CPU rate
+  c.N_CM = 2'000'000;  // and 2 x 10^6 of MLS fields at V_CM
+  const double rest = 1e6 / m.get(Param::V_C1_fp64).value;
+  // latency+: 1 ms for the fields at 2 GFLOP/s; the seed: every FLOP at the CPU rate.
+  for (Variant v : {Variant::latency, Variant::memory, Variant::extended})
+    EXPECT_NEAR(predict(m, c, v).dt_C, 1e-3 + rest, 1e-15) << to_string(v);
+  EXPECT_NEAR(predict(m, c, Variant::seed).dt_C, 3e6 / m.get(Param::V_C1_fp64).value, 1e-15);
+  const auto has = [](const std::vector<Param>& r, Param p) { return std::find(r.begin(), r.end(), p) != r.end(); };
+  EXPECT_TRUE(has(required_params(c, Variant::latency, Pricing{.mls = true}), Param::V_CM));
+  EXPECT_FALSE(has(required_params(c, Variant::seed, Pricing{.mls = true}), Param::V_CM));
+  // A profile without V_CM (made before the probe) prices them at the CPU rate, as it was fitted.
+  EXPECT_FALSE(needs(c, Variant::latency, Param::V_CM));
+  auto before = m;
+  before.erase(Param::V_CM);
+  EXPECT_NEAR(predict(before, c, Variant::latency).dt_C, 3e6 / m.get(Param::V_C1_fp64).value, 1e-15);
+  // Several threads: V_CM_all where the profile has it, else V_CM; the rest at the all-thread rate.
+  c.cpu_threads = 4;
+  const double rest_all = 1e6 / cpu_rate(m, Precision::fp64, 4);
+  EXPECT_NEAR(predict(m, c, Variant::latency).dt_C, 1e-3 + rest_all, 1e-15);
+  m.set(Param::V_CM_all, Parameter{8e9, Provenance::probed, {}, {}, {}});
+  EXPECT_NEAR(predict(m, c, Variant::latency).dt_C, 0.25e-3 + rest_all, 1e-15);
+  EXPECT_TRUE(has(priced_params(m, c, Variant::latency), Param::V_CM_all));
+  EXPECT_FALSE(has(priced_params(m, c, Variant::latency), Param::V_CM));
+  // Only fields: no CPU rate needed.
+  c.N_C = c.N_CM;
+  auto fields_only = m;
+  fields_only.erase(Param::V_C1_fp64);
+  fields_only.erase(Param::V_C_fp64);
+  EXPECT_NEAR(predict(fields_only, c, Variant::latency).dt_C, 0.25e-3, 1e-15);
+  // Not more than N_C together with the other kinds.
+  c.N_CS = 1;
   EXPECT_THROW(predict(m, c, Variant::latency), InputError);
 }
 
@@ -352,9 +393,9 @@ TEST(Predict, TheGpuL2ServesTheShareOfKernelTrafficItsWorkingSetLeavesIn) {
   without.erase(Param::B_L2);
   EXPECT_NEAR(predict(without, c, Variant::latency).dt_GG, device, 1e-18);
   // A fit that is to find B_L2 asks for it where the working set fits.
-  auto r = required_params(c, Variant::latency, 0, false, false, false, 50'000'000, false);
+  auto r = required_params(c, Variant::latency, Pricing{.gpu_l2_bytes = 50'000'000});
   EXPECT_NE(std::find(r.begin(), r.end(), Param::B_L2), r.end());
-  r = required_params(big, Variant::latency, 0, false, false, false, 50'000'000, false);
+  r = required_params(big, Variant::latency, Pricing{.gpu_l2_bytes = 50'000'000});
   EXPECT_EQ(std::find(r.begin(), r.end(), Param::B_L2), r.end());
 }
 
@@ -447,9 +488,9 @@ TEST(Predict, PixelAndTreeStepsAreFixedCostsOfTheCpuPhaseInTheLatencyVariants) {
   const auto seed = predict(m, c, Variant::seed);
   EXPECT_EQ(seed.lat_pixel, 0);
   EXPECT_NEAR(seed.total, arith, 1e-15);
-  const auto seed_needs = required_params(c, Variant::seed, 0);
+  const auto seed_needs = required_params(c, Variant::seed);
   EXPECT_EQ(std::count(seed_needs.begin(), seed_needs.end(), Param::L_pixel), 0);
-  const auto latency_needs = required_params(c, Variant::latency, 0);
+  const auto latency_needs = required_params(c, Variant::latency);
   EXPECT_EQ(std::count(latency_needs.begin(), latency_needs.end(), Param::L_pixel), 1);
   for (auto v : {Variant::latency, Variant::memory, Variant::extended}) {
     const auto p = predict(m, c, v);

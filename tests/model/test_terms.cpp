@@ -384,7 +384,7 @@ TEST(Terms, RequiredParametersAndExercisedPhasesAreTheOnesTheyReplaced) {
     for (Variant v : all_variants())
       for (std::int64_t llc : {std::int64_t{0}, std::int64_t{32} << 20})
         for (bool staged : {false, true})
-          ASSERT_EQ(as_set(required_params(c, v, llc, staged)),
+          ASSERT_EQ(as_set(required_params(c, v, Pricing{.llc_bytes = llc, .staging = staged})),
                     as_set(reference::required_params_before(c, v, llc, staged)))
               << to_string(v) << " llc " << llc << " staged " << staged << ": " << to_json(c).dump();
     for (Phase ph : all_phases()) ASSERT_EQ(counts_phase(c, ph), reference::exercised(c, ph)) << to_string(ph);
@@ -489,12 +489,12 @@ TEST(Terms, EachVariantNeedsWhatTheOneItExtendsNeeds) {
     for (Variant v : all_variants()) {
       const auto simpler = simpler_variant(v);
       if (!simpler) continue;
-      const auto mine = as_set(required_params(c, v, 32 << 20, true));
-      for (Param p : required_params(c, *simpler, 32 << 20, true))
+      const auto mine = as_set(required_params(c, v, Pricing{.llc_bytes = 32 << 20, .staging = true}));
+      for (Param p : required_params(c, *simpler, Pricing{.llc_bytes = 32 << 20, .staging = true}))
         EXPECT_TRUE(mine.count(p)) << to_string(v) << " lacks " << info(p).name << " of " << to_string(*simpler);
     }
-    EXPECT_EQ(as_set(required_params(c, Variant::memory, 32 << 20, true)),
-              as_set(required_params(c, Variant::extended, 32 << 20, true)));
+    EXPECT_EQ(as_set(required_params(c, Variant::memory, Pricing{.llc_bytes = 32 << 20, .staging = true})),
+              as_set(required_params(c, Variant::extended, Pricing{.llc_bytes = 32 << 20, .staging = true})));
   }
 }
 

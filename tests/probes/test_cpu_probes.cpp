@@ -10,6 +10,7 @@
 
 #include "probes/identity.hpp"
 #include "probes/probe.hpp"
+#include "probes/team.hpp"
 
 namespace dtflop::probes {
 namespace {
@@ -130,6 +131,26 @@ TEST(CpuProbes, PixelGivesOneStepOfScalarPixelWork) {
   EXPECT_GT(m->value, 1e-10);
   EXPECT_LT(m->value, 1e-7);
   EXPECT_EQ(m->stats.n, 3u);  // the smoke plan's repetitions
+}
+
+TEST(CpuProbes, MlsGivesTheRateOfTheWorkloadsFieldLoop) {
+  ProbeOptions o;
+  o.effort = Effort::smoke;
+  const ProbeReport r = probe("cpu-mls").run(o);  // it checks every field against the quadratic itself
+  expect_sane(r);
+  const auto* m = find(r, Param::V_CM);
+  ASSERT_NE(m, nullptr);
+  // A support dot is 341 FLOPs in a chain of six rotations (a square root and a division each):
+  // between 10^7 FLOP/s (a rotation every few microseconds) and 10^11 (beyond any core's
+  // dependent-chain speed).
+  EXPECT_GT(m->value, 1e7);
+  EXPECT_LT(m->value, 1e11);
+  EXPECT_EQ(m->stats.n, 2u);  // the smoke plan's repetitions
+  if (usable_cpus() > 1) {
+    const auto* all = find(r, Param::V_CM_all);
+    ASSERT_NE(all, nullptr);
+    EXPECT_GT(all->value, 1e7);
+  }
 }
 
 TEST(Identity, DescribesThisCpu) {

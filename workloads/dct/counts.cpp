@@ -116,10 +116,15 @@ std::int64_t analysis_flops(const FrameShape& s) {
          (kFlopsPerPlane + kFlopsPerCentroid) * s.dots;
 }
 
+std::int64_t mls_flops(const FrameShape& s) {
+  if (s.interp != Interp::mls) return 0;
+  return flops_per_support_dot(s.weight) * s.support_entries + kFlopsPerPoint * s.points;
+}
+
 std::int64_t field_flops(const FrameShape& s) {
   const std::int64_t disp = 2 * s.dots;
   if (s.interp == Interp::fe) return disp + kFlopsPerFeEntry * s.support_entries + kFlopsPerFePoint * s.points;
-  return disp + flops_per_support_dot(s.weight) * s.support_entries + kFlopsPerPoint * s.points;
+  return disp + mls_flops(s);
 }
 
 namespace {
@@ -149,6 +154,9 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
   c.precision = Precision::fp64;
   const std::int64_t b = s.bytes_per_pixel;
   c.N_C = analysis_flops(s) + field_flops(s) + (s.adaptive ? (5 + (b == 2 ? 1 : 0)) * s.roi_pixels : 0);
+  // The MLS fields' FLOPs, priced at their own rate (docs/model.md 2.6): chains of dependent
+  // rotations, square roots and divisions, far slower than the FMA rate.
+  c.N_CM = mls_flops(s);
   const std::int64_t scan = static_cast<std::int64_t>(2 * s.margin + 1) * (2 * s.margin + 1);
   const std::int64_t threshold = s.adaptive ? 13 + (b == 2 ? 3 : 0) : b == 2 ? 2 * b + 3 : b + 1;
   const std::int64_t bytes = (s.otsu ? b : 0) * s.roi_pixels + threshold * s.roi_pixels + 13 * s.roi_pixels +

@@ -60,6 +60,8 @@ double disc_area_inside(double cx, double cy, double r, double x0, double y0, do
 // FLOPs of centroids + displacements + fields (the same formulas on every backend).
 std::int64_t analysis_flops(const FrameShape& s);
 std::int64_t field_flops(const FrameShape& s);
+// Of field_flops, those of MLS points (their support dots and solves; 0 for FE): N_CM on the CPU.
+std::int64_t mls_flops(const FrameShape& s);
 
 // cpu-seq (threads = 1) and cpu-par: float64 (P = 8), nothing on a device.
 //   N_C  = 14 ring + 11 weighted + 48 n_f (plane + centroid) + 2 n_f (displacements)

@@ -175,39 +175,12 @@ std::vector<FieldValue<double>> evaluate_mls(const MlsTable& t, const std::vecto
                                              const MlsOptions& o, int threads) {
   const std::size_t n = t.points.size();
   std::vector<FieldValue<double>> out(n);
-  auto work = [&](const cv::Range& r) {
-    for (int m = r.start; m < r.end; ++m) {
-      FieldValue<double>& f = out[static_cast<std::size_t>(m)];
-      if (t.geometry[m] != PointStatus::ok) {
-        f.status = t.geometry[m];
-        continue;
-      }
-      const Vec2 xm = t.points[m];
-      const double rho = t.rho[m];
-      // The reference displacement: the first tracked dot's (nearest first).
-      Vec2 u0{};
-      for (int k = t.offsets[m]; k < t.offsets[m + 1]; ++k)
-        if (tracked[t.dots[k]]) {
-          u0 = disp[t.dots[k]];
-          break;
-        }
-      // Two passes over the tracked support dots (kernels.hpp, MlsPoint).
-      MlsPoint<double> mp;
-      auto each_dot = [&](auto&& visit) {
-        for (int k = t.offsets[m]; k < t.offsets[m + 1]; ++k) {
-          const int j = t.dots[k];
-          if (tracked[j])
-            visit((reference[j].x - xm.x) / rho, (reference[j].y - xm.y) / rho, disp[j].x - u0.x, disp[j].y - u0.y);
-        }
-      };
-      each_dot([&](double xi, double eta, double ux, double uy) { mp.add(o.weight, xi, eta, ux, uy); });
-      f.support = mp.n;
-      f.status = mp.solve(o.min_dots, o.min_pivot_ratio);
-      if (f.status != PointStatus::ok) continue;
-      each_dot([&](double xi, double eta, double ux, double uy) { mp.add_residual(o.weight, xi, eta, ux, uy); });
-      f = mp.field(rho, u0.x, u0.y);
-    }
-  };
+  const kernels::MlsSupports<Vec2> supports{t.offsets.data(), t.dots.data(), t.points.data(), t.rho.data(),
+                                            t.geometry.data()};
+  const kernels::MlsDots<Vec2> dots{reference.data(), disp.data(), tracked.data()};
+  const kernels::MlsSettings settings{o.weight, o.min_dots, o.min_pivot_ratio};
+  // The loop the cpu-mls probe times (kernels/point_fields.hpp).
+  auto work = [&](const cv::Range& r) { kernels::mls_fields(supports, dots, settings, r.start, r.end, out.data()); };
   if (threads > 1) cv::parallel_for_(cv::Range(0, static_cast<int>(n)), work);
   else work(cv::Range(0, static_cast<int>(n)));
   return out;

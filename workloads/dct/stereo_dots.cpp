@@ -519,12 +519,12 @@ void write_stereo_fields_csv(const std::filesystem::path& path, const std::vecto
       s += fmt::format("{:.3f},{:.3f},{:.6f},{:.6f},{:.6g},{:.6g},{:.6g},1,ok,{}", points[i].x, points[i].y, v.ux, v.uy,
                        v.exx * 1e6, v.eyy * 1e6, v.exy * 1e6, v.support);
     else
-      s += fmt::format("{:.3f},{:.3f},,,,,,0,{},{}", points[i].x, points[i].y, to_string(v.status), v.support);
+      s += fmt::format("{:.3f},{:.3f},,,,,,0,{},{}", points[i].x, points[i].y, dct::to_string(v.status), v.support);
     const auto& z = uz[i];
     if (z.status == PointStatus::ok)
       s += fmt::format(",{:.6f},{:.6g},{:.6g},ok,{}\n", z.uz, z.duz_dx, z.duz_dy, z.support);
     else
-      s += fmt::format(",,,,{},{}\n", to_string(z.status), z.support);
+      s += fmt::format(",,,,{},{}\n", dct::to_string(z.status), z.support);
   }
   write_file_atomically(path, s);
 }

@@ -37,6 +37,12 @@ TEST(DctCounts, CpuMatchesFormulas) {
   const CostCounts c = cpu_counts(s, 16);
   // 14 ring + 11 weighted + (44 + 4) per dot + 2 per dot + 341 per support entry + 207 per point.
   EXPECT_EQ(c.N_C, 14LL * 2'000'000 + 11LL * 4'500'000 + 48LL * 1600 + 2LL * 1600 + 341LL * 2048 * 60 + 221LL * 2048);
+  // Of them, the MLS fields' (support entries and points), priced at V_CM; FE has none.
+  EXPECT_EQ(c.N_CM, 341LL * 2048 * 60 + 221LL * 2048);
+  FrameShape fe = s;
+  fe.interp = Interp::fe;
+  EXPECT_EQ(cpu_counts(fe, 1).N_CM, 0);
+  EXPECT_EQ(cuda_counts(s, HostMemory::pinned).N_CM, 0);  // the device's fields
   // Bytes: Otsu 1 + threshold 2 + labelling 13 per analysed pixel, 10 per window pixel, a byte
   // per ring or weighted pixel, 8 per field value streamed: a support entry's dot index, a
   // point's position, radius and 5 outputs (the dots' positions and displacements are gathered
