@@ -52,8 +52,9 @@ TEST(CpuProbes, MemoryGivesBothBandwidths) {
   ASSERT_NE(one, nullptr);
   ASSERT_NE(all, nullptr);
   EXPECT_EQ(one->stats.n, 3u);  // the smoke plan's repetitions
-  // Between 100 MB/s and 10 TB/s: catches a unit slip by 1e3 either way.
-  EXPECT_GT(one->value, 1e8);
+  // Between 10 MB/s (the sanitized -O0 build's loop on a busy core is far slower than Release)
+  // and 10 TB/s: catches a unit slip by 1e3 either way.
+  EXPECT_GT(one->value, 1e7);
   EXPECT_LT(all->value, 1e13);
 }
 
@@ -92,7 +93,10 @@ TEST(CpuProbes, FmaGivesFourRates) {
   for (Param p : {Param::V_C1_fp32, Param::V_C1_fp64, Param::V_C_fp32, Param::V_C_fp64}) {
     const auto* m = find(r, p);
     ASSERT_NE(m, nullptr) << info(p).name;
-    EXPECT_GT(m->value, 1e8) << info(p).name;   // any CPU of this century
+    // A unit slip (GFLOP/s for FLOP/s) gives below 10^3. The lower bound is not a speed check:
+    // the sanitized -O0 build runs this loop two orders below its speed in Release (8.8e7 FLOP/s
+    // for float64 on a busy 2-core CI machine), so only 10^6 holds for every build.
+    EXPECT_GT(m->value, 1e6) << info(p).name;
     EXPECT_LT(m->value, 1e14) << info(p).name;
     EXPECT_EQ(m->stats.n, 2u);
   }
