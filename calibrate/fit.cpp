@@ -39,6 +39,7 @@ double default_start(Param p) {
   if (p == Param::L_pixel || p == Param::L_pixel_all) return 1e-9;  // a step of a scalar pixel loop: a few cycles
   if (p == Param::V_CS) return 1e9;      // one addition per few cycles
   if (p == Param::V_CM || p == Param::V_CM_all) return 3e9;  // MLS fields: a FLOP a cycle, about
+  if (p == Param::V_GM) return 3e8;  // one GPU thread's MLS chain: a FLOP every few cycles
   if (p == Param::L_net) return 2e-6;    // a message between processes of one host
   if (p == Param::B_net) return 2e9;
   if (unit == "s") return 10e-6;
@@ -124,12 +125,13 @@ std::string fmt_value(double v, Param p) { return fmt::format("{:.4g} {}", v, in
 
 // The parameters a sample's counts exercise: every refinement the model has is priced, those the
 // start profile lacks found by the fit (staging, serial chains, all-thread windows, the GPU's L2
-// where its size is known, graph launches, all-thread pixel steps, MLS fields at their own rate).
+// where its size is known, graph launches, all-thread pixel steps, MLS fields at their own rate on
+// the CPU and on the GPU).
 std::vector<Param> exercised_params(const CostCounts& c, Variant v, const MachineProfile& start) {
   return required_params(c, v,
                          Pricing{.llc_bytes = model_llc_bytes(start.identity), .staging = true, .all_threads = true,
                                  .serial = true, .gpu_l2_bytes = start.identity.gpu_l2_bytes, .graph = true,
-                                 .pixel_all = true, .mls = true, .mls_all = true});
+                                 .pixel_all = true, .mls = true, .mls_all = true, .gpu_mls = true});
 }
 
 }  // namespace

@@ -3,7 +3,8 @@
 // finite-element interpolant with its recovered gradient (7.2), templated on the scalar type and
 // compiled for the host (float64 reference, float32 checks) and for the device (float32); and the
 // host loop that evaluates MLS fields over a support table, the one source of the loop the CPU
-// backends run and the probe times (as kernels/host_loops.hpp is for the RBE's loops). The FLOP
+// backends run and the cpu-mls probe times (as kernels/host_loops.hpp is for the RBE's loops), and,
+// compiled by nvcc, the device's MLS point that the cuda backend's kernel and the gpu-mls probe run. The FLOP
 // constants are what these functions do, counted by hand from the code. Header only; it depends on
 // nothing.
 #pragma once
@@ -377,5 +378,69 @@ template <class Vec>
     f = mp.field(rho, u0x, u0y);
   }
 }
+
+#ifdef __CUDACC__
+// ---- One MLS point on the device -----------------------------------------------------------
+// The DCT cuda backend's field kernel runs this for each point on a thread of its own, and the
+// gpu-mls probe times the same function: float32 arithmetic, positions in double until their
+// offsets from the point are taken. The support table and dots as mls_fields() reads them, in
+// the device's types (`valid` for tracked, displacements as float2).
+struct MlsDeviceTable {
+  const double2* points;
+  const float* rho;
+  const unsigned char* geometry;  // PointStatus of each point
+  const int* offsets;             // points + 1
+  const int* dots;
+  const double2* reference;
+  const float2* disp;
+  const unsigned char* valid;
+  int weight;  // Weight
+  int min_dots;
+  float min_pivot;
+};
+
+// Point m's field: the first tracked dot's displacement as u0, then two passes over the tracked
+// support dots, as mls_fields(). One thread's chain of dependent rotations, square roots and
+// divisions: a point's support, not the field's FLOPs, is what it takes (docs/model.md 2.6, lat_GM).
+__device__ __forceinline__ FieldValue<float> mls_point_device(const MlsDeviceTable& t, int m) {
+  FieldValue<float> f;
+  if (t.geometry[m] != 0) {
+    f.status = static_cast<PointStatus>(t.geometry[m]);
+    return f;
+  }
+  const double2 p = t.points[m];
+  const float r = t.rho[m], inv = 1.f / r;
+  const int k0 = t.offsets[m], k1 = t.offsets[m + 1];
+  float2 u0 = make_float2(0.f, 0.f);
+  for (int k = k0; k < k1; ++k)
+    if (t.valid[t.dots[k]]) {
+      u0 = t.disp[t.dots[k]];
+      break;
+    }
+  const Weight w = static_cast<Weight>(t.weight);
+  MlsPoint<float> mp;
+  // The second pass reads the same entries again, from cache. Offsets are taken in double
+  // before rounding to float.
+  for (int k = k0; k < k1; ++k) {
+    const int j = t.dots[k];
+    if (!t.valid[j]) continue;
+    const float2 u = t.disp[j];
+    const double2 X = t.reference[j];
+    mp.add(w, static_cast<float>(X.x - p.x) * inv, static_cast<float>(X.y - p.y) * inv, u.x - u0.x, u.y - u0.y);
+  }
+  f.support = mp.n;
+  f.status = mp.solve(t.min_dots, t.min_pivot);
+  if (f.status != PointStatus::ok) return f;
+  for (int k = k0; k < k1; ++k) {
+    const int j = t.dots[k];
+    if (!t.valid[j]) continue;
+    const float2 u = t.disp[j];
+    const double2 X = t.reference[j];
+    mp.add_residual(w, static_cast<float>(X.x - p.x) * inv, static_cast<float>(X.y - p.y) * inv, u.x - u0.x,
+                    u.y - u0.y);
+  }
+  return mp.field(r, u0.x, u0.y);
+}
+#endif
 
 }  // namespace dtflop::kernels

@@ -41,6 +41,7 @@ const std::vector<CountField>& count_fields() {
       {"N_GG", &C::N_GG, "values", "through device memory (reads + writes)"},
       {"N_G", &C::N_G, "FLOPs", "on the GPU"},
       {"N_GR", &C::N_GR, "FLOPs", "of N_G, whose taps each read another row of device memory", A::sum, &C::N_G},
+      {"N_GM", &C::N_GM, "FLOPs", "of one GPU thread's moving-least-squares field (a point's chain; its points side by side)"},
       {"N_GS", &C::N_GS, "values", "copied into shared-memory tiles (per busiest-SM round x SMs)"},
       {"launches", &C::launches, "launches", "of kernels"},
       {"graph_launches", &C::graph_launches, "launches", "of launches, kernels of a CUDA graph (started by the device)",

@@ -69,6 +69,11 @@ struct CostCounts {
                                 // Priced at V_CM (V_CM_all for cpu_threads > 1), the rate of that
                                 // code (latency, memory and extended variants); 0 = none. Not also
                                 // in N_CW, N_CD, N_CA or N_CS
+  std::int64_t N_GM = 0;        // FLOPs of one GPU thread's moving-least-squares field: the mean point's
+                                // support dots' rotations, square roots and divisions, each waiting
+                                // for the one before, and its solves. The points' threads run side by
+                                // side, so one point's chain, not the sum (which N_G holds), is the
+                                // time: priced at V_GM (latency+, where the profile has it); 0 = none
   std::int64_t N_GS = 0;        // values kernels copy from device memory into shared-memory tiles
                                 // (halos included), counted per round of blocks on the busiest
                                 // multiprocessor times the multiprocessors, like N_G (latency+)

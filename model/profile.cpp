@@ -74,6 +74,7 @@ const std::vector<ParamInfo>& all_params() {
       {Param::L_pixel_all, "L_pixel_all", "s", "L_pixel with every hardware thread at work: the wall time of a step of pixel work the threads share"},
       {Param::V_CM, "V_CM", "FLOP/s", "CPU rate of moving-least-squares field arithmetic (a support dot's chain of rotations, square roots and divisions), one thread"},
       {Param::V_CM_all, "V_CM_all", "FLOP/s", "V_CM with every hardware thread at work: the FLOPs of all threads per second of wall time"},
+      {Param::V_GM, "V_GM", "FLOP/s", "rate of one GPU thread's moving-least-squares field (a point's chain of rotations, square roots and divisions), the points' threads side by side"},
   };
   return table;
 }

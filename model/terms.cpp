@@ -51,7 +51,8 @@ std::string Variants::str() const {
 Pricing Pricing::of(const MachineProfile& m) {
   return {model_llc_bytes(m.identity), has_staging(m), m.has(Param::K_CW_all) || m.has(Param::K_CA_all),
           m.has(Param::V_CS), m.has(Param::B_L2) ? m.identity.gpu_l2_bytes : 0, m.has(Param::L_graph),
-          m.has(Param::L_pixel_all), m.has(Param::V_CM), m.has(Param::V_CM_all)};
+          m.has(Param::L_pixel_all), m.has(Param::V_CM), m.has(Param::V_CM_all),
+          m.has(Param::V_GM)};
 }
 
 namespace {
@@ -297,6 +298,19 @@ double pixel_seconds(const MachineProfile& m, const CostCounts& c, Variant, cons
 }
 
 // The two simple shapes: P N / B, values moved over a bandwidth, and n L, events at a fixed cost.
+// lat_GM. latency+: the field kernel gives each point a thread, and the points' threads run side by
+// side (one round of them for any plan's points), so a field takes one point's chain of dependent
+// rotations, square roots and divisions: N_GM at V_GM (docs/model.md 2.6). A profile without V_GM
+// leaves the fields in N_G at the GPU's rate, as the fits made before the probe were.
+std::vector<Param> gpu_mls_needs(const CostCounts&, Variant v, const Pricing& x) {
+  if (x.gpu_mls && kLatencyVariants.contains(v)) return {Param::V_GM};
+  return {};
+}
+double gpu_mls_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing& x) {
+  if (!x.gpu_mls || !kLatencyVariants.contains(v)) return 0;
+  return static_cast<double>(c.N_GM) / m.get(Param::V_GM).value;
+}
+
 template <std::int64_t CostCounts::*N, Pick B>
 constexpr Price per_byte() {
   return {positive<N>, needs_one<B>, bytes_over_bandwidth<N, B>};
@@ -342,6 +356,8 @@ const std::vector<Term>& terms() {
        per_event<&C::waves, only<Param::L_wave>>()},
       {"lat_atomic", &P::lat_atomic, Phase::G, kLatencyVariants, sum, "atomics", "L_atomic",
        "serialized atomic updates", per_event<&C::atomics, only<Param::L_atomic>>()},
+      {"lat_GM", &P::lat_GM, Phase::G, kLatencyVariants, sum, "N_GM (where the profile has V_GM)", "V_GM",
+       "one GPU thread's MLS chain", {positive<&C::N_GM>, gpu_mls_needs, gpu_mls_seconds}},
       {"dt_GS", &P::dt_GS, Phase::G, kLatencyVariants, sum, "P N_GS", "B_GS", "shared-memory tile fills",
        per_byte<&C::N_GS, only<Param::B_GS>>()},
       {"dt_C_arith", &P::dt_C_arith, Phase::C, kEveryVariant, overlap,

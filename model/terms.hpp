@@ -83,6 +83,9 @@ struct Pricing {
   bool mls = false;            // price MLS field FLOPs (N_CM) at V_CM (the profile has it, or a fit is to
                                // find it); else at the CPU rate, as profiles made before the probe were
   bool mls_all = false;        // price them on cpu_threads > 1 at V_CM_all (likewise); else at V_CM
+  bool gpu_mls = false;        // price a GPU thread's MLS chain (N_GM) at V_GM (the profile has it, or a fit
+                               // is to find it); else not at all: its FLOPs are in N_G at the GPU's rate,
+                               // as profiles made before the probe were fitted
   static Pricing of(const MachineProfile& profile);
 };
 

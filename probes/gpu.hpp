@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "cuda/error.hpp"
+#include "kernels/point_fields.hpp"  // FieldValue: what the device's MLS points give
 #include "model/cost_counts.hpp"  // HostMemory: the model's, pinned or pageable
 
 namespace dtflop::probes::gpu {
@@ -176,5 +177,28 @@ struct AtomicTiming {
 // is checked after every batch (it is exact: integer values) and every stored word after the
 // last (ValidationError).
 AtomicTiming time_atomics(std::span<const int> blocks_per_sm, int batch, int reps);
+
+// One support table of MLS points for the device, as the DCT cuda backend holds one: per point its
+// position (x, y), support radius and support dots' indices (compressed rows, `offsets` with
+// points + 1 entries); per dot its reference position (x, y) and displacement (x, y).
+struct MlsTable {
+  std::vector<double> points_xy;
+  std::vector<float> rho;
+  std::vector<int> offsets, dots;
+};
+struct MlsDots {
+  std::vector<double> reference_xy;
+  std::vector<float> disp_xy;
+};
+struct MlsTiming {
+  std::vector<std::vector<double>> seconds;  // [table][repetition]: one launch over all its points
+  std::vector<std::vector<kernels::FieldValue<float>>> fields;  // [table][point], of the last launch
+};
+
+// One GPU thread's MLS chain (V_GM): the DCT cuda backend's field arithmetic
+// (kernels::mls_point_device, cubic-spline weight, 6 dots at least, pivot ratio 1e-5) over each
+// table, one point a thread and `block` threads a block, as the backend's field kernel launches
+// it; events around each launch, `reps` of each table after `warmup`.
+MlsTiming time_mls(const MlsDots& dots, const std::vector<MlsTable>& tables, int block, int reps, int warmup);
 
 }  // namespace dtflop::probes::gpu

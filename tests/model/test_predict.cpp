@@ -303,6 +303,35 @@ TEST(Predict, ASerialChainRunsAtItsOwnRateOnOneThread) {
   EXPECT_THROW(predict(m, c, Variant::latency), InputError);
 }
 
+// lat_GM: a GPU field kernel takes one point's chain (N_GM) at V_GM, added to the kernels' time in
+// the latency variants; the seed prices none of it; a profile without V_GM prices it not at all
+// (the fields' FLOPs are in N_G at the GPU's rate, as the profiles made before the probe were).
+TEST(Predict, AGpuThreadsMlsChainAddsItsOwnTime) {
+  auto m = test::round_profile();  // V_G_fp32 = 50 TFLOP/s
+  m.set(Param::V_GM, Parameter{4e8, Provenance::probed, {}, {}, {}});
+  CostCounts c;
+  c.precision = Precision::fp32;
+  c.N_G = 1'000'000'000;  // 20 us at the FMA rate
+  c.N_GM = 40'000;        // 100 us on one thread's chain
+  const double flops = 1e9 / m.get(Param::V_G_fp32).value;
+  for (Variant v : {Variant::latency, Variant::memory, Variant::extended}) {
+    const Prediction p = predict(m, c, v);
+    EXPECT_NEAR(p.lat_GM, 1e-4, 1e-15) << to_string(v);
+    EXPECT_NEAR(phase_seconds(p, Phase::G), flops + 1e-4, 1e-15) << to_string(v);
+    EXPECT_NEAR(p.device_overheads(), 1e-4, 1e-15) << to_string(v);
+  }
+  EXPECT_EQ(predict(m, c, Variant::seed).lat_GM, 0.0);
+  const auto has = [](const std::vector<Param>& r, Param p) { return std::find(r.begin(), r.end(), p) != r.end(); };
+  EXPECT_TRUE(has(required_params(c, Variant::latency, Pricing{.gpu_mls = true}), Param::V_GM));
+  EXPECT_FALSE(has(required_params(c, Variant::latency), Param::V_GM));
+  EXPECT_FALSE(has(required_params(c, Variant::seed, Pricing{.gpu_mls = true}), Param::V_GM));
+  auto before = m;
+  before.erase(Param::V_GM);
+  EXPECT_EQ(predict(before, c, Variant::latency).lat_GM, 0.0);
+  EXPECT_NEAR(phase_seconds(predict(before, c, Variant::latency), Phase::G), flops, 1e-15);
+  EXPECT_FALSE(has(priced_params(before, c, Variant::latency), Param::V_GM));
+}
+
 TEST(Predict, MlsFieldFlopsRunAtTheirOwnRateOnOneThreadOrAll) {
   auto m = test::round_profile();  // V_C1_fp64 and V_C_fp64 as the fixture sets them
   m.set(Param::V_CM, Parameter{2e9, Provenance::probed, {}, {}, {}});

@@ -4,6 +4,7 @@
 #include <exception>
 #include <stdexcept>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -223,6 +224,64 @@ TEST(GpuProbes, AtomicsToOneAddressCostLessThanALaunch) {
   }
   const std::vector<int> two = {4, 8};
   EXPECT_THROW(gpu::time_atomics(two, 1, 1), std::invalid_argument);
+}
+
+// gpu-mls checks every point against the quadratic field itself; its rate is one thread's: far
+// below the device's FMA rate, and at most a few FLOPs a cycle of one thread (< 10^10 FLOP/s); a
+// table's kernel takes longer the larger its supports.
+TEST(GpuProbes, MlsGivesOneThreadsChainRate) {
+  DTFLOP_REQUIRE_GPU();
+  ProbeOptions o;
+  o.effort = Effort::smoke;
+  const auto& all = all_probes();
+  const auto it = std::find_if(all.begin(), all.end(), [](const Probe& p) { return p.name == "gpu-mls"; });
+  ASSERT_NE(it, all.end());
+  const ProbeReport r = it->run(o);
+  ASSERT_EQ(r.measurements.size(), 1u);
+  const Measurement& m = r.measurements[0];
+  ASSERT_EQ(m.param, Param::V_GM);
+  EXPECT_GT(m.value, 1e7);
+  EXPECT_LT(m.value, 1e10);
+  EXPECT_EQ(m.stats.n, 3u);  // the smoke plan's repetitions
+  const gpu::MlsTiming timing = [] {
+    // 64 points of a 16 x 16 grid of dots, supports of their 8 and 40 nearest (by index distance:
+    // the grid's), to see that the time follows the support.
+    gpu::MlsDots d;
+    for (int j = 0; j < 16; ++j)
+      for (int i = 0; i < 16; ++i) {
+        d.reference_xy.insert(d.reference_xy.end(), {10.0 * i + 0.3 * j, 10.0 * j - 0.2 * i});
+        d.disp_xy.insert(d.disp_xy.end(), {0.01f * static_cast<float>(i), -0.02f * static_cast<float>(j)});
+      }
+    std::vector<gpu::MlsTable> tables;
+    for (int support : {8, 40}) {
+      gpu::MlsTable t;
+      t.offsets.push_back(0);
+      for (int p = 0; p < 64; ++p) {
+        const int ci = 4 + p % 8, cj = 4 + p / 8;
+        t.points_xy.insert(t.points_xy.end(), {10.0 * ci + 1, 10.0 * cj + 1});
+        std::vector<std::pair<double, int>> near;
+        for (int k = 0; k < 256; ++k) {
+          const double dx = d.reference_xy[2 * k] - t.points_xy[2 * p], dy = d.reference_xy[2 * k + 1] - t.points_xy[2 * p + 1];
+          near.push_back({dx * dx + dy * dy, k});
+        }
+        std::sort(near.begin(), near.end());
+        for (int k = 0; k < support; ++k) t.dots.push_back(near[k].second);
+        t.offsets.push_back(static_cast<int>(t.dots.size()));
+        t.rho.push_back(static_cast<float>(std::sqrt(near[support].first)));
+      }
+      tables.push_back(std::move(t));
+    }
+    return gpu::time_mls(d, tables, 32, 5, 1);
+  }();
+  ASSERT_EQ(timing.seconds.size(), 2u);
+  std::vector<double> small = timing.seconds[0], large = timing.seconds[1];
+  std::sort(small.begin(), small.end());
+  std::sort(large.begin(), large.end());
+  EXPECT_GT(large[2], 2 * small[2]) << "40-dot supports should take several times as long as 8-dot ones";
+  for (const auto& f : timing.fields[1]) {
+    EXPECT_EQ(f.status, kernels::PointStatus::ok);
+    EXPECT_EQ(f.support, 40);
+  }
 }
 
 TEST(GpuProbes, EveryGpuProbeRunsAtSmokeEffort) {

@@ -212,10 +212,12 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
            + field_values(s);
   c.launches = 9;
   if (s.otsu) {
-    c.N_GG += roi_values + 512;
+    c.N_GG += roi_values + 256;  // the histogram reads the frame; Otsu's kernel reads the 256 bins once
     c.launches += 2;
   }
   c.N_G = analysis_flops(s) + field_flops(s) + (s.interp == Interp::fe ? kFlopsPerFeWarpCombine * s.points : 0);
+  // One point's MLS field, the chain its thread runs (docs/model.md 2.6): the mean point's, rounded up.
+  c.N_GM = s.points > 0 ? (mls_flops(s) + s.points - 1) / s.points : 0;
   // The kernels' working set: the region of interest and its labels (4 bytes a pixel); the
   // components' records (6 statistics, x and y as doubles, weight, status, 3 pixel counts: 60
   // bytes); the reference dots (position 16, match 4, displacement 8, validity 1); the points

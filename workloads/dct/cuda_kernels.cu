@@ -42,23 +42,54 @@ __global__ void k_histogram(const Pix* img, int w, int h, unsigned int* hist) {
     if (local[i]) atomicAdd(&hist[i], local[i]);
 }
 
-// Otsu's threshold, the same double-precision loop as analysis.cpp's otsu_threshold.
+// Otsu's threshold: the between-class variance of analysis.cpp's otsu_threshold at every t at
+// once, one thread a bin (blockDim.x == 256), and the first maximum. The class weights and sums are
+// sums of integers below 2^53, exact in double in any order, so every t's variance is the serial
+// loop's to the bit and the same t wins. (The serial loop on one thread took 40 us of a frame on
+// an H100: 512 dependent double divisions.)
+constexpr int kOtsuThreads = 256;
 __global__ void k_otsu(const unsigned int* h, int wide, int* T) {
-  if (threadIdx.x != 0 || blockIdx.x != 0) return;
-  double total = 0, sum = 0;
-  for (int i = 0; i < 256; ++i) { total += h[i]; sum += i * static_cast<double>(h[i]); }
-  double w0 = 0, s0 = 0, best = -1;
-  int t = 0;
-  for (int i = 0; i < 256; ++i) {
-    w0 += h[i];
-    s0 += i * static_cast<double>(h[i]);
-    const double w1 = total - w0;
-    if (w0 == 0 || w1 == 0) continue;
-    const double m0 = s0 / w0, m1 = (sum - s0) / w1;
-    const double v = w0 * w1 * (m0 - m1) * (m0 - m1);
-    if (v > best) { best = v; t = i; }
+  __shared__ double w[kOtsuThreads], s[kOtsuThreads];
+  __shared__ double best_v[kOtsuThreads];
+  __shared__ int best_t[kOtsuThreads];
+  const int i = threadIdx.x;
+  w[i] = static_cast<double>(h[i]);
+  s[i] = i * static_cast<double>(h[i]);
+  __syncthreads();
+  // Inclusive prefix sums (Hillis-Steele): w[i] = w0 and s[i] = s0 of the serial loop at t = i.
+  for (int o = 1; o < kOtsuThreads; o <<= 1) {
+    const double wa = i >= o ? w[i - o] : 0, sa = i >= o ? s[i - o] : 0;
+    __syncthreads();
+    w[i] += wa;
+    s[i] += sa;
+    __syncthreads();
   }
-  *T = wide ? t * 257 + 256 : t;
+  const double total = w[kOtsuThreads - 1], sum = s[kOtsuThreads - 1];
+  const double w0 = w[i], s0 = s[i], w1 = total - w0;
+  double v = -1;  // below every variance: a t with an empty class is never chosen
+  if (w0 != 0 && w1 != 0) {
+    const double m0 = s0 / w0, m1 = (sum - s0) / w1;
+    v = w0 * w1 * (m0 - m1) * (m0 - m1);
+  }
+  best_v[i] = v;
+  best_t[i] = i;
+  __syncthreads();
+  // The largest variance, the lowest t among equals (the serial loop's strict >).
+  for (int o = kOtsuThreads / 2; o > 0; o >>= 1) {
+    if (i < o) {
+      const double vb = best_v[i + o];
+      const int tb = best_t[i + o];
+      if (vb > best_v[i] || (vb == best_v[i] && tb < best_t[i])) {
+        best_v[i] = vb;
+        best_t[i] = tb;
+      }
+    }
+    __syncthreads();
+  }
+  if (i == 0) {
+    const int t = best_v[0] < 0 ? 0 : best_t[0];  // one class only: t = 0, as the serial loop
+    *T = wide ? t * 257 + 256 : t;
+  }
 }
 
 // Labels: -1 background; otherwise the index of a pixel of the same component (a tree).
@@ -282,53 +313,10 @@ __global__ void k_displacement(int n, const double2* ref, const double* cx, cons
   U[j] = make_float2(static_cast<float>(cx[k] - ref[j].x), static_cast<float>(cy[k] - ref[j].y));
 }
 
-__global__ void k_mls(int n, const double2* pts, const float* rho, const unsigned char* geometry, const int* offsets,
-                      const int* dots, const double2* ref, const float2* U, const unsigned char* valid, int weight,
-                      int min_dots, float min_pivot, FieldValue<float>* out) {
+// One point a thread (kernels/point_fields.hpp: the arithmetic the gpu-mls probe times).
+__global__ void k_mls(int n, kernels::MlsDeviceTable t, FieldValue<float>* out) {
   const int m = blockIdx.x * blockDim.x + threadIdx.x;
-  if (m >= n) return;
-  FieldValue<float> f;
-  if (geometry[m] != 0) {
-    f.status = static_cast<PointStatus>(geometry[m]);
-    out[m] = f;
-    return;
-  }
-  const double2 p = pts[m];
-  const float r = rho[m], inv = 1.f / r;
-  const int k0 = offsets[m], k1 = offsets[m + 1];
-  // The reference displacement: the first tracked dot's (nearest first), as on the host.
-  float2 u0 = make_float2(0.f, 0.f);
-  for (int k = k0; k < k1; ++k)
-    if (valid[dots[k]]) {
-      u0 = U[dots[k]];
-      break;
-    }
-  // Two passes over the tracked support dots (kernels.hpp, MlsPoint); the second reads the
-  // same entries again, from cache. Offsets are taken in double before rounding to float.
-  MlsPoint<float> mp;
-  for (int k = k0; k < k1; ++k) {
-    const int j = dots[k];
-    if (!valid[j]) continue;
-    const float2 u = U[j];
-    const double2 X = ref[j];
-    mp.add(static_cast<Weight>(weight), static_cast<float>(X.x - p.x) * inv, static_cast<float>(X.y - p.y) * inv,
-           u.x - u0.x, u.y - u0.y);
-  }
-  f.support = mp.n;
-  f.status = mp.solve(min_dots, min_pivot);
-  if (f.status != PointStatus::ok) {
-    out[m] = f;
-    return;
-  }
-  for (int k = k0; k < k1; ++k) {
-    const int j = dots[k];
-    if (!valid[j]) continue;
-    const float2 u = U[j];
-    const double2 X = ref[j];
-    mp.add_residual(static_cast<Weight>(weight), static_cast<float>(X.x - p.x) * inv,
-                    static_cast<float>(X.y - p.y) * inv, u.x - u0.x, u.y - u0.y);
-  }
-  out[m] = mp.field(r, u0.x, u0.y);
+  if (m < n) out[m] = kernels::mls_point_device(t, m);
 }
 
 // One warp a point: its lanes take the point's support triangles in turn, so 32 triangles' gathers
@@ -396,7 +384,7 @@ void launch_otsu(const void* img, bool wide, int w, int h, unsigned int* hist, i
   if (wide) k_histogram<std::uint16_t><<<g, block, 0, s>>>(static_cast<const std::uint16_t*>(img), w, h, hist);
   else k_histogram<std::uint8_t><<<g, block, 0, s>>>(static_cast<const std::uint8_t*>(img), w, h, hist);
   DTFLOP_CUDA_LAUNCHED();
-  k_otsu<<<1, 1, 0, s>>>(hist, wide ? 1 : 0, T);
+  k_otsu<<<1, kOtsuThreads, 0, s>>>(hist, wide ? 1 : 0, T);
   DTFLOP_CUDA_LAUNCHED();
 }
 
@@ -464,8 +452,8 @@ void launch_mls(int n, const double2* pts, const float* rho, const unsigned char
                 const int* dots, const double2* ref, const float2* U, const unsigned char* valid, int weight,
                 int min_dots, float min_pivot, FieldValue<float>* out, int block, cudaStream_t s) {
   if (n <= 0) return;
-  k_mls<<<grid_for(n, block), block, 0, s>>>(n, pts, rho, geometry, offsets, dots, ref, U, valid, weight, min_dots,
-                                             min_pivot, out);
+  const kernels::MlsDeviceTable t{pts, rho, geometry, offsets, dots, ref, U, valid, weight, min_dots, min_pivot};
+  k_mls<<<grid_for(n, block), block, 0, s>>>(n, t, out);
   DTFLOP_CUDA_LAUNCHED();
 }
 

@@ -83,8 +83,14 @@ TEST(DctCounts, CudaMatchesFormulas) {
   EXPECT_EQ(c.host_waits, 3);
   const std::int64_t roi = 20'000'000, rv = roi / 4;
   EXPECT_EQ(c.N_GG, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + 2 * 7'000'000 + 2 * 4'500'000 +
-                        6 * 1600 + 5 * 2048 * 60 + 8 * 2048 + rv + 512);
+                        6 * 1600 + 5 * 2048 * 60 + 8 * 2048 + rv + 256);
   EXPECT_EQ(c.N_G, cpu_counts(s, 1).N_C);  // the same arithmetic, in float32
+  // One point's MLS chain, its thread's: 60 support dots at 341 FLOPs (the cubic spline) and the
+  // point's own 221.
+  EXPECT_EQ(c.N_GM, 60 * 341 + 221);
+  FrameShape fe = s;
+  fe.interp = Interp::fe;
+  EXPECT_EQ(cuda_counts(fe, HostMemory::pinned).N_GM, 0);  // FE gives a point a warp: no chain
   // Working set: the 8-bit frame and its labels, 60 bytes of records a component, 29 a reference
   // dot, a point's position and field record, 4 bytes a support entry.
   EXPECT_EQ(c.gpu_footprint, roi * (1 + 4) + 60 * 1700 + 29 * 1600 + (16 + field) * 2048 + 4 * 2048 * 60);
@@ -186,7 +192,7 @@ TEST(DctCounts, ThresholdMethodsArePriced) {
   // threshold's copy back.
   const CostCounts g = cuda_counts(otsu, HostMemory::pinned), f = cuda_counts(fixed, HostMemory::pinned);
   EXPECT_EQ(g.launches - f.launches, 2);
-  EXPECT_EQ(g.N_GG - f.N_GG, roi / 4 + 512);
+  EXPECT_EQ(g.N_GG - f.N_GG, roi / 4 + 256);
   EXPECT_EQ(g.N_GC - f.N_GC, 1);
   EXPECT_EQ(g.transfers_GC - f.transfers_GC, 1);
 }

@@ -19,6 +19,10 @@
 #include "workloads/dct/backend.hpp"
 #include "workloads/dct/specimen.hpp"
 #include "workloads/dct/workload.hpp"
+#if DTFLOP_HAVE_CUDA
+#include "workloads/dct/analysis.hpp"
+#include "workloads/dct/cuda_kernels.hpp"
+#endif
 
 namespace dtflop::dct {
 namespace {
@@ -302,6 +306,72 @@ TEST(DctCuda, ThresholdAndWeightParametersMatchCpuSeq) {
       compare_frames(g.dump(), sp.reference_image(), sp.deformed_image(), pipeline_options(c, "cuda"));
     }
 }
+
+#if DTFLOP_HAVE_CUDA
+// Otsu's kernel (one thread a bin, prefix sums, first maximum) gives the serial loop's threshold to
+// the bit: on random frames of both depths, and on the histograms where the first maximum decides
+// (spikes at 0 and at the top: every t between them splits them alike, so every t ties), one bin
+// only (no t splits it: 0) and two adjacent bins.
+TEST(DctCuda, OtsuKernelGivesTheSerialLoopsThreshold) {
+  DTFLOP_REQUIRE_GPU();
+  const int w = 257, h = 129;  // odd sizes: the histogram's tail
+  std::mt19937 rng(7);
+  std::vector<cv::Mat> frames;
+  for (int depth : {CV_8U, CV_16U}) {
+    const double top = depth == CV_8U ? 255 : 65535;
+    for (int k = 0; k < 6; ++k) {  // two classes of random means and spreads
+      cv::Mat m(h, w, depth);
+      std::normal_distribution<double> dark(std::uniform_real_distribution<double>(0.1, 0.4)(rng) * top, 0.05 * top * (k + 1));
+      std::normal_distribution<double> light(std::uniform_real_distribution<double>(0.6, 0.9)(rng) * top, 0.04 * top * (k + 1));
+      std::bernoulli_distribution is_dark(0.1 + 0.13 * k);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          const double v = std::clamp(std::round(is_dark(rng) ? dark(rng) : light(rng)), 0.0, top);
+          if (depth == CV_8U) m.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(v);
+          else m.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(v);
+        }
+      frames.push_back(m);
+    }
+    cv::Mat spikes(h, w, depth, cv::Scalar(0));
+    spikes.colRange(0, 128).setTo(top);  // spikes of 128 x h and 129 x h pixels
+    frames.push_back(spikes.clone());
+    spikes.colRange(0, 129).setTo(top);  // 129 x h and 128 x h
+    frames.push_back(spikes.clone());
+    cv::Mat even(2 * h, w + 1, depth, cv::Scalar(0));
+    even.rowRange(0, h).setTo(top);  // equal spikes
+    frames.push_back(even);
+    frames.push_back(cv::Mat(h, w, depth, cv::Scalar(top / 3)));  // one bin
+    cv::Mat two(h, w, depth, cv::Scalar(depth == CV_8U ? 100 : 100 * 257));
+    two.rowRange(0, 40).setTo(depth == CV_8U ? 101 : 101 * 257);  // adjacent bins
+    frames.push_back(two);
+  }
+  std::size_t max_bytes = 0;
+  for (const auto& f : frames) max_bytes = std::max(max_bytes, f.total() * f.elemSize());
+  void* d_img = nullptr;
+  unsigned int* d_hist = nullptr;
+  int* d_T = nullptr;
+  ASSERT_EQ(cudaMalloc(&d_img, max_bytes), cudaSuccess);
+  ASSERT_EQ(cudaMalloc(reinterpret_cast<void**>(&d_hist), 256 * sizeof(unsigned int)), cudaSuccess);
+  ASSERT_EQ(cudaMalloc(reinterpret_cast<void**>(&d_T), sizeof(int)), cudaSuccess);
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    SCOPED_TRACE(fmt::format("frame {} ({}-bit)", i, frames[i].depth() == CV_8U ? 8 : 16));
+    const cv::Mat& f = frames[i];
+    const bool wide = f.depth() == CV_16U;
+    std::vector<std::int64_t> hist(256, 0);
+    for (int y = 0; y < f.rows; ++y)
+      for (int x = 0; x < f.cols; ++x) ++hist[wide ? f.at<std::uint16_t>(y, x) / 257 : f.at<std::uint8_t>(y, x)];
+    const int t = static_cast<int>(otsu_threshold(hist));
+    ASSERT_EQ(cudaMemcpy(d_img, f.data, f.total() * f.elemSize(), cudaMemcpyHostToDevice), cudaSuccess);
+    gpu::launch_otsu(d_img, wide, f.cols, f.rows, d_hist, d_T, 256, nullptr);
+    int T = -1;
+    ASSERT_EQ(cudaMemcpy(&T, d_T, sizeof(int), cudaMemcpyDeviceToHost), cudaSuccess);
+    EXPECT_EQ(T, wide ? t * 257 + 256 : t) << "the serial loop's t = " << t;
+  }
+  EXPECT_EQ(cudaFree(d_img), cudaSuccess);
+  EXPECT_EQ(cudaFree(d_hist), cudaSuccess);
+  EXPECT_EQ(cudaFree(d_T), cudaSuccess);
+}
+#endif
 
 }  // namespace
 }  // namespace dtflop::dct
