@@ -37,8 +37,6 @@ endfunction()
 # dtflop_test(name SOURCES a.cpp ... DEPS lib... [GPU])
 # One line adds a GoogleTest executable, linked with our shared main (tests/support).
 # Tests are labelled `unit` or `gpu`; gpu tests skip themselves (GTEST_SKIP) without a device.
-#   LABELS adds labels beside `unit` or `gpu` (scripts/test.sh leaves `main-job` out of the
-#   sanitized run).
 # The tests' own sources are compiled at -O1 in an optimised build: what they test is compiled
 # with the build's flags in the libraries, and at -O3 the test sources alone took a third of a
 # clean Release build (-O1 compiles them in about half the time). They share one precompiled
@@ -50,16 +48,15 @@ function(dtflop_test_flags target)
 endfunction()
 
 function(dtflop_test name)
-  cmake_parse_arguments(A "GPU" "" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(A "GPU" "" "SOURCES;DEPS" ${ARGN})
   add_executable(${name} ${A_SOURCES})
   target_link_libraries(${name} PRIVATE dtflop_test_main ${A_DEPS})
   dtflop_test_flags(${name})
   target_precompile_headers(${name} REUSE_FROM dtflop_test_pch)
   if(A_GPU)
-    set(labels gpu)
+    set(label gpu)
   else()
-    set(labels unit)
+    set(label unit)
   endif()
-  list(APPEND labels ${A_LABELS})
-  gtest_discover_tests(${name} PROPERTIES LABELS "${labels}" DISCOVERY_TIMEOUT 60)
+  gtest_discover_tests(${name} PROPERTIES LABELS ${label} DISCOVERY_TIMEOUT 60)
 endfunction()

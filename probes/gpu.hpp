@@ -191,14 +191,15 @@ struct MlsDots {
   std::vector<float> disp_xy;
 };
 struct MlsTiming {
-  std::vector<std::vector<double>> seconds;  // [table][repetition]: one launch over all its points
+  std::vector<std::vector<double>> seconds;  // [table][repetition]: a launch over all its points
   std::vector<std::vector<kernels::FieldValue<float>>> fields;  // [table][point], of the last launch
 };
 
 // One GPU thread's MLS chain (V_GM): the DCT cuda backend's field arithmetic
 // (kernels::mls_point_device, cubic-spline weight, 6 dots at least, pivot ratio 1e-5) over each
 // table, one point a thread and `block` threads a block, as the backend's field kernel launches
-// it; events around each launch, `reps` of each table after `warmup`.
+// it; `reps` repetitions of each table after `warmup` launches, each the events around 5 launches
+// queued behind an untimed one (the host's launch gap untimed), divided by 5.
 MlsTiming time_mls(const MlsDots& dots, const std::vector<MlsTable>& tables, int block, int reps, int warmup);
 
 }  // namespace dtflop::probes::gpu

@@ -9,8 +9,9 @@
 // a kernel launched as the backend launches its own (one point a thread, 128 threads a block: the
 // backend's default), on the specimen cpu-mls runs (probes/mls_specimen.hpp: 1024 points, supports
 // of 12, 30 and 80 dots). V_GM is one point's FLOPs summed over the three tables (as the counts
-// give them) over the sum of the three kernels' median times. Every point's field is checked against
-// the quadratic field it reproduces (float32: to 1e-4 px and 1e-5 strain).
+// give them) over the median of a repetition's three kernel times added (each timed behind a
+// queued launch, as the backend's kernel runs behind the frame's others). Every point's field is
+// checked against the quadratic field it reproduces (float32: to 1e-4 px and 1e-5 strain).
 #include <algorithm>
 #include <string>
 #include <vector>
@@ -70,7 +71,8 @@ ProbeReport run(const ProbeOptions& o) {
       fmt::format("the DCT cuda backend's MLS point (kernels::mls_point_device, cubic-spline weight), one point a "
                   "thread, {} threads a block, {} points of a jittered {}x{} dot grid with supports of 12, 30 and 80 "
                   "dots ({}), every field checked against the quadratic it reproduces; {:.4g} FLOPs of one point's "
-                  "three fields over the median of {} repetitions of the three launches (events)",
+                  "three fields over the median of {} repetitions of the three launches (events around 5 queued "
+                  "launches of each)",
                   kBlock, s.points.size(), mls::kGrid, mls::kGrid, each, chain_flops, reps)));
   o.say(fmt::format("  GPU MLS point: {:.3g} GFLOP/s on its thread ({})", r.measurements[0].value * 1e-9, each));
   return r;

@@ -17,7 +17,7 @@ ctest --test-dir build --output-on-failure -j "$(nproc)"
 echo "== unit tests under ASan + UBSan ==" >&2
 export ASAN_OPTIONS=abort_on_error=1:detect_leaks=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
-ctest --test-dir build-asan --output-on-failure -j "$(nproc)" -L unit -LE main-job
+ctest --test-dir build-asan --output-on-failure -j "$(nproc)" -L unit -E '^MainJob\.'
 if ((${#fuzz[@]})); then
   # Each libFuzzer target for DTFLOP_FUZZ_SECONDS (5 s) from its corpus, one after another (about
   # 10 s each with loading and the leak check; ctest stops one at 2 minutes over); a crash, leak,

@@ -71,6 +71,26 @@ TEST(Calibration, OnItsOwnMachineItIsCalibratedAndAProbeItLacksIsCarried) {
   EXPECT_NE(a.notes[0].find("no probe of B_CG_pinned"), std::string::npos) << a.notes[0];
 }
 
+// A calibration fitted before gpu-mls (no V_GM factor) priced the MLS fields inside the kernels'
+// FLOPs: applied to a probe that has V_GM, it leaves V_GM out, as it was fitted; one fitted with
+// it carries it as any other factor.
+TEST(Calibration, ACalibrationFittedWithoutACodeRateLeavesTheTargetsProbeOfItOut) {
+  MachineProfile target = probed(test::round_profile());
+  target.set(Param::V_GM, Parameter{3e8, Provenance::probed, {}, {}, {}});
+  EXPECT_FALSE(apply_calibration(pinned_copy_calibration(), target).profile.has(Param::V_GM));
+  Calibration with = pinned_copy_calibration();
+  CalibrationFactor g;
+  g.id = Param::V_GM;
+  g.relative = true;
+  g.factor = 1.2;
+  g.value = 3.6e8;
+  g.source_probed = 3e8;
+  with.factors.push_back(g);
+  const Applied a = apply_calibration(with, target);
+  ASSERT_TRUE(a.profile.has(Param::V_GM));
+  EXPECT_DOUBLE_EQ(a.profile.get(Param::V_GM).value, 3.6e8);
+}
+
 TEST(Calibration, RefusesAFittedTargetAndAGpuCalibrationForAMachineWithoutOne) {
   MachineProfile fitted = probed(test::round_profile());
   fitted.set(Param::B_GG, Parameter{1e12, Provenance::fitted, {}, {}, {}});

@@ -274,10 +274,10 @@ TEST(GpuProbes, MlsGivesOneThreadsChainRate) {
     return gpu::time_mls(d, tables, 32, 5, 1);
   }();
   ASSERT_EQ(timing.seconds.size(), 2u);
-  std::vector<double> small = timing.seconds[0], large = timing.seconds[1];
-  std::sort(small.begin(), small.end());
-  std::sort(large.begin(), large.end());
-  EXPECT_GT(large[2], 2 * small[2]) << "40-dot supports should take several times as long as 8-dot ones";
+  // The fastest repetitions (another test may share the GPU): 5x the support, at least twice the time.
+  const double small = *std::min_element(timing.seconds[0].begin(), timing.seconds[0].end());
+  const double large = *std::min_element(timing.seconds[1].begin(), timing.seconds[1].end());
+  EXPECT_GT(large, 2 * small) << "40-dot supports should take several times as long as 8-dot ones";
   for (const auto& f : timing.fields[1]) {
     EXPECT_EQ(f.status, kernels::PointStatus::ok);
     EXPECT_EQ(f.support, 40);

@@ -112,8 +112,9 @@ struct CudaLayout {
 //          + roi + components (roots to ids) + 2 roi (stats: label, root)
 //          + 2 window + 2 weighted (centroid: label and pixel, then pixel again)
 //          + 6 n_f (displacements: 2 doubles in, 2 floats out) + MLS: 5 sum(l_m) + 8 n_m
-//          | FE: 12 n_m + 8 n_m;  Otsu adds roi bytes / 4 (histogram read) + 256 + 256
-//   N_G  = the FLOPs above (the weight function's included);  N_C = 0 (matching is
+//          | FE: 12 n_m + 8 n_m;  Otsu adds roi bytes / 4 (histogram read) + 256 (its bins, read once)
+//   N_G  = the FLOPs above (the weight function's included);  N_GM = MLS: one point's FLOPs,
+//          the mean point's (mls_flops / n_m, rounded up; its thread's chain) | FE: 0;  N_C = 0 (matching is
 //          comparisons, not FLOPs). The cuda backend has no adaptive threshold (refused).
 //          The launch layout (CudaLayout) changes no count: every kernel covers its pixels,
 //          points or dots with any block size.
