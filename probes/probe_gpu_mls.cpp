@@ -12,12 +12,12 @@
 // give them) over the median of a repetition's three kernel times added (each timed behind a
 // queued launch, as the backend's kernel runs behind the frame's others). Every point's field is
 // checked against the quadratic field it reproduces (float32: to 1e-4 px and 1e-5 strain).
-#include <algorithm>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
 
+#include "model/stats.hpp"
 #include "probes/gpu.hpp"
 #include "probes/measure.hpp"
 #include "probes/mls_specimen.hpp"
@@ -27,11 +27,6 @@ namespace dtflop::probes {
 namespace {
 
 constexpr int kBlock = 128;  // the DCT cuda backend's default threads a block of its field kernels
-
-double median(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
 
 ProbeReport run(const ProbeOptions& o) {
   ProbeReport r;
@@ -60,7 +55,7 @@ ProbeReport run(const ProbeOptions& o) {
     const double flops = s.tables[i].flops / points;  // one point's: its thread's chain
     chain_flops += flops;
     each += fmt::format("{}{} dots {:.3g} us", each.empty() ? "" : ", ", s.tables[i].support,
-                        median(timing.seconds[i]) * 1e6);
+                        summarize(timing.seconds[i]).median * 1e6);
   }
   // A repetition: one launch of each table; its time, the three launches' times added.
   std::vector<double> seconds(timing.seconds[0].size(), 0.0);
