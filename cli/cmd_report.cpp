@@ -45,7 +45,7 @@ void finish(const reports::Document& doc, const std::string& output) {
 }
 
 // An existing output is refused before any input is read.
-void check_output(const std::string& output) {
+void check_report_folder(const std::string& output) {
   std::error_code ec;
   if (fs::symlink_status(output, ec).type() != fs::file_type::not_found)
     throw InputError(fmt::format("'{}' already exists; a report is written into a new folder: name one that does not exist",
@@ -78,7 +78,7 @@ void add_report_command(CLI::App& root) {
       ->check(CLI::ExistingFile);
   m->add_option("-o,--output", o->output, "Folder to write the report into (must not exist)")->required();
   m->callback([o] {
-    check_output(o->output);
+    check_report_folder(o->output);
     const MachineProfile p = load_profile(o->machines.at(0));
     reports::Context ctx{join_cmd("machine", {{"--machine", o->machines[0]}, {"-o", o->output}}), {o->machines[0]}};
     finish(reports::machine_report(p, ctx), o->output);
@@ -102,7 +102,7 @@ void add_report_command(CLI::App& root) {
   p->add_option("--worst", o->worst, "Name this many worst configurations")->capture_default_str()->check(CLI::Range(0, 1000));
   p->add_option("-o,--output", o->output, "Folder to write the report into (must not exist)")->required();
   p->callback([o] {
-    check_output(o->output);
+    check_report_folder(o->output);
     reports::PredictedInput in;
     in.stores = o->stores;
     in.profile_path = o->machines.at(0);
@@ -140,7 +140,7 @@ void add_report_command(CLI::App& root) {
       ->delimiter(',');
   c->add_option("-o,--output", o->output, "Folder to write the report into (must not exist)")->required();
   c->callback([o] {
-    check_output(o->output);
+    check_report_folder(o->output);
     const bool runs = !o->stores.empty() || !o->stores_b.empty();
     if (runs) {
       if (!o->machines.empty())
@@ -181,7 +181,7 @@ void add_report_command(CLI::App& root) {
       ->check(CLI::ExistingFile);
   t->add_option("-o,--output", o->output, "Folder to write the report into (must not exist)")->required();
   t->callback([o] {
-    check_output(o->output);
+    check_report_folder(o->output);
     auto read = [](const std::string& f) {
       const std::string what = fmt::format("'{}'", f);
       return parse_json_limited(read_file_limited(f, what, kMaxJsonFileBytes), what);

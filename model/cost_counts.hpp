@@ -138,6 +138,9 @@ inline constexpr std::int64_t kKdTreeLeaf = 10;
 std::int64_t tree_build_steps(std::int64_t n);
 std::int64_t tree_search_steps(std::int64_t n, std::int64_t k);
 
+// ceil(a / b) for a >= 0, b > 0: whole blocks, waves or chunks that a count fills.
+constexpr std::int64_t ceil_div(std::int64_t a, std::int64_t b) { return (a + b - 1) / b; }
+
 // Adds `count` copies of `bytes` bytes to `sizes` (merged with those of the same size).
 void add_copies(std::vector<CopySize>& sizes, std::int64_t bytes, std::int64_t count);
 

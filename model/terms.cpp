@@ -253,37 +253,37 @@ double net_seconds(const MachineProfile& m, const CostCounts& c, Variant, const 
 // (PeerPath::device): a halo message is a device-to-device copy, a launch's fixed cost and its
 // values read and written at the copy bandwidth B_GG_copy (read + write counted); an all-reduce
 // is a reduction kernel, a launch and its bytes (reads + writes) at B_GG.
-bool on_device(const CostCounts& c) { return c.peer_path == PeerPath::device; }
+bool peers_on_device(const CostCounts& c) { return c.peer_path == PeerPath::device; }
 bool peer_counted(const CostCounts& c) { return c.peer_messages > 0 || c.N_peer > 0; }
 std::vector<Param> peer_needs(const CostCounts& c, Variant, const Pricing&) {
   std::vector<Param> out;
-  if (c.peer_messages > 0) out.push_back(on_device(c) ? Param::L_launch : Param::L_peer);
-  if (c.N_peer > 0) out.push_back(on_device(c) ? Param::B_GG_copy : Param::B_peer);
+  if (c.peer_messages > 0) out.push_back(peers_on_device(c) ? Param::L_launch : Param::L_peer);
+  if (c.N_peer > 0) out.push_back(peers_on_device(c) ? Param::B_GG_copy : Param::B_peer);
   return out;
 }
 double peer_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing&) {
   const double P = c.P;
   double s = 0;
   if (c.peer_messages > 0)
-    s += static_cast<double>(c.peer_messages) * m.get(on_device(c) ? Param::L_launch : Param::L_peer).value;
+    s += static_cast<double>(c.peer_messages) * m.get(peers_on_device(c) ? Param::L_launch : Param::L_peer).value;
   if (c.N_peer > 0)
-    s += on_device(c) ? 2 * P * static_cast<double>(c.N_peer) / m.get(Param::B_GG_copy).value
+    s += peers_on_device(c) ? 2 * P * static_cast<double>(c.N_peer) / m.get(Param::B_GG_copy).value
                       : P * static_cast<double>(c.N_peer) / m.get(Param::B_peer).value;
   return s;
 }
 bool allreduce_counted(const CostCounts& c) { return c.collectives > 0 || c.collective_bytes > 0; }
 std::vector<Param> allreduce_needs(const CostCounts& c, Variant, const Pricing&) {
   std::vector<Param> out;
-  if (c.collectives > 0) out.push_back(on_device(c) ? Param::L_launch : Param::L_allreduce);
-  if (c.collective_bytes > 0) out.push_back(on_device(c) ? Param::B_GG : Param::B_allreduce);
+  if (c.collectives > 0) out.push_back(peers_on_device(c) ? Param::L_launch : Param::L_allreduce);
+  if (c.collective_bytes > 0) out.push_back(peers_on_device(c) ? Param::B_GG : Param::B_allreduce);
   return out;
 }
 double allreduce_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing&) {
   double s = 0;
   if (c.collectives > 0)
-    s += static_cast<double>(c.collectives) * m.get(on_device(c) ? Param::L_launch : Param::L_allreduce).value;
+    s += static_cast<double>(c.collectives) * m.get(peers_on_device(c) ? Param::L_launch : Param::L_allreduce).value;
   if (c.collective_bytes > 0)
-    s += static_cast<double>(c.collective_bytes) / m.get(on_device(c) ? Param::B_GG : Param::B_allreduce).value;
+    s += static_cast<double>(c.collective_bytes) / m.get(peers_on_device(c) ? Param::B_GG : Param::B_allreduce).value;
   return s;
 }
 

@@ -18,7 +18,7 @@ constexpr double kZ95 = 1.959963984540054;
 double normal_cdf(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
 
 // Does the prediction of `counts` have device terms (a GPU backend's), by the term table?
-bool on_device(const CostCounts& c) {
+bool uses_device(const CostCounts& c) {
   for (Phase p : all_phases())
     if (p != Phase::C && p != Phase::net && counts_phase(c, p)) return true;
   return false;
@@ -58,7 +58,7 @@ BasisError basis_of(const MachineProfile& profile, const CostCounts& counts, Var
   }
   if (!fitted) {
     b.basis = Basis::probe_only;
-    b.sigma = on_device(counts) ? kProbeOnlySigma.gpu : kProbeOnlySigma.cpu;
+    b.sigma = uses_device(counts) ? kProbeOnlySigma.gpu : kProbeOnlySigma.cpu;
     b.source = "measured error of probe-only predictions (docs/PERFORMANCE.md, Prediction portability)";
     return b;
   }
@@ -71,7 +71,7 @@ BasisError basis_of(const MachineProfile& profile, const CostCounts& counts, Var
     b.source = "the fit's rms residual (the profile records no cross-validated error: refit it with `dtflop "
                "calibrate` for an honest one)";
   } else {
-    b.sigma = on_device(counts) ? kTransferSigma.gpu : kTransferSigma.cpu;
+    b.sigma = uses_device(counts) ? kTransferSigma.gpu : kTransferSigma.cpu;
     b.source = "no error recorded with the fitted profile: the figure of a carried calibration";
   }
   return b;

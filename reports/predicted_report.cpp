@@ -92,7 +92,9 @@ void group_charts(Section& sec, const std::string& backend, const std::string& p
   std::size_t axis_n = 0;
   std::vector<std::string> split;  // other varying parameters, few values each
   bool sweepable = true;
-  for (const auto& [k, vs] : values) {
+  for (const auto& entry : values) {
+    const std::string& k = entry.first;  // a name, not a structured binding: the lambda below captures it
+    const std::set<std::string>& vs = entry.second;
     if (vs.size() < 2) continue;
     const bool numeric = std::all_of(rows.begin(), rows.end(), [&](const SampleError* r) {
       return r->sample->parameters.contains(k) && as_number(r->sample->parameters.at(k));

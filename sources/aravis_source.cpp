@@ -26,10 +26,6 @@ namespace dtflop::sources {
 #ifdef DTFLOP_HAVE_ARAVIS
 namespace {
 
-double now_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
 // A GError's message, freed.
 std::string take(GError*& e) {
   std::string m = e ? e->message : "unknown error";
@@ -74,7 +70,7 @@ class AravisSource final : public FrameSource {
     // The first frame after opening may take longer (stream set-up, packet size negotiation).
     const double timeout_s = awaiting_first_ ? std::max(spec_.timeout_s, 5.0) : spec_.timeout_s;
     const auto timeout_us = static_cast<guint64>(timeout_s * 1e6);
-    const double start = now_s();
+    const double start = steady_seconds();
     for (;;) {
       ArvBuffer* b = arv_stream_timeout_pop_buffer(stream_, timeout_us);
       if (b == nullptr) {
@@ -88,7 +84,7 @@ class AravisSource final : public FrameSource {
         // A damaged frame is not given out; its id leaves a gap that next() counts as dropped.
         ++incomplete_;
         arv_stream_push_buffer(stream_, b);
-        if (now_s() - start > timeout_s) {
+        if (steady_seconds() - start > timeout_s) {
           why = fmt::format("camera '{}' sent only damaged frames for {:.3g} s", id_, timeout_s);
           close(true);
           return Grab::lost;
@@ -107,7 +103,7 @@ class AravisSource final : public FrameSource {
       f.bits = layout_.bits;
       f.sequence = arv_buffer_get_frame_id(b);
       f.timestamp_s = static_cast<double>(arv_buffer_get_timestamp(b)) * 1e-9;
-      f.arrival_s = now_s();
+      f.arrival_s = steady_seconds();
       arv_stream_push_buffer(stream_, b);
       awaiting_first_ = false;
       return Grab::frame;

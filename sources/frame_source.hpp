@@ -14,6 +14,7 @@
 // stream's first, and reopens a source that disconnected, with back-off, as often as allowed.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -22,6 +23,11 @@
 #include <opencv2/core.hpp>
 
 namespace dtflop::sources {
+
+// Seconds on the host's steady clock: when a frame arrived, and the live loop's own timings.
+inline double steady_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
 
 struct Frame {
   cv::Mat image;              // CV_8UC1 or CV_16UC1

@@ -18,10 +18,6 @@
 namespace dtflop::live {
 namespace {
 
-double now_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
 // Field access with the file and key in every message.
 class Reader {
  public:
@@ -294,7 +290,7 @@ LiveReport run_live(const LiveConfig& config, sources::FrameSource& source, dct:
   }
   double first_arrival = -1, last_end = 0;
   for (std::int64_t k = 0; config.max_frames == 0 || k < config.max_frames; ++k) {
-    const double w0 = now_s();
+    const double w0 = sources::steady_seconds();
     bool got = false;
     try {
       got = source.next(frame);
@@ -307,20 +303,20 @@ LiveReport run_live(const LiveConfig& config, sources::FrameSource& source, dct:
         rep.stopped_because = fmt::format("the source went away: {}", source.stats().last_error);
       break;
     }
-    rep.wait_seconds.push_back(now_s() - w0);
+    rep.wait_seconds.push_back(sources::steady_seconds() - w0);
     if (first_arrival < 0) first_arrival = frame.arrival_s;
     FrameRecord r;
     r.sequence = frame.sequence;
     r.timestamp_s = frame.timestamp_s;
     dct::FrameOutput out;
-    const double p0 = now_s();
+    const double p0 = sources::steady_seconds();
     try {
       out = backend.process(frame.image);
     } catch (const std::exception& e) {
       rep.stopped_because = fmt::format("frame {}: {}", frame.sequence, e.what());
       break;
     }
-    r.process_s = now_s() - p0;
+    r.process_s = sources::steady_seconds() - p0;
     for (const auto& f : out.fields)
       if (f.status == dct::PointStatus::ok) {
         ++r.valid_points;
@@ -333,7 +329,7 @@ LiveReport run_live(const LiveConfig& config, sources::FrameSource& source, dct:
     }
     r.dots = static_cast<int>(out.dots.size());
     r.matched = out.matches.matched;
-    const double c0 = now_s();
+    const double c0 = sources::steady_seconds();
     const std::size_t index = rep.frames.size() + 1;
     if (!dir.empty()) {
       dct::write_fields_csv(dir / fmt::format("frame_{:06d}.csv", index), backend.points(), out.fields);
@@ -347,7 +343,7 @@ LiveReport run_live(const LiveConfig& config, sources::FrameSource& source, dct:
                                         config.pipeline.points_y, v, dct::field_name(f), dct::field_unit(f)));
         }
     }
-    const double end = now_s();
+    const double end = sources::steady_seconds();
     r.write_s = end - c0;
     r.latency_s = end - frame.arrival_s;
     last_end = end;
@@ -451,7 +447,7 @@ LiveReport run_live_stereo(const LiveConfig& config, sources::FrameSource& left,
   }
   double first_arrival = -1, last_end = 0;
   for (std::int64_t k = 0; config.max_frames == 0 || k < config.max_frames; ++k) {
-    const double w0 = now_s();
+    const double w0 = sources::steady_seconds();
     bool got = false;
     try {
       got = pairs.next(fl, fr);
@@ -464,21 +460,21 @@ LiveReport run_live_stereo(const LiveConfig& config, sources::FrameSource& left,
         rep.stopped_because = fmt::format("a source went away: {}{}", left.stats().last_error, right.stats().last_error);
       break;
     }
-    rep.wait_seconds.push_back(now_s() - w0);
+    rep.wait_seconds.push_back(sources::steady_seconds() - w0);
     const double arrival = std::max(fl.arrival_s, fr.arrival_s);
     if (first_arrival < 0) first_arrival = arrival;
     FrameRecord r;
     r.sequence = fl.sequence;
     r.timestamp_s = fl.timestamp_s;
     dct::stereo::StereoFrame out;
-    const double p0 = now_s();
+    const double p0 = sources::steady_seconds();
     try {
       out = pipeline.process(fl.image, fr.image);
     } catch (const std::exception& e) {
       rep.stopped_because = fmt::format("frame pair {}/{}: {}", fl.sequence, fr.sequence, e.what());
       break;
     }
-    r.process_s = now_s() - p0;
+    r.process_s = sources::steady_seconds() - p0;
     int uz_points = 0;
     for (std::size_t i = 0; i < out.left.fields.size(); ++i) {
       const auto& f = out.left.fields[i];
@@ -500,7 +496,7 @@ LiveReport run_live_stereo(const LiveConfig& config, sources::FrameSource& left,
     r.dots = static_cast<int>(out.left.dots.size());
     r.matched = out.left.matches.matched;
     r.triangulated = out.triangulated;
-    const double c0 = now_s();
+    const double c0 = sources::steady_seconds();
     const std::size_t index = rep.frames.size() + 1;
     if (!dir.empty()) {
       dct::stereo::write_stereo_fields_csv(dir / fmt::format("frame_{:06d}.csv", index), pipeline.points(),
@@ -522,7 +518,7 @@ LiveReport run_live_stereo(const LiveConfig& config, sources::FrameSource& left,
                                       "u_z", "mm"));
       }
     }
-    const double end = now_s();
+    const double end = sources::steady_seconds();
     r.write_s = end - c0;
     r.latency_s = end - arrival;
     last_end = end;

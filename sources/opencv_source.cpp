@@ -21,10 +21,6 @@
 namespace dtflop::sources {
 namespace {
 
-double now_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
 // Colour to grey at the image's depth; 8- and 16-bit kept.
 cv::Mat grey_of(const cv::Mat& m) {
   cv::Mat g;
@@ -108,7 +104,7 @@ class CaptureReader final : public Reader {
     f.timestamp_s = std::isfinite(ms) && ms >= 0 ? ms / 1000.0 : 0.0;
     if (spec_.kind == SourceSpec::Kind::file && fps_ > 0 && f.timestamp_s == 0 && f.sequence > 0)
       f.timestamp_s = static_cast<double>(f.sequence) / fps_;
-    f.arrival_s = now_s();
+    f.arrival_s = steady_seconds();
     return true;
   }
   double fps() const override { return fps_; }
@@ -144,7 +140,7 @@ class ImageSequenceReader final : public Reader {
     f.bits = f.image.depth() == CV_8U ? 8 : 16;
     f.sequence = static_cast<std::uint64_t>(k_);
     f.timestamp_s = spec_.fps ? static_cast<double>(k_) / *spec_.fps : static_cast<double>(k_);
-    f.arrival_s = now_s();
+    f.arrival_s = steady_seconds();
     ++k_;
     return true;
   }
@@ -239,7 +235,7 @@ class OpenCvSource final : public FrameSource {
   // Frame k becomes available k/fps after the first; a full buffer loses its oldest frame.
   void produce() {
     const double period = 1.0 / reader_->fps();
-    const double t0 = now_s();
+    const double t0 = steady_seconds();
     std::uint64_t k = 0;
     for (;;) {
       Frame f;
@@ -251,7 +247,7 @@ class OpenCvSource final : public FrameSource {
         err = e.what();
       }
       const double due = t0 + static_cast<double>(k) * period;
-      const double t = now_s();
+      const double t = steady_seconds();
       if (got && t < due) std::this_thread::sleep_for(std::chrono::duration<double>(due - t));
       std::lock_guard lock(mutex_);
       if (stop_) return;

@@ -49,6 +49,10 @@ std::vector<std::pair<double, double>> normal_nodes(double mean, double sd, int 
 
 }  // namespace
 
+void accuracy_field_error(const std::string& field, const std::string& what) {
+  throw InputError(fmt::format("scenario: accuracy.{}: {}", field, what));
+}
+
 std::unique_ptr<AccuracyModel> make_accuracy_model(std::string_view workload, const nlohmann::json& needs) {
   if (needs.empty()) return std::make_unique<NoAccuracy>();  // a scenario that needs no accuracy
   for (const Entry& e : kModels)

@@ -43,6 +43,10 @@ class AccuracyModel {
 // (a scenario that needs no accuracy) gets a model that accepts everything (error 0).
 std::unique_ptr<AccuracyModel> make_accuracy_model(std::string_view workload, const nlohmann::json& needs);
 
+// Throws the InputError of a bad field of the scenario's `accuracy:` block ("scenario:
+// accuracy.FIELD: WHAT"), for the workloads' models.
+[[noreturn]] void accuracy_field_error(const std::string& field, const std::string& what);
+
 // ---- Workloads' models (one factory each) ----------------------------------------------------
 std::unique_ptr<AccuracyModel> make_rbe_accuracy(const nlohmann::json& needs);
 std::unique_ptr<AccuracyModel> make_dct_accuracy(const nlohmann::json& needs);

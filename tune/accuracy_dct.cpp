@@ -29,24 +29,20 @@ namespace dtflop::tune {
 
 namespace {
 
-[[noreturn]] void fail(const std::string& field, const std::string& what) {
-  throw InputError(fmt::format("scenario: accuracy.{}: {}", field, what));
-}
-
 class DctAccuracy final : public AccuracyModel {
  public:
   explicit DctAccuracy(const nlohmann::json& j) {
     for (const auto& [k, v] : j.items()) {
       if (k == "max-strain-rms") {
         if (!v.is_number() || !(v.get<double>() > 0 && v.get<double>() <= 1e6))
-          fail(k, fmt::format("{} is not a strain in microstrain in (0, 1e6]", v.dump()));
+          accuracy_field_error(k, fmt::format("{} is not a strain in microstrain in (0, 1e6]", v.dump()));
         max_rms_ = v.get<double>();
       } else if (k == "min-valid-points") {
         if (!v.is_number() || !(v.get<double>() > 0 && v.get<double>() <= 1))
-          fail(k, fmt::format("{} is not a share in (0, 1]", v.dump()));
+          accuracy_field_error(k, fmt::format("{} is not a share in (0, 1]", v.dump()));
         min_valid_ = v.get<double>();
       } else {
-        fail(k, "unknown field (expected max-strain-rms, min-valid-points)");
+        accuracy_field_error(k, "unknown field (expected max-strain-rms, min-valid-points)");
       }
     }
   }

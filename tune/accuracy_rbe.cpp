@@ -39,26 +39,22 @@ struct RbeNeeds {
   double cells_per_sigma = 2;
 };
 
-[[noreturn]] void fail(const std::string& field, const std::string& what) {
-  throw InputError(fmt::format("scenario: accuracy.{}: {}", field, what));
-}
-
 double number(const nlohmann::json& j, const char* field, double lo, double hi, const char* expected) {
-  if (!j.contains(field)) fail(field, fmt::format("missing; expected {}", expected));
+  if (!j.contains(field)) accuracy_field_error(field, fmt::format("missing; expected {}", expected));
   const auto& v = j[field];
   if (!v.is_number() || !(v.get<double>() >= lo && v.get<double>() <= hi))
-    fail(field, fmt::format("{} is not {} in [{}, {}]", v.dump(), expected, lo, hi));
+    accuracy_field_error(field, fmt::format("{} is not {} in [{}, {}]", v.dump(), expected, lo, hi));
   return v.get<double>();
 }
 
 std::pair<double, double> pair(const nlohmann::json& j, const char* field, double lo0, double hi0, double lo1,
                                double hi1, const char* expected) {
-  if (!j.contains(field)) fail(field, fmt::format("missing; expected {}", expected));
+  if (!j.contains(field)) accuracy_field_error(field, fmt::format("missing; expected {}", expected));
   const auto& v = j[field];
   if (!v.is_array() || v.size() != 2 || !v[0].is_number() || !v[1].is_number() ||
       !(v[0].get<double>() >= lo0 && v[0].get<double>() <= hi0) ||
       !(v[1].get<double>() >= lo1 && v[1].get<double>() <= hi1))
-    fail(field, fmt::format("{} is not {}", v.dump(), expected));
+    accuracy_field_error(field, fmt::format("{} is not {}", v.dump(), expected));
   return {v[0].get<double>(), v[1].get<double>()};
 }
 
@@ -69,7 +65,7 @@ class RbeAccuracy final : public AccuracyModel {
                                                 "kernel-mass",  "likelihood-sigma", "cells-per-sigma"};
     for (const auto& [k, _] : j.items())
       if (!known.count(k))
-        fail(k, "unknown field (expected area, time-step, target-speed, target-heading, target-velocity, kernel-mass, "
+        accuracy_field_error(k, "unknown field (expected area, time-step, target-speed, target-heading, target-velocity, kernel-mass, "
                 "likelihood-sigma, cells-per-sigma)");
     std::tie(n_.area_x, n_.area_y) = pair(j, "area", 1e-3, 1e5, 1e-3, 1e5, "[x, y] in km, each in [0.001, 1e5]");
     n_.dt = number(j, "time-step", 1e-6, 1e6, "the time step in seconds");
@@ -81,16 +77,16 @@ class RbeAccuracy final : public AccuracyModel {
           pair(j, "target-heading", -10, 10, 0, 10, "[mean, standard deviation] in rad, mean in [-10, 10], sd in [0, 10]");
     if (j.contains("target-velocity")) {
       if (j.contains("target-speed") || j.contains("target-heading"))
-        fail("target-velocity", "give either target-velocity (x and y) or target-speed and target-heading, not both");
+        accuracy_field_error("target-velocity", "give either target-velocity (x and y) or target-speed and target-heading, not both");
       const auto& v = j["target-velocity"];
       if (!v.is_object() || !v.contains("x") || !v.contains("y") || v.size() != 2)
-        fail("target-velocity", "expected {x: [mean, sd], y: [mean, sd]} in km/s");
+        accuracy_field_error("target-velocity", "expected {x: [mean, sd], y: [mean, sd]} in km/s");
       n_.cartesian = true;
       const char* what = "[mean, standard deviation] in km/s, mean in [-1000, 1000], sd in [0, 1000]";
       std::tie(n_.vx_mean, n_.vx_sd) = pair(v, "x", -1e3, 1e3, 0, 1e3, what);
       std::tie(n_.vy_mean, n_.vy_sd) = pair(v, "y", -1e3, 1e3, 0, 1e3, what);
     } else if (!(n_.v_mean > 0 || n_.v_sd > 0)) {
-      fail("target-speed", "mean and spread are both 0: the target does not move");
+      accuracy_field_error("target-speed", "mean and spread are both 0: the target does not move");
     }
     if (j.contains("kernel-mass")) n_.mass = number(j, "kernel-mass", 0.5, 0.999999, "a probability");
     n_.sigma = number(j, "likelihood-sigma", 1e-9, 1e5, "the sharpest likelihood's standard deviation in km");

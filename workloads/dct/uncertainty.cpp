@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <numbers>
 #include <unordered_map>
 
 #include <Eigen/Dense>
@@ -14,7 +15,6 @@
 namespace dtflop::dct {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 double pixel(const cv::Mat& img, int x, int y) {
   return img.depth() == CV_16U ? img.at<std::uint16_t>(y, x) : img.at<std::uint8_t>(y, x);
@@ -26,7 +26,7 @@ struct Ring {
   double r1 = 0, r2 = 0;
 };
 Ring ring_of(const DotObservation& d, int margin) {
-  const double req = std::sqrt(std::max(1, d.area) / kPi);
+  const double req = std::sqrt(std::max(1, d.area) / std::numbers::pi);
   Ring r;
   r.r0 = req + margin + 0.5;
   r.r1 = r.r0 + 1;
@@ -84,7 +84,7 @@ std::vector<std::uint8_t> isolated(const std::vector<DotObservation>& dots, int 
   double rmax = 0;
   for (const auto& d : dots) {
     c.push_back({d.x, d.y});
-    rmax = std::max(rmax, std::sqrt(std::max(1, d.area) / kPi));
+    rmax = std::max(rmax, std::sqrt(std::max(1, d.area) / std::numbers::pi));
   }
   PointIndex index(c);
   std::vector<std::uint32_t> idx;

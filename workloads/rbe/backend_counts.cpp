@@ -177,7 +177,7 @@ CostCounts cuda_resident_counts(const Shape& s, const Layout& l, int sms) {
   // Waves of a kernel of n blocks, and the blocks counted for it: every multiprocessor runs as
   // many rounds as the busiest one (backend_counts.hpp).
   const std::int64_t S = sms;
-  auto waves = [S](std::int64_t n) { return resident::ceil_div(n, S); };
+  auto waves = [S](std::int64_t n) { return ceil_div(n, S); };
   CostCounts c;
   c.P = 4;
   c.precision = Precision::fp32;
@@ -191,7 +191,7 @@ CostCounts cuda_resident_counts(const Shape& s, const Layout& l, int sms) {
   // A chunked split pass fills its tile and its chunk of coefficients once per chunk.
   auto fills = [&](std::int64_t blocks, int regs, const resident::TileGeometry& g, std::int64_t tile_values) {
     const int occ = resident::blocks_per_sm(p.threads, regs, g.smem_bytes);
-    return resident::ceil_div(waves(blocks), occ) * S * g.chunks * (tile_values + g.kx_len + g.ky_len);
+    return ceil_div(waves(blocks), occ) * S * g.chunks * (tile_values + g.kx_len + g.ky_len);
   };
   if (p.passes == Layout::Passes::fused) {
     const auto g = resident::fused_geometry(s, l);
@@ -221,7 +221,7 @@ CostCounts cuda_resident_run_counts(const Shape& s, const Layout& l, int sms, st
   if (steps < 1) throw InputError(fmt::format("a run needs at least one step, got {}", steps));
   if (chunk < 1) throw InputError(fmt::format("chunk of {} steps must be at least 1", chunk));
   CostCounts c = cuda_resident_counts(s, l, sms).scaled(steps);
-  const std::int64_t chunks = resident::ceil_div(steps, chunk);
+  const std::int64_t chunks = ceil_div(steps, chunk);
   // Per chunk: zero its sums (2 values each, written), carry the last sum in and out (two
   // 8-byte device copies, read + write), copy the chunk's sums to the host in one copy.
   c.N_GG += 2 * steps + chunks * 2 * (2 + 2);

@@ -96,8 +96,8 @@ CostCounts fused_rows_counts(const Shape& s, const Layout& l, int sms, std::int6
                                  to_string(l), s.Ix, s.Iy));
   const auto g = resident::fused_geometry(s, l);
   const std::int64_t W = p.tile_w, H = p.tile_h, S = sms;
-  const std::int64_t B = p.blocks_x * resident::ceil_div(rows, H);
-  const std::int64_t q = resident::ceil_div(B, S);
+  const std::int64_t B = p.blocks_x * ceil_div(rows, H);
+  const std::int64_t q = ceil_div(B, S);
   const int occ = resident::blocks_per_sm(p.threads, resident::kFusedRegs, g.smem_bytes);
   CostCounts c;
   c.P = 4;
@@ -107,7 +107,7 @@ CostCounts fused_rows_counts(const Shape& s, const Layout& l, int sms, std::int6
   c.atomics = B;
   c.N_G = q * S * (2 * s.Ix * W * (H + s.Iy - 1) + 2 * s.Iy * W * H + 3 * W * H + 2);
   c.N_GG = 3 * rows * s.nx + s.Ix + s.Iy + 2 + 2 * B;
-  c.N_GS = resident::ceil_div(q, occ) * S * (std::int64_t{g.in_rows} * g.in_cols + g.kx_len + g.ky_len);
+  c.N_GS = ceil_div(q, occ) * S * (std::int64_t{g.in_rows} * g.in_cols + g.kx_len + g.ky_len);
   return c;
 }
 
@@ -187,7 +187,7 @@ CostCounts cuda_bands_run_counts(const Shape& s, const Layout& l, int sms, const
   if (steps < 1) throw InputError(fmt::format("a run needs at least one step, got {}", steps));
   if (segment < 1) throw InputError(fmt::format("a segment of {} steps must be at least 1", segment));
   const BandPlan plan = band_plan(s, placement.partitions);
-  const std::int64_t segments = resident::ceil_div(steps, segment);
+  const std::int64_t segments = ceil_div(steps, segment);
   std::vector<CostCounts> devices;
   bool first = true;
   for (const auto& bands : bands_by_device(plan, placement)) {

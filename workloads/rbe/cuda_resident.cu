@@ -1132,7 +1132,7 @@ void FusedSweep::launch(int prev, std::int64_t begin, std::int64_t end, const do
   a.y_begin = int(begin);
   a.y_end = int(end);
   const dim3 block(unsigned(m.layout.block_x), unsigned(m.layout.block_y));
-  const dim3 grid(unsigned(m.plan.blocks_x), unsigned(resident::ceil_div(end - begin, m.plan.tile_h)));
+  const dim3 grid(unsigned(m.plan.blocks_x), unsigned(ceil_div(end - begin, m.plan.tile_h)));
   switch (m.layout.cells_per_thread) {
     case 1: rbe_resident_fused<1><<<grid, block, m.plan.smem_bytes, stream>>>(a, m.maps[prev]); break;
     case 2: rbe_resident_fused<2><<<grid, block, m.plan.smem_bytes, stream>>>(a, m.maps[prev]); break;

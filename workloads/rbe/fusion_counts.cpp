@@ -15,7 +15,6 @@ void check(std::int64_t cells, std::int64_t platforms) {
 void check_sms(int sms) {
   if (sms < 1) throw InputError(fmt::format("a GPU of {} multiprocessors cannot run the fusion; give at least 1", sms));
 }
-std::int64_t ceil_div(std::int64_t a, std::int64_t b) { return (a + b - 1) / b; }
 // The host's share of the log-linear pool: w = 1 / m.
 std::int64_t weight_flops(FusionRule rule) { return rule == FusionRule::loglinear ? 1 : 0; }
 

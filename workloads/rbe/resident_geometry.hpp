@@ -87,8 +87,6 @@ struct TileGeometry {
   std::size_t smem_bytes = 0;
 };
 
-inline std::int64_t ceil_div(std::int64_t a, std::int64_t b) { return (a + b - 1) / b; }
-
 // Blocks of `smem` bytes of dynamic shared memory (and the 1 KiB the runtime keeps for each) one
 // multiprocessor's shared memory holds.
 inline std::int64_t blocks_by_shared(std::size_t smem) {

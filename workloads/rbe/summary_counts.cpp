@@ -8,9 +8,6 @@
 #include "workloads/rbe/fusion_counts.hpp"
 
 namespace dtflop::rbe {
-namespace {
-std::int64_t ceil_div(std::int64_t a, std::int64_t b) { return (a + b - 1) / b; }
-}  // namespace
 
 WindowCells window_cells(const Grid& grid, const Footprint& f, std::span<const Point> at) {
   check_footprint(f, at);
