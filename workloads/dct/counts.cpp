@@ -187,14 +187,11 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
   // Host -> device: the region of interest, then the match table (one int per reference dot).
   c.N_CG = roi_values + s.dots;
   c.transfers_CG = 2;
-  // Device -> host: the component count [and Otsu's threshold], 7 arrays of component records
-  // (centroid x, y as doubles; weight, status, area, root as 4-byte values; 3 pixel counts),
-  // and the fields.
+  // Device -> host, three copies: the component count [and Otsu's threshold], the component
+  // records (kCudaRecordBytes each, in one array) and the fields.
   const std::int64_t field_bytes = static_cast<std::int64_t>(sizeof(FieldValue<float>));
-  add_copies(c.copies_GC, 4, s.otsu ? 2 : 1);
-  add_copies(c.copies_GC, 8 * nc, 2);
-  add_copies(c.copies_GC, 4 * nc, 4);
-  add_copies(c.copies_GC, 12 * nc, 1);
+  add_copies(c.copies_GC, s.otsu ? 8 : 4, 1);
+  add_copies(c.copies_GC, kCudaRecordBytes * nc, 1);
   add_copies(c.copies_GC, field_bytes * s.points, 1);
   std::int64_t bytes_GC = 0;
   for (const auto& k : c.copies_GC) {

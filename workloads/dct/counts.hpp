@@ -125,5 +125,8 @@ struct CudaLayout {
 CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory);
 // Bytes of the frame's upload (the region of interest).
 std::int64_t cuda_upload_bytes(const FrameShape& s);
+// Bytes of one component's records that the cuda backend reads back, in one copy a frame: centroid
+// x and y (double), weight (float), status, area, root (int) and 3 pixel counts (int).
+inline constexpr std::int64_t kCudaRecordBytes = 44;
 
 }  // namespace dtflop::dct

@@ -112,6 +112,27 @@ class HostArray {
   std::size_t n_ = 0, cap_ = 0;
 };
 
+// The component records the host reads back, in one array so that one copy brings them all:
+// x, y (double), weight (float), status, area, root (int) and 3 pixel counts (int), each nc long,
+// the 8-byte arrays first. kCudaRecordBytes a component, as cuda_counts declares the copy.
+struct Records {
+  double* x;
+  double* y;
+  float* weight;
+  int* status;
+  int* area;
+  int* root;
+  int* pixels;
+  static Records over(void* base, std::size_t nc) {
+    auto* d = static_cast<double*>(base);
+    auto* w = reinterpret_cast<float*>(d + 2 * nc);
+    auto* i = reinterpret_cast<int*>(w + nc);
+    return {d, d + nc, w, i, i + nc, i + 2 * nc, i + 3 * nc};
+  }
+  static std::size_t doubles(std::size_t nc) { return (static_cast<std::size_t>(kCudaRecordBytes) * nc + 7) / 8; }
+};
+static_assert(kCudaRecordBytes == 2 * sizeof(double) + sizeof(float) + 6 * sizeof(int));
+
 double host_now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
@@ -232,7 +253,7 @@ class CudaBackend final : public Backend {
     ev_.record(6, stream_);
     DTFLOP_CUDA(cudaMemcpyAsync(d_match_.ensure(nf), match_.data(), nf * sizeof(int), cudaMemcpyHostToDevice, stream_));
     ev_.record(7, stream_);
-    launch_displacement(static_cast<int>(nf), d_ref_.get(), d_cx_.get(), d_cy_.get(), d_match_.get(), d_U_.ensure(nf),
+    launch_displacement(static_cast<int>(nf), d_ref_.get(), d_cx_now_, d_cy_now_, d_match_.get(), d_U_.ensure(nf),
                         d_valid_.ensure(nf), stream_);
     const int bp = options().layout.block_points;
     FieldValue<float>* d_out = d_fields_.ensure(nm);
@@ -320,21 +341,21 @@ class CudaBackend final : public Backend {
     int* L = d_labels_.ensure(static_cast<std::size_t>(n));
     const int dark = options().analysis.polarity == Polarity::dark_dots;
     const bool wide = sizeof(Pix) == 2;
+    // [0] the component count, [1] Otsu's threshold: one copy brings both back.
+    int* d_count = d_count_.ensure(2);
     int* d_T = nullptr;
     int T_fixed = 0;
     if (options().analysis.method == ThresholdMethod::otsu) {
-      d_T = d_T_.ensure(1);
+      d_T = d_count + 1;
       launch_otsu(d_img, wide, r.width, r.height, d_hist_.ensure(256), d_T, bpx, stream_);
     } else {
       T_fixed = static_cast<int>(wide ? std::floor(options().analysis.threshold * 257) : std::floor(options().analysis.threshold));
     }
-    int* d_count = d_count_.ensure(2);
     launch_labels(d_img, wide, r.width, r.height, d_T, T_fixed, dark != 0, L, d_count, bpx, stream_);
     ev_.record(2, stream_);
     h_scalars_.resize(2);
     h_scalars_[1] = T_fixed;
-    DTFLOP_CUDA(cudaMemcpyAsync(&h_scalars_[0], d_count, sizeof(int), cudaMemcpyDeviceToHost, stream_));
-    if (d_T) DTFLOP_CUDA(cudaMemcpyAsync(&h_scalars_[1], d_T, sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    DTFLOP_CUDA(cudaMemcpyAsync(h_scalars_.data(), d_count, (d_T ? 2 : 1) * sizeof(int), cudaMemcpyDeviceToHost, stream_));
     ev_.record(3, stream_);
     DTFLOP_CUDA(cudaStreamSynchronize(stream_));
     const int count = h_scalars_[0], T_used = h_scalars_[1];
@@ -343,50 +364,46 @@ class CudaBackend final : public Backend {
     f.stats.threshold = T_used;
     const std::size_t nc = static_cast<std::size_t>(count);
     if (nc == 0) return f;
-    CompStats cs{d_area_.ensure(nc), d_minx_.ensure(nc), d_miny_.ensure(nc),
-                 d_maxx_.ensure(nc), d_maxy_.ensure(nc), d_root_.ensure(nc)};
+    if (count > 2147483647 / 2) throw std::runtime_error("too many components");
+    const Records dr = Records::over(d_records_.ensure(Records::doubles(nc)), nc);
+    d_cx_now_ = dr.x;
+    d_cy_now_ = dr.y;
+    CompStats cs{dr.area, d_minx_.ensure(nc), d_miny_.ensure(nc), d_maxx_.ensure(nc), d_maxy_.ensure(nc), dr.root};
     launch_stats(L, r.width, r.height, cs, count, bpx, stream_);
     const AnalysisOptions& a = options().analysis;
     const DotParams dp{a.min_area, a.max_area, static_cast<float>(a.max_aspect), static_cast<float>(a.min_fill),
                        a.margin, a.reject_border ? 1 : 0, dark};
-    const DotOut dout{d_cx_.ensure(nc), d_cy_.ensure(nc), d_weight_.ensure(nc), d_status_.ensure(nc),
-                      d_pixels_.ensure(3 * nc)};
-    if (count > 2147483647 / 2) throw std::runtime_error("too many components");
+    const DotOut dout{dr.x, dr.y, dr.weight, dr.status, dr.pixels};
     launch_centroids(d_img, wide, L, r.width, r.height, roi, cs, dp, dout, count, options().layout.block_dots, stream_);
     ev_.record(4, stream_);
-    h_cx_.resize(nc); h_cy_.resize(nc); h_w_.resize(nc); h_status_.resize(nc); h_area_.resize(nc);
-    h_root_.resize(nc); h_pixels_.resize(3 * nc);
-    DTFLOP_CUDA(cudaMemcpyAsync(h_cx_.data(), dout.x, nc * sizeof(double), cudaMemcpyDeviceToHost, stream_));
-    DTFLOP_CUDA(cudaMemcpyAsync(h_cy_.data(), dout.y, nc * sizeof(double), cudaMemcpyDeviceToHost, stream_));
-    DTFLOP_CUDA(cudaMemcpyAsync(h_w_.data(), dout.weight, nc * sizeof(float), cudaMemcpyDeviceToHost, stream_));
-    DTFLOP_CUDA(cudaMemcpyAsync(h_status_.data(), dout.status, nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
-    DTFLOP_CUDA(cudaMemcpyAsync(h_area_.data(), cs.area, nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
-    DTFLOP_CUDA(cudaMemcpyAsync(h_root_.data(), cs.root, nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
-    DTFLOP_CUDA(cudaMemcpyAsync(h_pixels_.data(), dout.pixels, 3 * nc * sizeof(int), cudaMemcpyDeviceToHost, stream_));
+    h_records_.resize(Records::doubles(nc));
+    DTFLOP_CUDA(cudaMemcpyAsync(h_records_.data(), d_records_.get(), static_cast<std::size_t>(kCudaRecordBytes) * nc,
+                                cudaMemcpyDeviceToHost, stream_));
     ev_.record(5, stream_);
     DTFLOP_CUDA(cudaStreamSynchronize(stream_));
     const double th = host_now();
+    const Records hr = Records::over(h_records_.data(), nc);
     std::vector<int> kept;
     for (std::size_t k = 0; k < nc; ++k) {
-      f.foreground += h_area_[k];
-      switch (h_status_[k]) {
+      f.foreground += hr.area[k];
+      switch (hr.status[k]) {
         case 0: kept.push_back(static_cast<int>(k)); break;
         case 1: ++f.stats.rejected_area; break;
         case 2: ++f.stats.rejected_shape; break;
         case 3: ++f.stats.rejected_border; break;
         default: ++f.stats.rejected_contrast; break;
       }
-      f.stats.window_pixels += h_pixels_[3 * k];
-      f.stats.ring_pixels += h_pixels_[3 * k + 1];
-      f.stats.weighted_pixels += h_pixels_[3 * k + 2];
+      f.stats.window_pixels += hr.pixels[3 * k];
+      f.stats.ring_pixels += hr.pixels[3 * k + 1];
+      f.stats.weighted_pixels += hr.pixels[3 * k + 2];
     }
-    std::sort(kept.begin(), kept.end(), [&](int x, int y) { return h_root_[x] < h_root_[y]; });
+    std::sort(kept.begin(), kept.end(), [&](int x, int y) { return hr.root[x] < hr.root[y]; });
     for (int k : kept) {
       DotObservation d;
-      d.x = h_cx_[k];
-      d.y = h_cy_[k];
-      d.weight = h_w_[k];
-      d.area = h_area_[k];
+      d.x = hr.x[k];
+      d.y = hr.y[k];
+      d.weight = hr.weight[k];
+      d.area = hr.area[k];
       f.dots.push_back(d);
       f.comp_of_dot.push_back(k);
     }
@@ -397,11 +414,13 @@ class CudaBackend final : public Backend {
   cudaStream_t stream_ = nullptr;
   Events ev_;
   PinnedBuffer pinned_;
-  DeviceBuffer<int> d_labels_, d_count_, d_T_, d_area_, d_minx_, d_miny_, d_maxx_, d_maxy_, d_root_, d_status_,
-      d_pixels_, d_match_, d_offsets_, d_lut_, d_tri_, d_tri_dots_;
+  DeviceBuffer<int> d_labels_, d_count_, d_minx_, d_miny_, d_maxx_, d_maxy_, d_match_, d_offsets_, d_lut_, d_tri_,
+      d_tri_dots_;
   DeviceBuffer<unsigned int> d_hist_;
-  DeviceBuffer<double> d_cx_, d_cy_;
-  DeviceBuffer<float> d_weight_, d_rho_, d_N_, d_coef_, d_tri_gx_, d_tri_gy_;
+  DeviceBuffer<double> d_records_;  // Records::over it
+  double* d_cx_now_ = nullptr;       // this frame's centroids, in d_records_
+  double* d_cy_now_ = nullptr;
+  DeviceBuffer<float> d_rho_, d_N_, d_coef_, d_tri_gx_, d_tri_gy_;
   DeviceBuffer<double2> d_ref_, d_pts_;
   DeviceBuffer<float2> d_U_;
   DeviceBuffer<unsigned char> d_valid_, d_geom_;
@@ -414,10 +433,8 @@ class CudaBackend final : public Backend {
   } d_img_;
   // What the device copies to and from the host, in the frames' kind of host memory.
   const bool pinned_host_ = options().pinned_frames;
-  HostArray<double> h_cx_{pinned_host_}, h_cy_{pinned_host_};
-  HostArray<float> h_w_{pinned_host_};
-  HostArray<int> h_status_{pinned_host_}, h_area_{pinned_host_}, h_root_{pinned_host_}, h_pixels_{pinned_host_},
-      match_{pinned_host_}, h_scalars_{pinned_host_};
+  HostArray<double> h_records_{pinned_host_};  // Records::over it
+  HostArray<int> match_{pinned_host_}, h_scalars_{pinned_host_};
   HostArray<FieldValue<float>> host_fields_{pinned_host_};
 };
 
