@@ -17,6 +17,12 @@ function(dtflop_library name)
     list(APPEND srcs ${A_CUDA_SOURCES})
   endif()
   add_library(${name} STATIC ${srcs})
+  # Unity batches are for the C++ sources (DTFLOP_UNITY_BUILD): each .cu file is compiled alone.
+  set(cu_srcs ${srcs})
+  list(FILTER cu_srcs INCLUDE REGEX "\\.cu$")
+  if(cu_srcs)
+    set_source_files_properties(${cu_srcs} TARGET_DIRECTORY ${name} PROPERTIES SKIP_UNITY_BUILD_INCLUSION ON)
+  endif()
   set_property(GLOBAL APPEND PROPERTY DTFLOP_LIBRARIES ${name})
   # Headers are included as "model/profile.hpp": from the source tree, or from
   # <prefix>/include/dtflop once installed (cmake/DtflopInstall.cmake).

@@ -191,7 +191,7 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
   // records (kCudaRecordBytes each, in one array) and the fields.
   const std::int64_t field_bytes = static_cast<std::int64_t>(sizeof(FieldValue<float>));
   add_copies(c.copies_GC, s.otsu ? 8 : 4, 1);
-  add_copies(c.copies_GC, kCudaRecordBytes * nc, 1);
+  if (nc > 0) add_copies(c.copies_GC, kCudaRecordBytes * nc, 1);  // none: no records, no wait for them
   add_copies(c.copies_GC, field_bytes * s.points, 1);
   std::int64_t bytes_GC = 0;
   for (const auto& k : c.copies_GC) {
@@ -207,7 +207,9 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
            + 2 * s.window_pixels + 2 * s.weighted_pixels  // centroids
            + 6 * s.dots                   // displacements
            + field_values(s);
-  c.launches = 9;
+  // Without components the statistics and centroid kernels (3 launches) and the records' wait
+  // are left out (such a frame then fails its matching).
+  c.launches = nc > 0 ? 9 : 6;
   if (s.otsu) {
     c.N_GG += roi_values + 256;  // the histogram reads the frame; Otsu's kernel reads the 256 bins once
     c.launches += 2;
@@ -224,7 +226,7 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
   c.N_C = 0;
   // The host waits for the device three times a frame: for the component count, for the
   // component records, and for the fields.
-  c.host_waits = 3;
+  c.host_waits = nc > 0 ? 3 : 2;
   // The host matches the frame's dots to the reference (a k-d tree): its only counted CPU work.
   c.tree_steps = s.tree_steps;
   return c;

@@ -363,7 +363,12 @@ class CudaBackend final : public Backend {
     f.stats.components = count;
     f.stats.threshold = T_used;
     const std::size_t nc = static_cast<std::size_t>(count);
-    if (nc == 0) return f;
+    if (nc == 0) {  // no records to read: the centroid and download phases are empty
+      d_cx_now_ = d_cy_now_ = nullptr;
+      ev_.record(4, stream_);
+      ev_.record(5, stream_);
+      return f;
+    }
     if (count > 2147483647 / 2) throw std::runtime_error("too many components");
     const Records dr = Records::over(d_records_.ensure(Records::doubles(nc)), nc);
     d_cx_now_ = dr.x;

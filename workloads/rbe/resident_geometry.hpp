@@ -37,6 +37,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "model/cost_counts.hpp"  // ceil_div
 #include "workloads/rbe/backend.hpp"
 
 namespace dtflop::rbe::resident {

@@ -99,6 +99,13 @@ TEST(DctCounts, CudaMatchesFormulas) {
   EXPECT_EQ(c.launches, 11);
   EXPECT_EQ(c.P, 4);
   EXPECT_EQ(c.host_memory, HostMemory::pinned);
+  // A frame without components: no statistics or centroid kernels, no records to wait for.
+  FrameShape none = s;
+  none.components = 0;
+  const CostCounts z = cuda_counts(none, HostMemory::pinned);
+  EXPECT_EQ(z.launches, 8);
+  EXPECT_EQ(z.host_waits, 2);
+  EXPECT_EQ(z.copies_GC, (std::vector<CopySize>{{8, 1}, {field * 2048, 1}}));
   s.otsu = false;
   s.interp = Interp::fe;
   s.support_entries = 2048 * 90;  // FE: recovery triangles

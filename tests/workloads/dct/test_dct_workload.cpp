@@ -213,7 +213,10 @@ TEST(DctWorkload, AStoreMeasuredBeforeTheAddedParametersKeepsItsKeysAndCounts) {
     const json& k = j.at("counts");
     const std::int64_t steps = j.at("steps").get<std::int64_t>();
     EXPECT_EQ(est.launches * steps, k.at("launches").get<std::int64_t>()) << j.at("key");
-    EXPECT_EQ(est.transfers_GC * steps, k.at("transfers_GC").get<std::int64_t>()) << j.at("key");
+    // The store predates the cuda records' single copy (2026-11-27): its frames (Otsu's threshold)
+    // copied back the count and the threshold apart and the records in 7 arrays, 7 copies more.
+    const std::int64_t copies_since = b.name() == "cuda" ? 7 : 0;
+    EXPECT_EQ((est.transfers_GC + copies_since) * steps, k.at("transfers_GC").get<std::int64_t>()) << j.at("key");
     ++samples;
   }
   EXPECT_EQ(samples, 30);
