@@ -21,12 +21,16 @@ struct Cloud {
 using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Cloud>, Cloud, 2, std::uint32_t>;
 }  // namespace
 
+// nanoflann 1.4 and later (Debian 12 ships 1.4.2) build the index in the tree's constructor; a
+// buildIndex() after it built the whole tree a second time (the matching's trees were built twice
+// until 2026-11-27, against the one build match_tree_steps counts and the cpu-tree probe times).
+static_assert(NANOFLANN_VERSION >= 0x140, "nanoflann 1.4 or later: its constructor builds the index");
+
 struct PointIndex::Impl {
   Cloud cloud;
   Tree tree;
-  explicit Impl(const std::vector<Vec2>& p) : cloud{&p}, tree(2, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(kKdTreeLeaf)) {
-    tree.buildIndex();
-  }
+  explicit Impl(const std::vector<Vec2>& p)
+      : cloud{&p}, tree(2, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(kKdTreeLeaf)) {}
 };
 
 PointIndex::PointIndex(const std::vector<Vec2>& points) : impl_(std::make_unique<Impl>(points)) {}
