@@ -7,20 +7,24 @@
 // component's window, every background window pixel reading the labels of its 5 x 5 neighbourhood
 // through a bounds-checked accessor (one step a window pixel and one a label read): the steps the
 // workload counts as pixel_steps (docs/model.md 2.6). The time of a pass over its steps gives
-// L_pixel on one thread (cpu-seq), and L_pixel_all on every usable CPU (cpu-par: OpenCV's threads
-// for the threshold and the labelling, the windows split between them, the histogram on one).
+// L_pixel on one thread (cpu-seq: the median over several placements of the thread,
+// probes/placements.hpp), and L_pixel_all on every usable CPU (cpu-par: OpenCV's threads for the
+// threshold and the labelling, the windows split between them, the histogram on one).
 #include <array>
 #include <chrono>
 #include <cstdint>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "model/stats.hpp"
 #include "probes/measure.hpp"
 #include "probes/opencv_threads.hpp"
+#include "probes/placements.hpp"
 #include "probes/probe.hpp"
 #include "probes/team.hpp"
 
@@ -137,12 +141,12 @@ Steps pass(const Frame& f, Buffers& b, int threads) {
   return s;
 }
 
-// L_pixel (threads = 1) or L_pixel_all: the median time of a pass over its steps.
-Measurement measure(const Frame& f, int reps, int threads) {
+// The time of a pass a step on `threads` threads: `reps` timed passes after an untimed one, each
+// checked. Returns the per-step times; `steps` is a pass's step count.
+std::vector<double> time_passes(const Frame& f, int reps, int threads, std::int64_t& steps) {
   const std::int64_t window = static_cast<std::int64_t>(kDiscs) * (2 * (kRadius + kGrow) + 1) * (2 * (kRadius + kGrow) + 1);
   Buffers b;
   std::vector<double> per_step;
-  std::int64_t steps = 0;
   for (int k = -1; k < reps; ++k) {  // k = -1: warm-up, untimed
     const auto t0 = std::chrono::steady_clock::now();
     const Steps s = pass(f, b, threads);
@@ -159,28 +163,49 @@ Measurement measure(const Frame& f, int reps, int threads) {
     steps = s.steps;
     if (k >= 0) per_step.push_back(t / static_cast<double>(s.steps));
   }
-  const bool all = threads > 1;
-  return time_measurement(
-      all ? "pixel_all" : "pixel",
-      fmt::format("one step of the image analysis' pixel work ({})", all ? fmt::format("{} threads", threads) : "one thread"),
-      per_step, all ? Param::L_pixel_all : Param::L_pixel,
-      fmt::format("a 256-bin histogram of a {0}x{0} 8-bit frame, OpenCV's threshold and 8-connected labelling with "
-                  "statistics, and the classification of {1} discs' windows (5x5 label scans), {2} steps (docs/model.md "
-                  "2.6) on {3}; time / steps, median of {4}",
-                  kSide, kDiscs, steps, all ? fmt::format("{} threads", threads) : "one thread", reps));
+  return per_step;
+}
+
+std::string what(std::int64_t steps) {
+  return fmt::format("a 256-bin histogram of a {0}x{0} 8-bit frame, OpenCV's threshold and 8-connected labelling with "
+                     "statistics, and the classification of {1} discs' windows (5x5 label scans), {2} steps "
+                     "(docs/model.md 2.6)",
+                     kSide, kDiscs, steps);
+}
+
+// L_pixel: one thread, the median over placements (probes/placements.hpp) of each one's median.
+Measurement measure_one(const Frame& f, int reps, Effort effort) {
+  std::int64_t steps = 0;
+  const Placed placed =
+      on_placements(latency_placements(effort), [&] { return summarize(time_passes(f, reps, 1, steps)).median; });
+  return time_measurement("pixel", "one step of the image analysis' pixel work (one thread)", placed.values,
+                          Param::L_pixel,
+                          fmt::format("{} on one thread; time / steps, the median over {} of the median of {} each",
+                                      what(steps), describe_placements(placed.cpus), reps));
+}
+
+// L_pixel_all: every usable CPU, the median of the passes.
+Measurement measure_all(const Frame& f, int reps, int threads) {
+  std::int64_t steps = 0;
+  const std::vector<double> per_step = time_passes(f, reps, threads, steps);
+  return time_measurement("pixel_all", fmt::format("one step of the image analysis' pixel work ({} threads)", threads),
+                          per_step, Param::L_pixel_all,
+                          fmt::format("{} on {} threads; time / steps, median of {}", what(steps), threads, reps));
 }
 
 ProbeReport run(const ProbeOptions& o) {
   ProbeReport r;
-  const int reps = o.effort == Effort::full ? 31 : o.effort == Effort::quick ? 11 : 3;
+  const int reps = o.effort == Effort::full ? 11 : o.effort == Effort::quick ? 5 : 2;
   const Frame f = make_frame();
-  r.measurements.push_back(measure(f, reps, 1));
+  r.measurements.push_back(measure_one(f, reps, o.effort));
+  const Stats& one = r.measurements[0].stats;
   std::string all;
   if (const int threads = usable_cpus(); threads > 1) {
-    r.measurements.push_back(measure(f, reps, threads));
+    r.measurements.push_back(measure_all(f, o.effort == Effort::full ? 31 : o.effort == Effort::quick ? 11 : 3, threads));
     all = fmt::format(", {:.2f} ns on {} threads", r.measurements.back().value * 1e9, threads);
   }
-  o.say(fmt::format("  pixel step: {:.2f} ns on one thread{}", r.measurements[0].value * 1e9, all));
+  o.say(fmt::format("  pixel step: {:.2f} ns on one thread (placements {:.2f} .. {:.2f} ns){}", one.median * 1e9,
+                    one.min * 1e9, one.max * 1e9, all));
   return r;
 }
 

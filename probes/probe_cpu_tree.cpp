@@ -4,7 +4,8 @@
 // nanoflann tree over n points (10 per leaf), then a search for the 2 nearest around each point,
 // moved by under half the spacing; the time of a repetition over its steps, counted by the
 // convention the workloads count them with (tree_build_steps, tree_search_steps in
-// model/cost_counts.hpp), gives L_tree.
+// model/cost_counts.hpp), gives L_tree: the median over several placements of the thread
+// (probes/placements.hpp), whose spread is the parameter's.
 #include <chrono>
 #include <cstdint>
 #include <random>
@@ -14,7 +15,9 @@
 #include <nanoflann.hpp>
 
 #include "model/cost_counts.hpp"
+#include "model/stats.hpp"
 #include "probes/measure.hpp"
+#include "probes/placements.hpp"
 #include "probes/probe.hpp"
 
 namespace dtflop::probes {
@@ -33,7 +36,7 @@ ProbeReport run(const ProbeOptions& o) {
   ProbeReport r;
   // About the dots of a 24 MP still (1600) and more, so the tree is a few levels deep.
   const std::int64_t n = 4096;
-  const int reps = o.effort == Effort::full ? 31 : o.effort == Effort::quick ? 11 : 3;
+  const int reps = o.effort == Effort::full ? 11 : o.effort == Effort::quick ? 5 : 2;
   std::mt19937_64 rng(20261124);
   std::uniform_real_distribution<double> u(0, 6000);
   std::vector<double> pts(2 * n), queries(2 * n);
@@ -44,30 +47,37 @@ ProbeReport run(const ProbeOptions& o) {
   for (std::size_t i = 0; i < pts.size(); ++i) queries[i] = pts[i] + jitter(rng);
   const std::int64_t steps = tree_build_steps(n) + n * tree_search_steps(n, 2);
 
-  std::vector<double> per_step;
-  std::uint32_t idx[2];
-  double d2[2];
-  for (int k = -1; k < reps; ++k) {  // k = -1: warm-up, untimed
-    const auto t0 = std::chrono::steady_clock::now();
-    Cloud cloud{&pts};
-    Tree tree(2, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(kKdTreeLeaf));
-    std::int64_t own = 0;
-    for (std::int64_t i = 0; i < n; ++i) {
-      const double q[2] = {queries[2 * i], queries[2 * i + 1]};
-      if (tree.knnSearch(q, 2, idx, d2) == 2 && idx[0] == static_cast<std::uint32_t>(i)) ++own;
+  // One placement: a warm-up pass, then the median of `reps` timed passes, a step each.
+  auto one_placement = [&] {
+    std::vector<double> per_step;
+    std::uint32_t idx[2];
+    double d2[2];
+    for (int k = -1; k < reps; ++k) {  // k = -1: warm-up, untimed
+      const auto t0 = std::chrono::steady_clock::now();
+      Cloud cloud{&pts};
+      Tree tree(2, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(kKdTreeLeaf));
+      std::int64_t own = 0;
+      for (std::int64_t i = 0; i < n; ++i) {
+        const double q[2] = {queries[2 * i], queries[2 * i + 1]};
+        if (tree.knnSearch(q, 2, idx, d2) == 2 && idx[0] == static_cast<std::uint32_t>(i)) ++own;
+      }
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      // Every search must find the point it was moved from: the tree was built and searched.
+      if (own != n && k < 0)
+        throw ValidationError(fmt::format("{} of {} k-d tree searches found the point they started from", own, n));
+      if (k >= 0) per_step.push_back(s / static_cast<double>(steps));
     }
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    // Every search must find the point it was moved from: the tree was built and searched.
-    if (own != n && k < 0)
-      throw ValidationError(fmt::format("{} of {} k-d tree searches found the point they started from", own, n));
-    if (k >= 0) per_step.push_back(s / static_cast<double>(steps));
-  }
+    return summarize(per_step).median;
+  };
+  const Placed placed = on_placements(latency_placements(o.effort), one_placement);
   r.measurements.push_back(time_measurement(
-      "tree", "one step of k-d tree work (build or search, one thread)", per_step, Param::L_tree,
+      "tree", "one step of k-d tree work (build or search, one thread)", placed.values, Param::L_tree,
       fmt::format("nanoflann: a tree over {} random points and a 2-nearest search around each, {} steps "
-                  "(model/cost_counts.hpp); time / steps, median of {}",
-                  n, steps, reps)));
-  o.say(fmt::format("  k-d tree step: {:.1f} ns", r.measurements[0].value * 1e9));
+                  "(model/cost_counts.hpp); time / steps, the median over {} of the median of {} each",
+                  n, steps, describe_placements(placed.cpus), reps)));
+  const Stats& st = r.measurements[0].stats;
+  o.say(fmt::format("  k-d tree step: {:.1f} ns (placements {:.1f} .. {:.1f} ns)", r.measurements[0].value * 1e9,
+                    st.min * 1e9, st.max * 1e9));
   return r;
 }
 

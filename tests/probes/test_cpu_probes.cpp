@@ -3,12 +3,18 @@
 #include <algorithm>
 #include <cmath>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#if defined(__linux__)
+#include <sched.h>
+#endif
+
 #include "probes/identity.hpp"
+#include "probes/placements.hpp"
 #include "probes/probe.hpp"
 #include "probes/team.hpp"
 
@@ -134,7 +140,63 @@ TEST(CpuProbes, PixelGivesOneStepOfScalarPixelWork) {
   // miss to memory (100 ns).
   EXPECT_GT(m->value, 1e-10);
   EXPECT_LT(m->value, 1e-7);
-  EXPECT_EQ(m->stats.n, 3u);  // the smoke plan's repetitions
+  EXPECT_EQ(m->stats.n, 2u);  // the smoke plan's placements, one figure each
+  EXPECT_NE(m->note.find("2 placements"), std::string::npos) << m->note;
+}
+
+TEST(CpuProbes, TreeGivesOneStepOfTreeWorkOnEachPlacement) {
+  ProbeOptions o;
+  o.effort = Effort::smoke;
+  const ProbeReport r = probe("cpu-tree").run(o);
+  expect_sane(r);
+  const auto* m = find(r, Param::L_tree);
+  ASSERT_NE(m, nullptr);
+  // A step is a few dependent loads and branches: between a tenth of a nanosecond and a microsecond.
+  EXPECT_GT(m->value, 1e-10);
+  EXPECT_LT(m->value, 1e-6);
+  EXPECT_EQ(m->stats.n, 2u);  // the smoke plan's placements
+  EXPECT_GE(m->value, m->stats.min);
+  EXPECT_LE(m->value, m->stats.max);
+}
+
+TEST(Placements, SpreadOverTheAllowedCpusAndCycle) {
+  const int n = usable_cpus();
+  const std::vector<int> one = placement_cpus(1);
+  ASSERT_EQ(one.size(), 1u);
+  const std::vector<int> many = placement_cpus(2 * n + 1);  // more placements than CPUs: round and round
+  ASSERT_EQ(many.size(), static_cast<std::size_t>(2 * n + 1));
+#if defined(__linux__)
+  // Every CPU of the mask once per round, in the same order each round.
+  std::set<int> first(many.begin(), many.begin() + n);
+  EXPECT_EQ(first.size(), static_cast<std::size_t>(n));
+  for (int i = 0; i + n < 2 * n + 1; ++i) EXPECT_EQ(many[i], many[i + n]) << i;
+  EXPECT_EQ(one[0], many[0]);  // the first placement is the first CPU of the mask
+  if (n >= 2) {
+    const std::vector<int> two = placement_cpus(2);  // fewer than CPUs: the first and the middle one
+    EXPECT_NE(two[0], two[1]);
+  }
+#endif
+  EXPECT_THROW(placement_cpus(0), std::invalid_argument);
+}
+
+TEST(Placements, RunEachMeasurementOnTheCpuItNames) {
+  const Placed p = on_placements(4, [] {
+#if defined(__linux__)
+    return static_cast<double>(sched_getcpu());
+#else
+    return -1.0;
+#endif
+  });
+  ASSERT_EQ(p.values.size(), 4u);
+  ASSERT_EQ(p.cpus.size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i) {
+    if (p.cpus[i] >= 0) {
+      EXPECT_EQ(p.values[i], p.cpus[i]) << "placement " << i << " ran elsewhere";
+    }
+  }
+  EXPECT_NE(describe_placements(p.cpus).find("4 placements"), std::string::npos);
+  // An exception thrown on a placement's thread reaches the caller.
+  EXPECT_THROW(on_placements(1, []() -> double { throw std::runtime_error("x"); }), std::runtime_error);
 }
 
 TEST(CpuProbes, MlsGivesTheRateOfTheWorkloadsFieldLoop) {
@@ -149,7 +211,7 @@ TEST(CpuProbes, MlsGivesTheRateOfTheWorkloadsFieldLoop) {
   // dependent-chain speed).
   EXPECT_GT(m->value, 1e7);
   EXPECT_LT(m->value, 1e11);
-  EXPECT_EQ(m->stats.n, 2u);  // the smoke plan's repetitions
+  EXPECT_EQ(m->stats.n, 2u);  // the smoke plan's placements, one figure each
   if (usable_cpus() > 1) {
     const auto* all = find(r, Param::V_CM_all);
     ASSERT_NE(all, nullptr);

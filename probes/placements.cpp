@@ -1,0 +1,91 @@
+#include "probes/placements.hpp"
+
+#include <exception>
+#include <stdexcept>
+#include <thread>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#if defined(__linux__)
+#include <pthread.h>
+#include <sched.h>
+#endif
+
+namespace dtflop::probes {
+
+namespace {
+// The CPUs of this process's affinity mask, ascending; empty where it cannot be read.
+std::vector<int> allowed_cpus() {
+  std::vector<int> cpus;
+#if defined(__linux__)
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof(set), &set) == 0)
+    for (int c = 0; c < CPU_SETSIZE; ++c)
+      if (CPU_ISSET(c, &set)) cpus.push_back(c);
+#endif
+  return cpus;
+}
+}  // namespace
+
+int latency_placements(Effort e) { return e == Effort::full ? 16 : e == Effort::quick ? 8 : 2; }
+
+std::vector<int> placement_cpus(int count) {
+  if (count < 1) throw std::invalid_argument(fmt::format("placements: {} asked for, at least 1 needed", count));
+  const std::vector<int> cpus = allowed_cpus();
+  std::vector<int> out(static_cast<std::size_t>(count), -1);
+  if (cpus.empty()) return out;
+  const auto n = static_cast<long long>(cpus.size());
+  for (int i = 0; i < count; ++i) {
+    // Fewer placements than CPUs: every (n / count)-th CPU; more: round and round.
+    const long long k = count <= n ? i * n / count : i % n;
+    out[static_cast<std::size_t>(i)] = cpus[static_cast<std::size_t>(k)];
+  }
+  return out;
+}
+
+bool run_on_cpu(int cpu, const std::function<void()>& fn) {
+  std::exception_ptr error;
+  bool bound = false;
+  std::thread t([&] {
+#if defined(__linux__)
+    if (cpu >= 0 && cpu < CPU_SETSIZE) {
+      cpu_set_t set;
+      CPU_ZERO(&set);
+      CPU_SET(cpu, &set);
+      // A failure leaves the thread where it was: measured unbound, not lost (see the header).
+      bound = pthread_setaffinity_np(pthread_self(), sizeof(set), &set) == 0;
+    }
+#endif
+    try {
+      fn();
+    } catch (...) {
+      error = std::current_exception();
+    }
+  });
+  t.join();
+  if (error) std::rethrow_exception(error);
+  return bound;
+}
+
+Placed on_placements(int count, const std::function<double()>& fn) {
+  Placed p;
+  p.cpus = placement_cpus(count);
+  p.values.reserve(p.cpus.size());
+  for (int& cpu : p.cpus)
+    if (!run_on_cpu(cpu, [&] { p.values.push_back(fn()); })) cpu = -1;
+  return p;
+}
+
+std::string describe_placements(const std::vector<int>& cpus) {
+  bool bound = false;
+  for (int c : cpus) bound = bound || c >= 0;
+  if (!bound) return fmt::format("{} placements (one thread each, where the scheduler put it)", cpus.size());
+  std::vector<std::string> where;
+  for (int c : cpus) where.push_back(c >= 0 ? std::to_string(c) : "unbound");
+  return fmt::format("{} placements (one thread bound to CPU{} {} in turn)", cpus.size(), cpus.size() > 1 ? "s" : "",
+                     fmt::join(where, ", "));
+}
+
+}  // namespace dtflop::probes
