@@ -188,9 +188,9 @@ void add_report_command(CLI::App& root) {
     };
     std::vector<nlohmann::json> peers;
     std::vector<std::pair<std::string, std::string>> args = {{"--result", o->tuned}};
-    for (const auto& p : o->peers) {
-      peers.push_back(read(p));
-      args.push_back({"--peer", p});
+    for (const auto& peer : o->peers) {
+      peers.push_back(read(peer));
+      args.push_back({"--peer", peer});
     }
     args.push_back({"-o", o->output});
     reports::Context ctx{join_cmd("tuning", args), {o->tuned}};

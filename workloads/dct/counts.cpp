@@ -174,6 +174,13 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
 
 std::int64_t cuda_upload_bytes(const FrameShape& s) { return s.roi_pixels * s.bytes_per_pixel; }
 
+std::int64_t cuda_centroid_stage_pixels(const FrameShape& s) {
+  if (s.dots <= 0 || s.window_pixels <= 0) return 0;
+  const double n = static_cast<double>(s.dots), m = s.margin;
+  const double d = std::sqrt(static_cast<double>(s.window_pixels) / n);
+  return s.window_pixels + std::llround(4 * m * n * d + 4 * m * m * n);
+}
+
 CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
   static_assert(sizeof(FieldValue<float>) % 4 == 0, "the fields' records must be whole 4-byte values");
   CostCounts c;
@@ -204,7 +211,7 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
            + 2 * s.foreground_pixels      // compress
            + s.roi_pixels + nc            // roots to ids
            + 2 * s.roi_pixels             // stats
-           + 2 * s.window_pixels + 2 * s.weighted_pixels  // centroids
+           + cuda_centroid_stage_pixels(s) + s.ring_pixels + s.weighted_pixels  // centroids
            + 6 * s.dots                   // displacements
            + field_values(s);
   // Without components the statistics and centroid kernels (3 launches) and the records' wait

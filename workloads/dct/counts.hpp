@@ -103,14 +103,17 @@ struct CudaLayout {
 // double-precision centroid positions as 2 values each). Every copy and launch of a frame:
 //   N_CG = roi bytes / 4 (the region of interest is uploaded, not the whole frame)
 //          + n_f (the match table: each reference dot's device component)       2 copies
-//   N_GC = 1 (component count) [+ 1 Otsu threshold] + 11 components (centroid x, y as
-//          doubles, weight, status, area, root, 3 pixel counts: 7 copies) + n_m fields
-//          (sizeof(FieldValue<float>) / 4 each)                             9 [10] copies
+//   N_GC = 1 (component count) [+ 1 Otsu threshold] (one copy) + 11 a component (centroid
+//          x, y as doubles, weight, status, area, root, 3 pixel counts: kCudaRecordBytes, one
+//          copy; none without components) + n_m fields (sizeof(FieldValue<float>) / 4 each,
+//          one copy)                                                        3 copies
 //          copies_GC lists them by size
 //   N_GG = roi bytes / 4 + roi (threshold + label init: read pixel, write label)
 //          + 5 roi (union: own and 4 neighbour labels) + 2 fg (compress)
 //          + roi + components (roots to ids) + 2 roi (stats: label, root)
-//          + 2 window + 2 weighted (centroid: label and pixel, then pixel again)
+//          + stage + ring + weighted (centroid: the labels of each window grown by the
+//          margin, staged once in shared memory, cuda_centroid_stage_pixels; a pixel of each
+//          ring and each weighted pixel)
 //          + 6 n_f (displacements: 2 doubles in, 2 floats out) + MLS: 5 sum(l_m) + 8 n_m
 //          | FE: 12 n_m + 8 n_m;  Otsu adds roi bytes / 4 (histogram read) + 256 (its bins, read once)
 //   N_G  = the FLOPs above (the weight function's included);  N_GM = MLS: one point's FLOPs,
@@ -125,6 +128,13 @@ struct CudaLayout {
 CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory);
 // Bytes of the frame's upload (the region of interest).
 std::int64_t cuda_upload_bytes(const FrameShape& s);
+// Labels the cuda centroid kernel stages: each kept dot's window grown by the margin on every
+// side, (w + 2 margin)(h + 2 margin) for a w x h window. The shape holds the windows' sum, not
+// each one's sides, so the sides are the mean window's taken square, d = sqrt(window / n_f):
+//   window + 4 margin n_f d + 4 margin^2 n_f   (rounded; 0 without dots)
+// A window that with its margin exceeds the kernel's stage (12 KiB of labels: a dot of radius
+// above ~48 px) reads its labels from device memory instead, 2 window + the scans; not modelled.
+std::int64_t cuda_centroid_stage_pixels(const FrameShape& s);
 // Bytes of one component's records that the cuda backend reads back, in one copy a frame: centroid
 // x and y (double), weight (float), status, area, root (int) and 3 pixel counts (int).
 inline constexpr std::int64_t kCudaRecordBytes = 44;

@@ -10,23 +10,22 @@
 
 namespace dtflop::dct {
 
-namespace {
-struct Cloud {
-  const std::vector<Vec2>* pts;
-  std::size_t kdtree_get_point_count() const { return pts->size(); }
-  double kdtree_get_pt(std::size_t i, std::size_t dim) const { return dim == 0 ? (*pts)[i].x : (*pts)[i].y; }
-  template <class BBox>
-  bool kdtree_get_bbox(BBox&) const { return false; }
-};
-using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Cloud>, Cloud, 2, std::uint32_t>;
-}  // namespace
-
 // nanoflann 1.4 and later (Debian 12 ships 1.4.2) build the index in the tree's constructor; a
 // buildIndex() after it built the whole tree a second time (the matching's trees were built twice
 // until 2026-11-27, against the one build match_tree_steps counts and the cpu-tree probe times).
 static_assert(NANOFLANN_VERSION >= 0x140, "nanoflann 1.4 or later: its constructor builds the index");
 
+// The cloud and the tree are the Impl's own types (not in an anonymous namespace: tracking.hpp
+// declares Impl, and a unity build compiles this file as an included one).
 struct PointIndex::Impl {
+  struct Cloud {
+    const std::vector<Vec2>* pts;
+    std::size_t kdtree_get_point_count() const { return pts->size(); }
+    double kdtree_get_pt(std::size_t i, std::size_t dim) const { return dim == 0 ? (*pts)[i].x : (*pts)[i].y; }
+    template <class BBox>
+    bool kdtree_get_bbox(BBox&) const { return false; }
+  };
+  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Cloud>, Cloud, 2, std::uint32_t>;
   Cloud cloud;
   Tree tree;
   explicit Impl(const std::vector<Vec2>& p)

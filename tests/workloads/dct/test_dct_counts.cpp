@@ -82,7 +82,11 @@ TEST(DctCounts, CudaMatchesFormulas) {
   EXPECT_EQ(c.copies_GC, (std::vector<CopySize>{{8, 1}, {44 * 1700, 1}, {field * 2048, 1}}));
   EXPECT_EQ(c.host_waits, 3);
   const std::int64_t roi = 20'000'000, rv = roi / 4;
-  EXPECT_EQ(c.N_GG, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + 2 * 7'000'000 + 2 * 4'500'000 +
+  // The centroid kernel stages each window grown by the margin (2): 1600 mean windows of
+  // sqrt(7e6 / 1600) = 66.14 px a side, 70.14 with the margin: 1600 x 70.14^2 = 7'872'240 labels.
+  const std::int64_t stage = 7'872'240;
+  EXPECT_EQ(cuda_centroid_stage_pixels(s), stage);
+  EXPECT_EQ(c.N_GG, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + stage + 2'000'000 + 4'500'000 +
                         6 * 1600 + 5 * 2048 * 60 + 8 * 2048 + rv + 256);
   EXPECT_EQ(c.N_G, cpu_counts(s, 1).N_C);  // the same arithmetic, in float32
   // One point's MLS chain, its thread's: 60 support dots at 341 FLOPs (the cubic spline) and the
@@ -125,7 +129,7 @@ TEST(DctCounts, CudaMatchesFormulas) {
   const CostCounts fc = cpu_counts(s, 1);
   EXPECT_EQ(fc.N_CC, (2LL * 20'000'000 + 13LL * 20'000'000 + 10LL * 7'000'000 + 6'500'000 +
                       8 * (2LL * 2048 * 90 + 14LL * 2048)) / 8);
-  EXPECT_EQ(f.N_GG, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + 2 * 7'000'000 + 2 * 4'500'000 +
+  EXPECT_EQ(f.N_GG, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + stage + 2'000'000 + 4'500'000 +
                         6 * 1600 + 17 * 2048 * 90 + 20 * 2048);
   // 16-bit frames: twice the bytes uploaded.
   s.bytes_per_pixel = 2;
