@@ -40,6 +40,7 @@ double default_start(Param p) {
   if (p == Param::V_CS) return 1e9;      // one addition per few cycles
   if (p == Param::V_CM || p == Param::V_CM_all) return 3e9;  // MLS fields: a FLOP a cycle, about
   if (p == Param::V_GM) return 3e8;  // one GPU thread's MLS chain: a FLOP every few cycles
+  if (p == Param::L_GP) return 1e-10;  // a window pixel classified, a dot's block beside the others
   if (p == Param::L_net) return 2e-6;    // a message between processes of one host
   if (p == Param::B_net) return 2e9;
   if (unit == "s") return 10e-6;
@@ -67,6 +68,9 @@ Bound physical_bounds(Param p, const MachineProfile& start, double start_value) 
             fmt::format("0.02x .. 100x the probed {}", format_quantity(probed->value, unit))};
   if (unit == "x") return {0.1, 100, "a cost ratio of one FLOP to another"};
   if (p == Param::L_pixel || p == Param::L_pixel_all) return {5e-11, 1e-7, "a step of a scalar pixel loop: 0.05 ns .. 100 ns"};
+  // The dots' blocks classify side by side on every multiprocessor: a step's share of the wall time
+  // is picoseconds (about 60-80 ps on the lent H100), below any one event's 0.1 ns.
+  if (p == Param::L_GP) return {1e-12, 1e-7, "a window pixel classified on the device, the dots' blocks side by side: 1 ps .. 100 ns"};
   if (unit == "s") return {1e-10, 1e-2, "an event of the machine: 0.1 ns .. 10 ms"};
   if (unit == "B") return {1, 1024.0 * 1024 * 1024, "a copy size: 1 B .. 1 GiB"};
   return {start_value * 1e-6, start_value * 1e6, "no probe: a million-fold either side of its start"};
@@ -131,7 +135,8 @@ std::vector<Param> exercised_params(const CostCounts& c, Variant v, const Machin
   return required_params(c, v,
                          Pricing{.llc_bytes = model_llc_bytes(start.identity), .staging = true, .all_threads = true,
                                  .serial = true, .gpu_l2_bytes = start.identity.gpu_l2_bytes, .graph = true,
-                                 .pixel_all = true, .mls = true, .mls_all = true, .gpu_mls = true});
+                                 .pixel_all = true, .mls = true, .mls_all = true, .gpu_mls = true,
+                                 .gpu_pixel = true});
 }
 
 }  // namespace

@@ -43,6 +43,7 @@ const std::vector<CountField>& count_fields() {
       {"N_GR", &C::N_GR, "FLOPs", "of N_G, whose taps each read another row of device memory", A::sum, &C::N_G},
       {"N_GM", &C::N_GM, "FLOPs", "of one GPU thread's moving-least-squares field (a point's chain; its points side by side)"},
       {"N_GS", &C::N_GS, "values", "copied into shared-memory tiles (per busiest-SM round x SMs)"},
+      {"gpu_pixel_steps", &C::gpu_pixel_steps, "steps", "of per-dot pixel classification on the device (a window pixel each)"},
       {"launches", &C::launches, "launches", "of kernels"},
       {"graph_launches", &C::graph_launches, "launches", "of launches, kernels of a CUDA graph (started by the device)",
        A::sum, &C::launches},

@@ -55,6 +55,7 @@ struct Prediction {
   double lat_wave = 0;   // waves x per-wave cost of thread blocks
   double lat_atomic = 0;  // atomics x one serialized atomic update (device component)
   double lat_GM = 0;     // N_GM / V_GM: one GPU thread's MLS chain (latency+, where the profile has V_GM; device)
+  double lat_GP = 0;     // gpu_pixel_steps x L_GP: per-dot pixel classification (latency+, where the profile has L_GP; device)
   double lat_wait = 0;   // host_waits x host round trip to the device (in the total only)
   double lat_tree = 0;   // tree_steps x one step of host k-d tree work (CPU component, latency+)
   double lat_pixel = 0;  // pixel_steps x one step of host scalar pixel work (CPU component, latency+)

@@ -75,6 +75,7 @@ const std::vector<ParamInfo>& all_params() {
       {Param::V_CM, "V_CM", "FLOP/s", "CPU rate of moving-least-squares field arithmetic (a support dot's chain of rotations, square roots and divisions), one thread"},
       {Param::V_CM_all, "V_CM_all", "FLOP/s", "V_CM with every hardware thread at work: the FLOPs of all threads per second of wall time"},
       {Param::V_GM, "V_GM", "FLOP/s", "rate of one GPU thread's moving-least-squares field (a point's chain of rotations, square roots and divisions), the points' threads side by side"},
+      {Param::L_GP, "L_GP", "s", "one step of the device's per-dot pixel classification: a window pixel of a dot classified (its own, ring, or ignored, from its neighbourhood's labels), the dots' blocks side by side"},
   };
   return table;
 }

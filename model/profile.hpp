@@ -70,6 +70,7 @@ enum class Param {
   V_CM,            // rate of moving-least-squares field FLOPs (N_CM), one thread            [FLOP/s]
   V_CM_all,        // V_CM with every hardware thread at work (cpu_threads > 1)             [FLOP/s]
   V_GM,            // rate of one GPU thread's moving-least-squares chain (N_GM)          [FLOP/s]
+  L_GP,            // one device step of per-dot pixel classification (gpu_pixel_steps)    [s]
 };
 
 struct ParamInfo {

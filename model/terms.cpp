@@ -52,7 +52,7 @@ Pricing Pricing::of(const MachineProfile& m) {
   return {model_llc_bytes(m.identity), has_staging(m), m.has(Param::K_CW_all) || m.has(Param::K_CA_all),
           m.has(Param::V_CS), m.has(Param::B_L2) ? m.identity.gpu_l2_bytes : 0, m.has(Param::L_graph),
           m.has(Param::L_pixel_all), m.has(Param::V_CM), m.has(Param::V_CM_all),
-          m.has(Param::V_GM)};
+          m.has(Param::V_GM), m.has(Param::L_GP)};
 }
 
 namespace {
@@ -311,6 +311,20 @@ double gpu_mls_seconds(const MachineProfile& m, const CostCounts& c, Variant v, 
   return static_cast<double>(c.N_GM) / m.get(Param::V_GM).value;
 }
 
+// lat_GP. latency+: the DCT cuda backend's centroid kernel gives each dot a block that classifies
+// its window's pixels from their neighbourhoods' labels, twice, between barriers: work that grows
+// with the window pixels (gpu_pixel_steps) and that the blocks' branches and barriers bound, not
+// the bytes N_GG counts for it (docs/model.md 2.6). No probe measures L_GP; a profile without it
+// leaves that work in N_GG at the device's bandwidth, as the fits made before it were.
+std::vector<Param> gpu_pixel_needs(const CostCounts&, Variant v, const Pricing& x) {
+  if (x.gpu_pixel && kLatencyVariants.contains(v)) return {Param::L_GP};
+  return {};
+}
+double gpu_pixel_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing& x) {
+  if (!x.gpu_pixel || !kLatencyVariants.contains(v)) return 0;
+  return static_cast<double>(c.gpu_pixel_steps) * m.get(Param::L_GP).value;
+}
+
 template <std::int64_t CostCounts::*N, Pick B>
 constexpr Price per_byte() {
   return {positive<N>, needs_one<B>, bytes_over_bandwidth<N, B>};
@@ -358,6 +372,8 @@ const std::vector<Term>& terms() {
        "serialized atomic updates", per_event<&C::atomics, only<Param::L_atomic>>()},
       {"lat_GM", &P::lat_GM, Phase::G, kLatencyVariants, sum, "N_GM (where the profile has V_GM)", "V_GM",
        "one GPU thread's MLS chain", {positive<&C::N_GM>, gpu_mls_needs, gpu_mls_seconds}},
+      {"lat_GP", &P::lat_GP, Phase::G, kLatencyVariants, sum, "gpu_pixel_steps (where the profile has L_GP)", "L_GP",
+       "per-dot pixel classification on the device", {positive<&C::gpu_pixel_steps>, gpu_pixel_needs, gpu_pixel_seconds}},
       {"dt_GS", &P::dt_GS, Phase::G, kLatencyVariants, sum, "P N_GS", "B_GS", "shared-memory tile fills",
        per_byte<&C::N_GS, only<Param::B_GS>>()},
       {"dt_C_arith", &P::dt_C_arith, Phase::C, kEveryVariant, overlap,

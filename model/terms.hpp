@@ -86,6 +86,9 @@ struct Pricing {
   bool gpu_mls = false;        // price a GPU thread's MLS chain (N_GM) at V_GM (the profile has it, or a fit
                                // is to find it); else not at all: its FLOPs are in N_G at the GPU's rate,
                                // as profiles made before the probe were fitted
+  bool gpu_pixel = false;      // price the device's per-dot pixel classification (gpu_pixel_steps) at L_GP
+                               // (the profile has it, or a fit is to find it); else not at all: its bytes
+                               // are in N_GG at the device's bandwidth, as profiles made before it were fitted
   static Pricing of(const MachineProfile& profile);
 };
 

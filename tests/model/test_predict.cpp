@@ -332,6 +332,35 @@ TEST(Predict, AGpuThreadsMlsChainAddsItsOwnTime) {
   EXPECT_FALSE(has(priced_params(before, c, Variant::latency), Param::V_GM));
 }
 
+// lat_GP: the device's per-dot pixel classification (gpu_pixel_steps) at L_GP, added to the
+// kernels' time in the latency variants where the profile has L_GP (only a fit finds it); the seed
+// prices none of it, and a profile without it prices the work by its bytes alone, as before.
+TEST(Predict, TheDevicesPixelClassificationAddsItsOwnTime) {
+  auto m = test::round_profile();
+  m.set(Param::L_GP, Parameter{6e-11, Provenance::fitted, {}, {}, {}});
+  CostCounts c;
+  c.precision = Precision::fp32;
+  c.N_G = 1'000'000'000;             // 20 us at the FMA rate
+  c.gpu_pixel_steps = 1'000'000;     // 60 us at 60 ps a step
+  const double flops = 1e9 / m.get(Param::V_G_fp32).value;
+  for (Variant v : {Variant::latency, Variant::memory, Variant::extended}) {
+    const Prediction p = predict(m, c, v);
+    EXPECT_NEAR(p.lat_GP, 6e-5, 1e-15) << to_string(v);
+    EXPECT_NEAR(phase_seconds(p, Phase::G), flops + 6e-5, 1e-15) << to_string(v);
+    EXPECT_NEAR(p.device_overheads(), 6e-5, 1e-15) << to_string(v);
+  }
+  EXPECT_EQ(predict(m, c, Variant::seed).lat_GP, 0.0);
+  const auto has = [](const std::vector<Param>& r, Param p) { return std::find(r.begin(), r.end(), p) != r.end(); };
+  EXPECT_TRUE(has(required_params(c, Variant::latency, Pricing{.gpu_pixel = true}), Param::L_GP));
+  EXPECT_FALSE(has(required_params(c, Variant::latency), Param::L_GP));
+  EXPECT_FALSE(has(required_params(c, Variant::seed, Pricing{.gpu_pixel = true}), Param::L_GP));
+  auto probed = m;
+  probed.erase(Param::L_GP);
+  EXPECT_EQ(predict(probed, c, Variant::latency).lat_GP, 0.0);
+  EXPECT_NEAR(phase_seconds(predict(probed, c, Variant::latency), Phase::G), flops, 1e-15);
+  EXPECT_FALSE(has(priced_params(probed, c, Variant::latency), Param::L_GP));
+}
+
 TEST(Predict, MlsFieldFlopsRunAtTheirOwnRateOnOneThreadOrAll) {
   auto m = test::round_profile();  // V_C1_fp64 and V_C_fp64 as the fixture sets them
   m.set(Param::V_CM, Parameter{2e9, Provenance::probed, {}, {}, {}});

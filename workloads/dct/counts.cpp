@@ -221,6 +221,8 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
     c.N_GG += roi_values + 256;  // the histogram reads the frame; Otsu's kernel reads the 256 bins once
     c.launches += 2;
   }
+  // The centroid kernel's classification: every window pixel of a kept dot, in its dot's block.
+  c.gpu_pixel_steps = nc > 0 ? s.window_pixels : 0;
   c.N_G = analysis_flops(s) + field_flops(s) + (s.interp == Interp::fe ? kFlopsPerFeWarpCombine * s.points : 0);
   // One point's MLS field, the chain its thread runs (docs/model.md 2.6): the mean point's, rounded up.
   c.N_GM = s.points > 0 ? (mls_flops(s) + s.points - 1) / s.points : 0;

@@ -121,6 +121,8 @@ struct CudaLayout {
 //          comparisons, not FLOPs). The cuda backend has no adaptive threshold (refused).
 //          The launch layout (CudaLayout) changes no count: every kernel covers its pixels,
 //          points or dots with any block size.
+//   gpu_pixel_steps = window (the centroid kernel's classification: a window pixel a step, its
+//          neighbourhood read from the stage in both passes; 0 without components)
 //   launches = 9 (+2 with Otsu): init, union, compress, ids, stats-init, stats, centroid,
 //              displacement, fields [+ histogram, otsu]
 //   host_waits = 3 (the count, the component records, the fields)

@@ -88,6 +88,8 @@ TEST(DctCounts, CudaMatchesFormulas) {
   EXPECT_EQ(cuda_centroid_stage_pixels(s), stage);
   EXPECT_EQ(c.N_GG, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + stage + 2'000'000 + 4'500'000 +
                         6 * 1600 + 5 * 2048 * 60 + 8 * 2048 + rv + 256);
+  EXPECT_EQ(c.gpu_pixel_steps, 7'000'000);  // every window pixel classified in its dot's block
+  EXPECT_EQ(cpu_counts(s, 1).gpu_pixel_steps, 0);
   EXPECT_EQ(c.N_G, cpu_counts(s, 1).N_C);  // the same arithmetic, in float32
   // One point's MLS chain, its thread's: 60 support dots at 341 FLOPs (the cubic spline) and the
   // point's own 221.
@@ -109,6 +111,7 @@ TEST(DctCounts, CudaMatchesFormulas) {
   const CostCounts z = cuda_counts(none, HostMemory::pinned);
   EXPECT_EQ(z.launches, 8);
   EXPECT_EQ(z.host_waits, 2);
+  EXPECT_EQ(z.gpu_pixel_steps, 0);  // no centroid kernel, no classification
   EXPECT_EQ(z.copies_GC, (std::vector<CopySize>{{8, 1}, {field * 2048, 1}}));
   s.otsu = false;
   s.interp = Interp::fe;
