@@ -121,7 +121,7 @@ ProbeReport run(const ProbeOptions& o) {
   const Specimen s = mls::make_specimen();
   // One thread: fewer repetitions on each of the several placements.
   r.measurements.push_back(measure_one(s, o.effort == Effort::full ? 7 : o.effort == Effort::quick ? 3 : 1, o.effort));
-  const Stats& one = r.measurements[0].stats;  // of the times
+  const Stats one = r.measurements[0].stats;  // of the times (a copy: the next push_back may move it)
   std::string all;
   if (const int threads = usable_cpus(); threads > 1) {
     r.measurements.push_back(measure_all(s, reps, threads));

@@ -198,7 +198,7 @@ ProbeReport run(const ProbeOptions& o) {
   const int reps = o.effort == Effort::full ? 11 : o.effort == Effort::quick ? 5 : 2;
   const Frame f = make_frame();
   r.measurements.push_back(measure_one(f, reps, o.effort));
-  const Stats& one = r.measurements[0].stats;
+  const Stats one = r.measurements[0].stats;  // a copy: the next push_back may move it
   std::string all;
   if (const int threads = usable_cpus(); threads > 1) {
     r.measurements.push_back(measure_all(f, o.effort == Effort::full ? 31 : o.effort == Effort::quick ? 11 : 3, threads));

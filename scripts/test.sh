@@ -2,8 +2,10 @@
 # Sets everything up, then runs the whole test suite: the Release build's tests (unit and,
 # where a device exists, GPU), then the unit tests again under AddressSanitizer and
 # UndefinedBehaviorSanitizer (all but the main job end to end, which the optimised run covers:
-# it alone was 5 of the sanitized run's 14 minutes), then the fuzz targets. Any failure or
-# sanitizer report fails the run.
+# it alone was 5 of the sanitized run's 14 minutes; and there the calibration fit tests fit a
+# smaller synthetic sample set, 20 samples for 53, asserting the same of it: DTFLOP_TEST_SMALL_FITS,
+# tests/calibrate/synthetic.hpp; the Release run fits the full set), then the fuzz targets. Any
+# failure or sanitizer report fails the run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # The fuzz targets run where clang is there (scripts/setup.sh installs it on Debian 12).
