@@ -6,19 +6,13 @@
 // backends run and the cpu-mls probe times (as kernels/host_loops.hpp is for the RBE's loops), and,
 // compiled by nvcc, the device's MLS point that the cuda backend's kernel and the gpu-mls probe run. The FLOP
 // constants are what these functions do, counted by hand from the code. Header only; it depends on
-// nothing.
+// nothing but kernels/host_device.hpp.
 #pragma once
 
 #include <cmath>
 #include <cstdint>
 
-#ifndef DTFLOP_HD
-#ifdef __CUDACC__
-#define DTFLOP_HD __host__ __device__ __forceinline__
-#else
-#define DTFLOP_HD inline
-#endif
-#endif
+#include "kernels/host_device.hpp"
 
 namespace dtflop::kernels {
 // ---- Moving least squares (eqs. 7.2-7.6, strain by 6.5) --------------------------------

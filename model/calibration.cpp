@@ -77,11 +77,12 @@ Applied apply_calibration(const Calibration& c, const MachineProfile& target) {
     }
     out.profile.set(f.id, par);
   }
-  // The rates of code whose probes came after calibrations were first made (cpu-mls, gpu-mls): a
-  // fit that had none of them priced that code as other FLOPs and fitted the rest around it, so a
-  // calibration without one is applied without the target's probe of it, priced as it was fitted.
-  // (A fit made since finds each one its backend's counts exercise, and carries it as a factor.)
-  for (Param p : {Param::V_CM, Param::V_CM_all, Param::V_GM})
+  // The figures of code whose probes came after calibrations were first made (cpu-mls, gpu-mls,
+  // gpu-centroid): a fit that had none of them priced that code as other FLOPs or bytes and fitted
+  // the rest around it, so a calibration without one is applied without the target's probe of it,
+  // priced as it was fitted. (A fit made since finds each one its backend's counts exercise, and
+  // carries it as a factor.)
+  for (Param p : {Param::V_CM, Param::V_CM_all, Param::V_GM, Param::L_GP})
     if (std::none_of(c.factors.begin(), c.factors.end(), [p](const CalibrationFactor& f) { return f.id == p; }))
       out.profile.erase(p);
   out.profile.metadata[kChosenVariantKey] = std::string(to_string(c.variant));

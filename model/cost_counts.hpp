@@ -77,8 +77,8 @@ struct CostCounts {
   std::int64_t gpu_pixel_steps = 0;  // window pixels the device classifies per dot (each one's
                                 // neighbourhood read in both passes of a dot's block): work that
                                 // its blocks' branches and barriers bound, not the bytes in N_GG.
-                                // Priced at L_GP (latency+, where the profile has it, which only a
-                                // fit finds); 0 = none
+                                // Priced at L_GP (latency+, where the profile has it: the gpu-centroid
+                                // probe or a fit gives it); 0 = none
   std::int64_t N_GS = 0;        // values kernels copy from device memory into shared-memory tiles
                                 // (halos included), counted per round of blocks on the busiest
                                 // multiprocessor times the multiprocessors, like N_G (latency+)

@@ -105,8 +105,7 @@ bool fitted_only(Param p) {
     case Param::B_GC_staged:
     case Param::S_GC_staged:
     case Param::S_GC_flat:
-    case Param::L_graph:
-    case Param::L_GP: return true;
+    case Param::L_graph: return true;
     default: return false;
   }
 }

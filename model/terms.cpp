@@ -314,8 +314,8 @@ double gpu_mls_seconds(const MachineProfile& m, const CostCounts& c, Variant v, 
 // lat_GP. latency+: the DCT cuda backend's centroid kernel gives each dot a block that classifies
 // its window's pixels from their neighbourhoods' labels, twice, between barriers: work that grows
 // with the window pixels (gpu_pixel_steps) and that the blocks' branches and barriers bound, not
-// the bytes N_GG counts for it (docs/model.md 2.6). No probe measures L_GP; a profile without it
-// leaves that work in N_GG at the device's bandwidth, as the fits made before it were.
+// the bytes N_GG counts for it (docs/model.md 2.6). The gpu-centroid probe measures L_GP; a profile
+// without it leaves that work in N_GG at the device's bandwidth, as the fits made before it were.
 std::vector<Param> gpu_pixel_needs(const CostCounts&, Variant v, const Pricing& x) {
   if (x.gpu_pixel && kLatencyVariants.contains(v)) return {Param::L_GP};
   return {};

@@ -202,4 +202,28 @@ struct MlsTiming {
 // queued behind an untimed one (the host's launch gap untimed), divided by 5.
 MlsTiming time_mls(const MlsDots& dots, const std::vector<MlsTable>& tables, int block, int reps, int warmup);
 
+// One frame of dots for the DCT cuda backend's centroid block (gpu-centroid): an 8-bit image (rows
+// of `width` pixels), its labels (-1 background, else the component of the dot the pixel belongs
+// to, >= 0) and, a dot each, its window (x0, y0, width, height: inside the image) and component.
+struct CentroidFrame {
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> image;
+  std::vector<int> labels;
+  std::vector<int> windows;  // 4 a dot
+  std::vector<int> component;
+};
+struct CentroidTiming {
+  std::vector<std::vector<double>> seconds;    // [frame][repetition]: one launch over its dots
+  std::vector<std::vector<double>> centroids;  // [frame][2 a dot]: x, y, of the last launch
+};
+
+// The per-dot pixel classification of the DCT cuda backend (L_GP): its centroid block
+// (kernels::centroid_block, kernels/dot_centroid.hpp: the window staged, classified twice, the
+// ring's and the weights' sums), one block of `block` threads a dot as the backend launches it,
+// bright dots with a background margin of `margin` px; `reps` repetitions of each frame after
+// `warmup` launches, each the events around 5 launches queued behind an untimed one (the host's
+// launch gap untimed), divided by 5. Throws std::invalid_argument for an inconsistent frame (a
+// window outside the image, a size that does not match) before anything is allocated.
+CentroidTiming time_centroids(const std::vector<CentroidFrame>& frames, int margin, int block, int reps, int warmup);
+
 }  // namespace dtflop::probes::gpu

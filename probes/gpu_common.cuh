@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include <cuda_runtime.h>
 
@@ -70,6 +71,23 @@ class Event {
 
 // Seconds between two recorded events (synchronizes on `stop`).
 double elapsed(const Event& start, const Event& stop);
+
+// A kernel timed as a workload's kernel runs, queued behind the frame's others: `reps`
+// repetitions, each `batch` calls of `launch` back to back behind an untimed one, the events
+// around the batch (the host's launch gap is not timed); each repetition's time / batch.
+template <class Launch>
+std::vector<double> time_queued(const Stream& s, const Launch& launch, int reps, int batch) {
+  Event start, stop;
+  std::vector<double> seconds;
+  for (int i = 0; i < reps; ++i) {
+    launch();
+    start.record(s);
+    for (int b = 0; b < batch; ++b) launch();
+    stop.record(s);
+    seconds.push_back(elapsed(start, stop) / batch);
+  }
+  return seconds;
+}
 
 // The pattern: word i of a buffer filled with `seed` holds pattern_word(i, seed). A cheap
 // integer hash, so stale data from another size or seed never passes a check.

@@ -11,7 +11,6 @@ namespace dtflop::probes::gpu {
 namespace {
 
 using detail::DeviceBuffer;
-using detail::Event;
 using detail::Stream;
 
 constexpr int kBatch = 5;  // launches a timed repetition holds
@@ -43,7 +42,6 @@ MlsTiming time_mls(const MlsDots& dots, const std::vector<MlsTable>& tables, int
   upload(disp, dots.disp_xy, s);
   DTFLOP_CUDA(cudaMemsetAsync(valid.get(), 1, n_dots, s.get()));  // every dot tracked
   MlsTiming r;
-  Event start, stop;
   for (const MlsTable& t : tables) {
     const std::size_t n = t.rho.size();
     if (n == 0 || t.points_xy.size() != 2 * n || t.offsets.size() != n + 1 || t.offsets.front() != 0 ||
@@ -72,16 +70,7 @@ MlsTiming time_mls(const MlsDots& dots, const std::vector<MlsTable>& tables, int
     };
     for (int i = 0; i < warmup; ++i) launch();
     DTFLOP_CUDA(cudaMemsetAsync(out.get(), 0xFF, out.bytes(), s.get()));  // poison: a point not written fails the check
-    // A repetition: kBatch launches back to back behind an untimed one, as the backend's field
-    // kernel runs queued behind the frame's other kernels: the host's launch gap is not timed.
-    std::vector<double> seconds;
-    for (int i = 0; i < reps; ++i) {
-      launch();
-      start.record(s);
-      for (int b = 0; b < kBatch; ++b) launch();
-      stop.record(s);
-      seconds.push_back(detail::elapsed(start, stop) / kBatch);
-    }
+    std::vector<double> seconds = detail::time_queued(s, launch, reps, kBatch);
     std::vector<kernels::FieldValue<float>> host(n);
     DTFLOP_CUDA(cudaMemcpyAsync(host.data(), out.get(), out.bytes(), cudaMemcpyDeviceToHost, s.get()));
     s.sync();

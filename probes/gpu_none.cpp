@@ -35,5 +35,6 @@ FillTiming time_tile_fills(bool, int, int, int) { no_cuda(); }
 bool tma_available() { return false; }
 AtomicTiming time_atomics(std::span<const int>, int, int) { no_cuda(); }
 MlsTiming time_mls(const MlsDots&, const std::vector<MlsTable>&, int, int, int) { no_cuda(); }
+CentroidTiming time_centroids(const std::vector<CentroidFrame>&, int, int, int, int) { no_cuda(); }
 
 }  // namespace dtflop::probes::gpu

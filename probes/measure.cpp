@@ -39,6 +39,20 @@ Measurement time_measurement(std::string key, std::string label, std::span<const
   return m;
 }
 
+Measurement per_event_measurement(std::string key, std::string label, const PerEventFit& fit,
+                                  std::span<const double> seconds, std::optional<Param> param, std::string note) {
+  Measurement m;
+  m.key = std::move(key);
+  m.label = std::move(label);
+  m.unit = std::string("s");
+  m.value = fit.per_event;
+  m.uncertainty = fit.per_event_hw95;
+  m.stats = summarize(seconds);
+  m.param = param;
+  m.note = std::move(note);
+  return m;
+}
+
 std::string size_label(std::int64_t bytes) {
   static const char* const units[] = {"B", "KiB", "MiB", "GiB", "TiB"};
   int u = 0;

@@ -5,6 +5,7 @@
 #include <span>
 #include <string>
 
+#include "probes/fit.hpp"
 #include "probes/probe.hpp"
 
 namespace dtflop::probes {
@@ -19,6 +20,11 @@ Measurement rate_measurement(std::string key, std::string label, std::string uni
 // A duration: the median of `seconds`.
 Measurement time_measurement(std::string key, std::string label, std::span<const double> seconds,
                              std::optional<Param> param, std::string note);
+
+// A cost per event: the slope of a fit t = L + events x C (fit_per_event()), its 95% half-width
+// the uncertainty, in seconds; stats describe `seconds` (the repetitions of one point of the fit).
+Measurement per_event_measurement(std::string key, std::string label, const PerEventFit& fit,
+                                  std::span<const double> seconds, std::optional<Param> param, std::string note);
 
 // "4 KiB", "16 MiB", "1 GiB" for whole binary sizes; used in keys and labels.
 std::string size_label(std::int64_t bytes);

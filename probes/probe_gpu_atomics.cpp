@@ -51,30 +51,18 @@ ProbeReport run(const ProbeOptions& o) {
   }
   const PerEventFit a = fit_per_event(with);
   const PerEventFit s = fit_per_event(without);
-  Measurement m;
-  m.key = "atomic";
-  m.label = "one of a series of atomic adds (float64) to one device address";
-  m.unit = "s";
-  m.value = a.per_event;
-  m.uncertainty = a.per_event_hw95;
-  m.stats = summarize(t.atomic.back());
-  m.param = Param::L_atomic;
-  m.note = fmt::format(
-      "slope of a fit t = L + blocks x L_atomic over {}..{} blocks of 256 threads, each reducing and adding its sum "
-      "to one address (rms residual {:.1f}%); the same blocks storing instead: {:.3g} ns a block",
-      t.blocks.front(), t.blocks.back(), 100 * a.rms_rel_residual, s.per_event * 1e9);
+  Measurement m = per_event_measurement(
+      "atomic", "one of a series of atomic adds (float64) to one device address", a, t.atomic.back(), Param::L_atomic,
+      fmt::format("slope of a fit t = L + blocks x L_atomic over {}..{} blocks of 256 threads, each reducing and adding "
+                  "its sum to one address (rms residual {:.1f}%); the same blocks storing instead: {:.3g} ns a block",
+                  t.blocks.front(), t.blocks.back(), 100 * a.rms_rel_residual, s.per_event * 1e9));
   if (!(s.per_event < a.per_event))
     m.note += "; the atomics cost no more than the stores, so they hide behind the blocks' issue and L_atomic is "
               "at most this";
   r.measurements.push_back(m);
-  Measurement c;
-  c.key = "store_block";
-  c.label = "a block of the same kernel storing its sum instead (no atomic)";
-  c.unit = "s";
-  c.value = s.per_event;
-  c.uncertainty = s.per_event_hw95;
-  c.stats = summarize(t.stored.back());
-  c.note = "slope of a fit t = L + blocks x c over the same block counts";
+  const Measurement c = per_event_measurement("store_block", "a block of the same kernel storing its sum instead (no atomic)",
+                                              s, t.stored.back(), std::nullopt,
+                                              "slope of a fit t = L + blocks x c over the same block counts");
   r.measurements.push_back(c);
   o.say(fmt::format("  atomics to one address: {:.2f} ns each ({:.2f} ns a block without)", m.value * 1e9,
                     c.value * 1e9));

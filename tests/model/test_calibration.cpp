@@ -73,7 +73,7 @@ TEST(Calibration, OnItsOwnMachineItIsCalibratedAndAProbeItLacksIsCarried) {
 
 // A calibration fitted before gpu-mls (no V_GM factor) priced the MLS fields inside the kernels'
 // FLOPs: applied to a probe that has V_GM, it leaves V_GM out, as it was fitted; one fitted with
-// it carries it as any other factor.
+// it carries it as any other factor (and so for gpu-centroid's L_GP).
 TEST(Calibration, ACalibrationFittedWithoutACodeRateLeavesTheTargetsProbeOfItOut) {
   MachineProfile target = probed(test::round_profile());
   target.set(Param::V_GM, Parameter{3e8, Provenance::probed, {}, {}, {}});
@@ -89,6 +89,18 @@ TEST(Calibration, ACalibrationFittedWithoutACodeRateLeavesTheTargetsProbeOfItOut
   const Applied a = apply_calibration(with, target);
   ASSERT_TRUE(a.profile.has(Param::V_GM));
   EXPECT_DOUBLE_EQ(a.profile.get(Param::V_GM).value, 3.6e8);
+  // The same for gpu-centroid's L_GP: before it the centroids' classification was bytes in N_GG.
+  target.set(Param::L_GP, Parameter{6e-11, Provenance::probed, {}, {}, {}});
+  EXPECT_FALSE(apply_calibration(pinned_copy_calibration(), target).profile.has(Param::L_GP));
+  CalibrationFactor p = g;
+  p.id = Param::L_GP;
+  p.factor = 1.25;
+  p.value = 7.5e-11;
+  p.source_probed = 6e-11;
+  with.factors.push_back(p);
+  const Applied b = apply_calibration(with, target);
+  ASSERT_TRUE(b.profile.has(Param::L_GP));
+  EXPECT_DOUBLE_EQ(b.profile.get(Param::L_GP).value, 1.25 * 6e-11);
 }
 
 TEST(Calibration, RefusesAFittedTargetAndAGpuCalibrationForAMachineWithoutOne) {

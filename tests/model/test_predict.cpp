@@ -333,8 +333,9 @@ TEST(Predict, AGpuThreadsMlsChainAddsItsOwnTime) {
 }
 
 // lat_GP: the device's per-dot pixel classification (gpu_pixel_steps) at L_GP, added to the
-// kernels' time in the latency variants where the profile has L_GP (only a fit finds it); the seed
-// prices none of it, and a profile without it prices the work by its bytes alone, as before.
+// kernels' time in the latency variants where the profile has L_GP (the gpu-centroid probe or a
+// fit gives it); the seed prices none of it, and a profile without it prices the work by its bytes
+// alone, as before.
 TEST(Predict, TheDevicesPixelClassificationAddsItsOwnTime) {
   auto m = test::round_profile();
   m.set(Param::L_GP, Parameter{6e-11, Provenance::fitted, {}, {}, {}});

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "probes/fit.hpp"
+#include "probes/measure.hpp"
 
 namespace dtflop::probes {
 namespace {
@@ -103,6 +104,26 @@ TEST(PerEventFit, IntervalIsTheBandwidthsMappedToACostPerEvent) {
   EXPECT_LE(std::fabs(e.per_event - 4e-9), e.per_event_hw95);
   // Times that fall with the count: no positive cost per event.
   EXPECT_THROW(fit_per_event(std::vector<TransferPoint>{{1, 3e-6}, {2, 2e-6}, {4, 1e-6}}), std::invalid_argument);
+}
+
+// A probe's figure from such a fit (gpu-atomics, gpu-centroid): the slope and its interval, the
+// statistics of the repetitions it names.
+TEST(PerEventFit, MeasurementCarriesTheSlopeAndItsInterval) {
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.03);
+  std::vector<TransferPoint> p;
+  for (double n = 1e4; n <= 1.6e5; n *= 2) p.push_back({n, (1e-5 + n * 6e-11) * (1.0 + noise(rng))});
+  const PerEventFit f = fit_per_event(p);
+  const std::vector<double> last = {2e-5, 1e-5, 3e-5};
+  const Measurement m = per_event_measurement("k", "label", f, last, Param::L_GP, "note");
+  EXPECT_EQ(m.value, f.per_event);
+  ASSERT_TRUE(m.uncertainty.has_value());
+  EXPECT_EQ(*m.uncertainty, f.per_event_hw95);
+  EXPECT_EQ(m.unit, "s");
+  EXPECT_EQ(m.stats.n, 3u);
+  EXPECT_EQ(m.stats.median, 2e-5);
+  ASSERT_TRUE(m.param.has_value());
+  EXPECT_EQ(*m.param, Param::L_GP);
 }
 
 TEST(StudentT, MatchesTables) {

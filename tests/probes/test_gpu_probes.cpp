@@ -284,6 +284,35 @@ TEST(GpuProbes, MlsGivesOneThreadsChainRate) {
   }
 }
 
+// gpu-centroid checks every dot's centroid against float64 itself; L_GP is a window pixel's share
+// of the blocks' time, side by side: above a clock cycle spread over the whole device (128 SMs a
+// few GHz, 1e-13 s) and below one thread's pixel (1e-8 s). A frame of larger dots takes longer.
+TEST(GpuProbes, CentroidGivesAWindowPixelsShareOfTheBlocks) {
+  DTFLOP_REQUIRE_GPU();
+  ProbeOptions o;
+  o.effort = Effort::smoke;
+  const auto& all = all_probes();
+  const auto it = std::find_if(all.begin(), all.end(), [](const Probe& p) { return p.name == "gpu-centroid"; });
+  ASSERT_NE(it, all.end());
+  const ProbeReport r = it->run(o);
+  ASSERT_EQ(r.measurements.size(), 4u);  // the smoke plan's three frames and the fit
+  const Measurement& m = r.measurements.back();
+  ASSERT_EQ(m.param, Param::L_GP);
+  EXPECT_GT(m.value, 1e-13);
+  EXPECT_LT(m.value, 1e-8);
+  for (std::size_t i = 0; i < 3; ++i) EXPECT_EQ(r.measurements[i].stats.n, 3u);  // the smoke plan's repetitions
+  // Radius 5 px and 150 dots against radius 20 px and the same dots: 7x the window pixels.
+  EXPECT_GT(r.measurements[2].stats.median, 1.5 * r.measurements[0].stats.median);
+  // A window outside its image is refused before the device is touched.
+  gpu::CentroidFrame f;
+  f.width = f.height = 8;
+  f.image.assign(64, 0);
+  f.labels.assign(64, -1);
+  f.windows = {4, 4, 5, 5};
+  f.component = {0};
+  EXPECT_THROW(gpu::time_centroids({f}, 2, 128, 1, 0), std::invalid_argument);
+}
+
 TEST(GpuProbes, EveryGpuProbeRunsAtSmokeEffort) {
   DTFLOP_REQUIRE_GPU();
   ProbeOptions o;

@@ -212,37 +212,8 @@ __global__ void k_stats(const int* L, int w, int h, CompStats s) {
   atomicMin(&s.root[key], root);
 }
 
-
-
-// N sums of a block at once (one pair of barriers for all of them): each warp's by shuffles, then
-// thread 0 adds the warps' partials in warp order, value by value. shared holds 32 * N floats.
-template <int N>
-__device__ void block_sums(float (&v)[N], float* shared) {
-  for (int o = 16; o > 0; o >>= 1)
-    for (int j = 0; j < N; ++j) v[j] += __shfl_down_sync(0xffffffffu, v[j], o);
-  const int warp = threadIdx.x / 32, lane = threadIdx.x % 32, nw = (blockDim.x + 31) / 32;
-  __syncthreads();
-  if (lane == 0)
-    for (int j = 0; j < N; ++j) shared[32 * j + warp] = v[j];
-  __syncthreads();
-  if (threadIdx.x == 0)
-    for (int j = 0; j < N; ++j) {
-      float r = 0.f;
-      for (int k = 0; k < nw; ++k) r += shared[32 * j + k];
-      v[j] = r;  // valid in thread 0
-    }
-}
-
-// A centroid block's stage: its window grown by the margin, one byte a pixel (kStageBackground
-// for background and outside the image, kStageOwn for the block's component, kStageOther for
-// another). The classification reads a pixel's (2 margin + 1)^2 neighbours: from the stage they
-// are shared-memory loads, where from the labels each was a dependent device-memory load (the
-// kernel was a latency chain: 42 us of a frame of 1193 dots on an H100). A window larger than
-// the stage reads the labels as before.
-constexpr int kCentroidStageBytes = 12 * 1024;
-constexpr unsigned char kStageBackground = 0, kStageOwn = 1, kStageOther = 2;
-
-// One block per component: filters, then the centroid of eq. 7.1 (kernels.hpp arithmetic).
+// One block per component: filters, then the centroid of eq. 7.1 (kernels::centroid_block,
+// kernels/dot_centroid.hpp: the gpu-centroid probe times the same block).
 template <class Pix>
 __global__ void k_centroid(const Pix* img, const int* L, int w, int h, Roi roi, CompStats s, DotParams p, DotOut out) {
   const int id = blockIdx.x;
@@ -261,74 +232,25 @@ __global__ void k_centroid(const Pix* img, const int* L, int w, int h, Roi roi, 
     return;
   }
   const int rootc = s.root[id];
-  const int wx0 = max(bx - grow, 0), wy0 = max(by - grow, 0);
-  const int wx1 = min(bx + bw - 1 + grow, w - 1), wy1 = min(by + bh - 1 + grow, h - 1);
-  const int ww = wx1 - wx0 + 1, wh = wy1 - wy0 + 1, wn = ww * wh;
-  const float cx = wx0 + 0.5f * (ww - 1), cy = wy0 + 0.5f * (wh - 1);
+  kernels::DotWindow win;
+  win.x0 = max(bx - grow, 0);
+  win.y0 = max(by - grow, 0);
+  win.w = min(bx + bw - 1 + grow, w - 1) - win.x0 + 1;
+  win.h = min(by + bh - 1 + grow, h - 1) - win.y0 + 1;
   auto label = [&](int x, int y) -> int {
     if (x < 0 || y < 0 || x >= w || y >= h) return -1;
     return root_of_pixel(L, y * w + x);
   };
-  // The stage: the window and a margin around it, every pixel a classification can read.
-  extern __shared__ unsigned char stage[];
-  const int m = p.margin, sx0 = wx0 - m, sy0 = wy0 - m, sw = ww + 2 * m, sn = sw * (wh + 2 * m);
-  const bool staged = sn <= kCentroidStageBytes;  // the same for the whole block
-  if (staged) {
-    for (int k = threadIdx.x; k < sn; k += blockDim.x) {
-      const int l = label(sx0 + k % sw, sy0 + k / sw);
-      stage[k] = l == -1 ? kStageBackground : l == rootc ? kStageOwn : kStageOther;
-    }
-    __syncthreads();
-  }
-  // A staged pixel's label as classify_pixel compares it: -1 background, rootc its own, -2
-  // another component (a root is a pixel index, >= 0).
-  auto staged_label = [&](int x, int y) -> int {
-    const unsigned char c = stage[(y - sy0) * sw + (x - sx0)];
-    return c == kStageBackground ? -1 : c == kStageOwn ? rootc : -2;
-  };
-  auto pixel_class = [&](int x, int y) {
-    return staged ? classify_pixel(staged_label, x, y, rootc, m) : classify_pixel(label, x, y, rootc, m);
-  };
-  __shared__ float red[32 * 9];
-  __shared__ float plane[3];
-  RingSums<float> ring;
-  for (int k = threadIdx.x; k < wn; k += blockDim.x) {
-    const int x = wx0 + k % ww, y = wy0 + k / ww;
-    if (pixel_class(x, y) == kRing) ring.add(x - cx, y - cy, static_cast<float>(img[static_cast<long long>(y) * w + x]));
-  }
-  float r9[9] = {ring.n, ring.x, ring.y, ring.xx, ring.xy, ring.yy, ring.i, ring.xi, ring.yi};
-  block_sums(r9, red);
-  RingSums<float> tot;
-  tot.n = r9[0]; tot.x = r9[1]; tot.y = r9[2]; tot.xx = r9[3]; tot.xy = r9[4]; tot.yy = r9[5];
-  tot.i = r9[6]; tot.xi = r9[7]; tot.yi = r9[8];
+  const kernels::DotSums d = kernels::centroid_block(img, w, win, label, rootc, p.margin, p.dark != 0);
   if (threadIdx.x == 0) {
-    float a, b, c;
-    solve_plane(tot, a, b, c);
-    plane[0] = a; plane[1] = b; plane[2] = c;
-  }
-  __syncthreads();
-  const float a = plane[0], b = plane[1], c = plane[2];
-  WeightSums<float> ws;
-  int nweight = 0;
-  for (int k = threadIdx.x; k < wn; k += blockDim.x) {
-    const int x = wx0 + k % ww, y = wy0 + k / ww;
-    if (pixel_class(x, y) == kWeighted) {
-      ws.add(x - cx, y - cy, static_cast<float>(img[static_cast<long long>(y) * w + x]), a, b, c, p.dark != 0);
-      ++nweight;
-    }
-  }
-  float w4[4] = {ws.w, ws.wx, ws.wy, static_cast<float>(nweight)};
-  block_sums(w4, red);
-  if (threadIdx.x == 0) {
-    const float W = w4[0], WX = w4[1], WY = w4[2], NW = w4[3];
-    const bool ok = W > 0.f && tot.n > 0.f;
+    const bool ok = d.w > 0.f && d.ring > 0.f;
     out.status[id] = ok ? 0 : 4;
-    out.x[id] = roi.x + static_cast<double>(cx) + static_cast<double>(WX / W);
-    out.y[id] = roi.y + static_cast<double>(cy) + static_cast<double>(WY / W);
-    out.weight[id] = W;
-    out.pixels[3 * id] = wn;
-    out.pixels[3 * id + 1] = static_cast<int>(tot.n);
-    out.pixels[3 * id + 2] = static_cast<int>(NW);
+    out.x[id] = roi.x + static_cast<double>(d.cx) + static_cast<double>(d.wx / d.w);
+    out.y[id] = roi.y + static_cast<double>(d.cy) + static_cast<double>(d.wy / d.w);
+    out.weight[id] = d.w;
+    out.pixels[3 * id] = win.w * win.h;
+    out.pixels[3 * id + 1] = static_cast<int>(d.ring);
+    out.pixels[3 * id + 2] = static_cast<int>(d.weighted);
   }
 }
 
@@ -469,12 +391,11 @@ void launch_stats(const int* L, int w, int h, CompStats cs, int n, int block, cu
 void launch_centroids(const void* img, bool wide, const int* L, int w, int h, Roi roi, CompStats cs, DotParams p,
                       DotOut out, int n, int block, cudaStream_t s) {
   if (n <= 0) return;
+  constexpr int stage = kernels::kCentroidStageBytes;
   if (wide)
-    k_centroid<std::uint16_t><<<n, block, kCentroidStageBytes, s>>>(static_cast<const std::uint16_t*>(img), L, w, h, roi,
-                                                                      cs, p, out);
+    k_centroid<<<n, block, stage, s>>>(static_cast<const std::uint16_t*>(img), L, w, h, roi, cs, p, out);
   else
-    k_centroid<std::uint8_t><<<n, block, kCentroidStageBytes, s>>>(static_cast<const std::uint8_t*>(img), L, w, h, roi,
-                                                                     cs, p, out);
+    k_centroid<<<n, block, stage, s>>>(static_cast<const std::uint8_t*>(img), L, w, h, roi, cs, p, out);
   DTFLOP_CUDA_LAUNCHED();
 }
 
