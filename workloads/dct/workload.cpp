@@ -239,18 +239,20 @@ class ContractBackend final : public wl::Backend {
   // 0.444, pageable 0.653 and 0.665; results/portability/dct-placements-2026-11-27, one held-out
   // store on a lent H100's host against seven quick probes with the placement-sampled latency
   // probes: cpu-seq 0.147..0.345, cpu-par 0.170..0.316; docs/PERFORMANCE.md, "DCT probe-only with
-  // the MLS fields' rate" and "Latency probes on several placements"). cuda's is its pageable
-  // frames', the larger.
+  // the MLS fields' rate" and "Latency probes on several placements"). cuda: with the gpu-centroid
+  // probe and one-copy pageable uploads (results/portability/dct-cuda-centroid-probe-2026-11-27,
+  // two lends of an H100, each store against its call's quick probes): pinned frames 0.131, 0.139
+  // and 0.190, pageable 0.083 (before those, 0.285-0.444 pinned and 0.653-0.665 pageable).
   std::optional<BasisError> probe_only_error() const override {
     static const std::array<std::pair<std::string_view, double>, 3> measured = {
-        {{"cpu-seq", 0.35}, {"cpu-par", 0.32}, {"cuda", 0.67}}};
+        {{"cpu-seq", 0.35}, {"cpu-par", 0.32}, {"cuda", 0.19}}};
     for (const auto& [backend, sigma] : measured) {
       if (backend != name()) continue;
       BasisError e;
       e.sigma = sigma;
-      e.source = fmt::format("measured error of dct {}'s probe-only predictions on the 2-vCPU VM and a lent H100 "
-                             "machine (docs/PERFORMANCE.md, DCT probe-only with the MLS fields' rate, and Latency probes on "
-                             "several placements)",
+      e.source = fmt::format("measured error of dct {}'s probe-only predictions on the 2-vCPU VM and lent H100 "
+                             "machines (docs/PERFORMANCE.md: DCT probe-only with the MLS fields' rate, Latency probes on "
+                             "several placements, DCT cuda probe-only with the gpu-centroid probe)",
                              name());
       return e;
     }
