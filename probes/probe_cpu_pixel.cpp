@@ -65,6 +65,7 @@ struct Steps {
   std::int64_t components = 0;  // components the labelling found (background apart)
   std::int64_t bad_area = 0;    // of them, with another area than a disc's
   std::int64_t classes[3] = {0, 0, 0};  // own, ring, ignored: must add up to the window pixels
+  double label_seconds = 0;     // of the pass, the threshold and the labelling (a step a pixel)
 };
 
 // Buffers kept across passes, as the workload keeps its mask and labels across frames.
@@ -89,8 +90,10 @@ Steps pass(const Frame& f, Buffers& b, int threads) {
   for (std::uint8_t v : f.image) ++hist[v];
   for (std::int64_t h : hist) s.counted += h;
   const cv::Mat image(kSide, kSide, CV_8U, const_cast<std::uint8_t*>(f.image.data()));
+  const auto t0 = std::chrono::steady_clock::now();
   cv::threshold(image, b.mask, 128, 255, cv::THRESH_BINARY_INV);  // the discs (40) are dark on 180..220
   const int n = cv::connectedComponentsWithStats(b.mask, b.labels, b.stats, b.centroids, 8, CV_32S, cv::CCL_DEFAULT);
+  s.label_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   s.steps += 2 * static_cast<std::int64_t>(f.image.size());  // a histogram step and a labelling step a pixel
   s.components = n - 1;
   const std::int64_t area = disc_area();
@@ -143,10 +146,16 @@ Steps pass(const Frame& f, Buffers& b, int threads) {
 
 // The time of a pass a step on `threads` threads: `reps` timed passes after an untimed one, each
 // checked. Returns the per-step times; `steps` is a pass's step count.
-std::vector<double> time_passes(const Frame& f, int reps, int threads, std::int64_t& steps) {
+// A pass's time a step, and apart: its labelling's a labelled pixel (OpenCV's threshold and
+// 8-connected labelling) and the rest's a step (the histogram and the windows' scans).
+struct Passes {
+  std::vector<double> per_step, per_label, per_other;
+};
+
+Passes time_passes(const Frame& f, int reps, int threads, std::int64_t& steps) {
   const std::int64_t window = static_cast<std::int64_t>(kDiscs) * (2 * (kRadius + kGrow) + 1) * (2 * (kRadius + kGrow) + 1);
   Buffers b;
-  std::vector<double> per_step;
+  Passes out;
   for (int k = -1; k < reps; ++k) {  // k = -1: warm-up, untimed
     const auto t0 = std::chrono::steady_clock::now();
     const Steps s = pass(f, b, threads);
@@ -161,9 +170,33 @@ std::vector<double> time_passes(const Frame& f, int reps, int threads, std::int6
           s.counted, f.image.size(), s.components, kDiscs, s.bad_area, s.classes[0] + s.classes[1] + s.classes[2],
           window));
     steps = s.steps;
-    if (k >= 0) per_step.push_back(t / static_cast<double>(s.steps));
+    if (k >= 0) {
+      const auto pixels = static_cast<double>(f.image.size());
+      out.per_step.push_back(t / static_cast<double>(s.steps));
+      out.per_label.push_back(s.label_seconds / pixels);
+      out.per_other.push_back((t - s.label_seconds) / (static_cast<double>(s.steps) - pixels));
+    }
   }
-  return per_step;
+  return out;
+}
+
+// The labelling's step and the others', apart (no model parameter prices them apart yet: the
+// labelling costs several times a histogram step or a window scan's, so L_pixel, their average on
+// this frame, is low for frames whose labelling is more of their steps; docs/model.md 2.6).
+void add_split(ProbeReport& r, const std::string& who, const std::vector<double>& label,
+               const std::vector<double>& other, const std::string& how) {
+  Measurement l = time_measurement(fmt::format("pixel_label{}", who), fmt::format("a labelled pixel ({})", who.empty() ? "one thread" : "all threads"),
+                                   label, std::nullopt,
+                                   fmt::format("of the pass, OpenCV's threshold and 8-connected labelling with statistics "
+                                               "a pixel; {}", how));
+  l.detail = true;
+  r.measurements.push_back(l);
+  Measurement o = time_measurement(fmt::format("pixel_other{}", who),
+                                   fmt::format("a histogram or window-scan step ({})", who.empty() ? "one thread" : "all threads"),
+                                   other, std::nullopt,
+                                   fmt::format("of the pass, the rest a step: the histogram's and the windows' scans; {}", how));
+  o.detail = true;
+  r.measurements.push_back(o);
 }
 
 std::string what(std::int64_t steps) {
@@ -174,10 +207,15 @@ std::string what(std::int64_t steps) {
 }
 
 // L_pixel: one thread, the median over placements (probes/placements.hpp) of each one's median.
-Measurement measure_one(const Frame& f, int reps, Effort effort) {
+Measurement measure_one(const Frame& f, int reps, Effort effort, std::vector<double>& label,
+                        std::vector<double>& other) {
   std::int64_t steps = 0;
-  const Placed placed =
-      on_placements(latency_placements(effort), [&] { return summarize(time_passes(f, reps, 1, steps)).median; });
+  const Placed placed = on_placements(latency_placements(effort), [&] {
+    const Passes p = time_passes(f, reps, 1, steps);
+    label.push_back(summarize(p.per_label).median);
+    other.push_back(summarize(p.per_other).median);
+    return summarize(p.per_step).median;
+  });
   return time_measurement("pixel", "one step of the image analysis' pixel work (one thread)", placed.values,
                           Param::L_pixel,
                           fmt::format("{} on one thread; time / steps, the median over {} of the median of {} each",
@@ -185,9 +223,10 @@ Measurement measure_one(const Frame& f, int reps, Effort effort) {
 }
 
 // L_pixel_all: every usable CPU, the median of the passes.
-Measurement measure_all(const Frame& f, int reps, int threads) {
+Measurement measure_all(const Frame& f, int reps, int threads, Passes& passes) {
   std::int64_t steps = 0;
-  const std::vector<double> per_step = time_passes(f, reps, threads, steps);
+  passes = time_passes(f, reps, threads, steps);
+  const std::vector<double>& per_step = passes.per_step;
   return time_measurement("pixel_all", fmt::format("one step of the image analysis' pixel work ({} threads)", threads),
                           per_step, Param::L_pixel_all,
                           fmt::format("{} on {} threads; time / steps, median of {}", what(steps), threads, reps));
@@ -197,15 +236,21 @@ ProbeReport run(const ProbeOptions& o) {
   ProbeReport r;
   const int reps = o.effort == Effort::full ? 11 : o.effort == Effort::quick ? 5 : 2;
   const Frame f = make_frame();
-  r.measurements.push_back(measure_one(f, reps, o.effort));
+  std::vector<double> label, other;
+  r.measurements.push_back(measure_one(f, reps, o.effort, label, other));
   const Stats one = r.measurements[0].stats;  // a copy: the next push_back may move it
+  add_split(r, "", label, other, "the median over the placements of each one's median");
   std::string all;
   if (const int threads = usable_cpus(); threads > 1) {
-    r.measurements.push_back(measure_all(f, o.effort == Effort::full ? 31 : o.effort == Effort::quick ? 11 : 3, threads));
+    Passes passes;
+    r.measurements.push_back(
+        measure_all(f, o.effort == Effort::full ? 31 : o.effort == Effort::quick ? 11 : 3, threads, passes));
     all = fmt::format(", {:.2f} ns on {} threads", r.measurements.back().value * 1e9, threads);
+    add_split(r, "_all", passes.per_label, passes.per_other, fmt::format("{} threads, median of the passes", threads));
   }
-  o.say(fmt::format("  pixel step: {:.2f} ns on one thread (placements {:.2f} .. {:.2f} ns){}", one.median * 1e9,
-                    one.min * 1e9, one.max * 1e9, all));
+  o.say(fmt::format("  pixel step: {:.2f} ns on one thread (placements {:.2f} .. {:.2f} ns){}; apart, a labelled "
+                    "pixel {:.2f} ns and another step {:.2f} ns", one.median * 1e9, one.min * 1e9, one.max * 1e9, all,
+                    summarize(label).median * 1e9, summarize(other).median * 1e9));
   return r;
 }
 

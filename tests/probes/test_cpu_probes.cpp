@@ -142,6 +142,17 @@ TEST(CpuProbes, PixelGivesOneStepOfScalarPixelWork) {
   EXPECT_LT(m->value, 1e-7);
   EXPECT_EQ(m->stats.n, 2u);  // the smoke plan's placements, one figure each
   EXPECT_NE(m->note.find("2 placements"), std::string::npos) << m->note;
+  // The labelling's step and the others' apart, for the record (no parameter of their own yet).
+  for (const char* key : {"pixel_label", "pixel_other"}) {
+    const auto it = std::find_if(r.measurements.begin(), r.measurements.end(),
+                                 [&](const Measurement& x) { return x.key == key; });
+    ASSERT_NE(it, r.measurements.end()) << key;
+    EXPECT_TRUE(it->detail) << key;
+    EXPECT_FALSE(it->param.has_value()) << key;
+    EXPECT_EQ(it->stats.n, 2u) << key;
+    EXPECT_GT(it->value, 1e-11) << key;
+    EXPECT_LT(it->value, 1e-6) << key;
+  }
 }
 
 TEST(CpuProbes, TreeGivesOneStepOfTreeWorkOnEachPlacement) {
