@@ -79,7 +79,8 @@ Specimen make_specimen(double radius, int dots, std::uint64_t seed) {
     s.window_pixels += static_cast<std::int64_t>(x1 - x0 + 1) * (y1 - y0 + 1);
   }
   f.image.resize(pixels);
-  for (std::size_t i = 0; i < pixels; ++i) f.image[i] = static_cast<std::uint8_t>(std::lround(std::min(level[i], 255.0)));
+  for (std::size_t i = 0; i < pixels; ++i)
+    f.image[i] = static_cast<std::uint8_t>(std::lround(std::min(level[i], 255.0)));
 
   // The host's centroids: the device's arithmetic in float64.
   for (int k = 0; k < dots; ++k) {
@@ -108,7 +109,8 @@ Specimen make_specimen(double radius, int dots, std::uint64_t seed) {
 
 void check(const Specimen& s, const std::vector<double>& got, double tol, const char* who) {
   if (got.size() != s.host.size())
-    throw ValidationError(fmt::format("the {} centroids are {} numbers for {} dots", who, got.size(), s.host.size() / 2));
+    throw ValidationError(
+        fmt::format("the {} centroids are {} numbers for {} dots", who, got.size(), s.host.size() / 2));
   for (std::size_t k = 0; 2 * k < got.size(); ++k) {
     const double d = std::hypot(got[2 * k] - s.host[2 * k], got[2 * k + 1] - s.host[2 * k + 1]);
     if (!(d <= tol))

@@ -183,20 +183,25 @@ Passes time_passes(const Frame& f, int reps, int threads, std::int64_t& steps) {
 // The labelling's step and the others', apart (no model parameter prices them apart yet: the
 // labelling costs several times a histogram step or a window scan's, so L_pixel, their average on
 // this frame, is low for frames whose labelling is more of their steps; docs/model.md 2.6).
-void add_split(ProbeReport& r, const std::string& who, const std::vector<double>& label,
-               const std::vector<double>& other, const std::string& how) {
-  Measurement l = time_measurement(fmt::format("pixel_label{}", who), fmt::format("a labelled pixel ({})", who.empty() ? "one thread" : "all threads"),
-                                   label, std::nullopt,
-                                   fmt::format("of the pass, OpenCV's threshold and 8-connected labelling with statistics "
-                                               "a pixel; {}", how));
-  l.detail = true;
-  r.measurements.push_back(l);
-  Measurement o = time_measurement(fmt::format("pixel_other{}", who),
-                                   fmt::format("a histogram or window-scan step ({})", who.empty() ? "one thread" : "all threads"),
-                                   other, std::nullopt,
-                                   fmt::format("of the pass, the rest a step: the histogram's and the windows' scans; {}", how));
-  o.detail = true;
-  r.measurements.push_back(o);
+void add_split(ProbeReport& r, bool all_threads, const std::vector<double>& label, const std::vector<double>& other,
+               const std::string& how) {
+  const char* suffix = all_threads ? "_all" : "";
+  const char* who = all_threads ? "all threads" : "one thread";
+  const struct {
+    const char* key;
+    const char* label;
+    const char* what;
+    const std::vector<double>& seconds;
+  } parts[] = {
+      {"pixel_label", "a labelled pixel", "OpenCV's threshold and 8-connected labelling with statistics a pixel", label},
+      {"pixel_other", "a histogram or window-scan step", "the rest a step: the histogram's and the windows' scans",
+       other}};
+  for (const auto& part : parts) {
+    Measurement m = time_measurement(fmt::format("{}{}", part.key, suffix), fmt::format("{} ({})", part.label, who),
+                                     part.seconds, std::nullopt, fmt::format("of the pass, {}; {}", part.what, how));
+    m.detail = true;
+    r.measurements.push_back(m);
+  }
 }
 
 std::string what(std::int64_t steps) {
@@ -239,14 +244,14 @@ ProbeReport run(const ProbeOptions& o) {
   std::vector<double> label, other;
   r.measurements.push_back(measure_one(f, reps, o.effort, label, other));
   const Stats one = r.measurements[0].stats;  // a copy: the next push_back may move it
-  add_split(r, "", label, other, "the median over the placements of each one's median");
+  add_split(r, false, label, other, "the median over the placements of each one's median");
   std::string all;
   if (const int threads = usable_cpus(); threads > 1) {
     Passes passes;
     r.measurements.push_back(
         measure_all(f, o.effort == Effort::full ? 31 : o.effort == Effort::quick ? 11 : 3, threads, passes));
     all = fmt::format(", {:.2f} ns on {} threads", r.measurements.back().value * 1e9, threads);
-    add_split(r, "_all", passes.per_label, passes.per_other, fmt::format("{} threads, median of the passes", threads));
+    add_split(r, true, passes.per_label, passes.per_other, fmt::format("{} threads, median of the passes", threads));
   }
   o.say(fmt::format("  pixel step: {:.2f} ns on one thread (placements {:.2f} .. {:.2f} ns){}; apart, a labelled "
                     "pixel {:.2f} ns and another step {:.2f} ns", one.median * 1e9, one.min * 1e9, one.max * 1e9, all,
