@@ -36,7 +36,10 @@ const double kLogBound = std::log(1e6);      // how far from its start a fitted 
 double default_start(Param p) {
   const auto unit = info(p).unit;
   if (p == Param::L_tree) return 30e-9;  // a step of a k-d tree: a few dependent loads
-  if (p == Param::L_pixel || p == Param::L_pixel_all) return 1e-9;  // a step of a scalar pixel loop: a few cycles
+  if (p == Param::L_pixel || p == Param::L_pixel_all || p == Param::L_scan || p == Param::L_scan_all)
+    return 1e-9;  // a step of a scalar pixel loop: a few cycles
+  if (p == Param::L_hist || p == Param::L_hist_all) return 0.5e-9;  // a histogram's count: a load and an increment
+  if (p == Param::L_label || p == Param::L_label_all) return 5e-9;  // a labelled pixel: a threshold, a union-find step
   if (p == Param::V_CS) return 1e9;      // one addition per few cycles
   if (p == Param::V_CM || p == Param::V_CM_all) return 3e9;  // MLS fields: a FLOP a cycle, about
   if (p == Param::V_GM) return 3e8;  // one GPU thread's MLS chain: a FLOP every few cycles
@@ -67,7 +70,9 @@ Bound physical_bounds(Param p, const MachineProfile& start, double start_value) 
     return {0.02 * probed->value, 100 * probed->value,
             fmt::format("0.02x .. 100x the probed {}", format_quantity(probed->value, unit))};
   if (unit == "x") return {0.1, 100, "a cost ratio of one FLOP to another"};
-  if (p == Param::L_pixel || p == Param::L_pixel_all) return {5e-11, 1e-7, "a step of a scalar pixel loop: 0.05 ns .. 100 ns"};
+  if (p == Param::L_pixel || p == Param::L_pixel_all || p == Param::L_label || p == Param::L_label_all ||
+      p == Param::L_hist || p == Param::L_hist_all || p == Param::L_scan || p == Param::L_scan_all)
+    return {5e-11, 1e-7, "a step of a scalar pixel loop: 0.05 ns .. 100 ns"};
   // The dots' blocks classify side by side on every multiprocessor: a step's share of the wall time
   // is picoseconds (about 60-80 ps on the lent H100), below any one event's 0.1 ns.
   if (p == Param::L_GP) return {1e-12, 1e-7, "a window pixel classified on the device, the dots' blocks side by side: 1 ps .. 100 ns"};
@@ -130,13 +135,13 @@ std::string fmt_value(double v, Param p) { return fmt::format("{:.4g} {}", v, in
 // The parameters a sample's counts exercise: every refinement the model has is priced, those the
 // start profile lacks found by the fit (staging, serial chains, all-thread windows, the GPU's L2
 // where its size is known, graph launches, all-thread pixel steps, MLS fields at their own rate on
-// the CPU and on the GPU).
+// the CPU and on the GPU, pixel steps by kind).
 std::vector<Param> exercised_params(const CostCounts& c, Variant v, const MachineProfile& start) {
   return required_params(c, v,
                          Pricing{.llc_bytes = model_llc_bytes(start.identity), .staging = true, .all_threads = true,
                                  .serial = true, .gpu_l2_bytes = start.identity.gpu_l2_bytes, .graph = true,
                                  .pixel_all = true, .mls = true, .mls_all = true, .gpu_mls = true,
-                                 .gpu_pixel = true});
+                                 .gpu_pixel = true, .pixel_kinds = true, .pixel_kinds_all = true});
 }
 
 }  // namespace

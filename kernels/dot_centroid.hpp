@@ -3,12 +3,15 @@
 // templated on the scalar type and compiled for the host (float64 reference, float32 checks) and
 // for the device (float32); and, compiled by nvcc, the device's block of one dot (centroid_block):
 // the one source of what the DCT cuda backend's centroid kernel does and the gpu-centroid probe
-// times (as kernels/point_fields.hpp is for the fields). The FLOP constants are what these
-// functions do, counted by hand from the code. Header only; it depends on nothing but
-// kernels/host_device.hpp.
+// times (as kernels/point_fields.hpp is for the fields); and the host's window routine
+// (centroid_window), the DCT CPU backends' and the cpu-pixel probe's. The FLOP constants are what
+// these functions do, counted by hand from the code. Header only; it depends on nothing but
+// kernels/host_device.hpp and the standard library.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "kernels/host_device.hpp"
 
@@ -94,6 +97,74 @@ struct WeightSums {
 constexpr std::int64_t kFlopsPerWeightedPixel = 11;
 // Centroid from the sums: 2 divides + 2 adds (window centre).
 constexpr std::int64_t kFlopsPerCentroid = 4;
+
+// ---- One dot's window on the host -----------------------------------------------------------
+
+// What the host's centroid of one dot found; coordinates are the labels' (the region of interest's).
+struct WindowCentroid {
+  bool kept = false;               // the window held ring and weighted pixels: x, y, weight are set
+  double x = 0, y = 0, weight = 0; // the intensity-weighted centroid and its total weight
+  std::int64_t window = 0, ring = 0, weighted = 0;  // window pixels, and of them ring and weighted
+  std::int64_t scanned = 0;        // background window pixels whose (2 margin + 1)^2 labels were read
+  std::int64_t first = -1;         // the first of the dot's own pixels in raster order (y cols + x)
+};
+
+// One dot's centroid on the host (eq. 7.1), in float64: the DCT CPU backends' window routine and
+// the one the cpu-pixel probe times. `img` points at the region's first pixel, `img_stride` pixels
+// a row; `labels` likewise (0 background, else the component), `cols` x `rows` the region; the
+// window is the component's box (bx, by, bw, bh) grown by margin + kRingWidth, cut to the region.
+// Each window pixel is classified once and the classes kept for the weighted pass.
+template <class Pix>
+WindowCentroid centroid_window(const Pix* img, std::size_t img_stride, const int* labels, std::size_t label_stride,
+                               int cols, int rows, int id, int bx, int by, int bw, int bh, int margin, bool dark) {
+  const int grow = margin + kRingWidth;
+  const int x0 = bx - grow > 0 ? bx - grow : 0, y0 = by - grow > 0 ? by - grow : 0;
+  const int x1 = bx + bw + grow < cols ? bx + bw + grow : cols, y1 = by + bh + grow < rows ? by + bh + grow : rows;
+  WindowCentroid out;
+  if (x1 <= x0 || y1 <= y0) return out;
+  // The labels as a pointer and stride by value: the classes' byte stores below may alias
+  // anything, so a label read through a reference would reload them at every read.
+  auto label = [labels, label_stride, cols, rows](int x, int y) -> int {
+    if (x < 0 || y < 0 || x >= cols || y >= rows) return -1;
+    const int l = labels[static_cast<std::size_t>(y) * label_stride + static_cast<std::size_t>(x)];
+    return l - static_cast<int>(l == 0);  // background (0) as -1, without a branch on the pixel
+  };
+  auto pixel = [img, img_stride](int x, int y) {
+    return static_cast<double>(img[static_cast<std::size_t>(y) * img_stride + static_cast<std::size_t>(x)]);
+  };
+  const int w = x1 - x0, h = y1 - y0;
+  const double cx = x0 + 0.5 * (w - 1), cy = y0 + 0.5 * (h - 1);
+  std::vector<std::uint8_t> cls(static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
+  RingSums<double> ring;
+  for (int y = y0, k = 0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x, ++k) {
+      const int c = classify_pixel(label, x, y, id, margin);
+      cls[static_cast<std::size_t>(k)] = static_cast<std::uint8_t>(c);
+      if (c == kRing) {
+        ring.add(x - cx, y - cy, pixel(x, y));
+        ++out.ring;
+      }
+      const int l = label(x, y);
+      out.scanned += l == -1;  // classify_pixel read its neighbourhood
+      if (out.first < 0 && l == id) out.first = static_cast<std::int64_t>(y) * cols + x;
+    }
+  double a, b, c;
+  solve_plane(ring, a, b, c);
+  WeightSums<double> sums;
+  for (int y = y0, k = 0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x, ++k)
+      if (cls[static_cast<std::size_t>(k)] == kWeighted) {
+        sums.add(x - cx, y - cy, pixel(x, y), a, b, c, dark);
+        ++out.weighted;
+      }
+  out.window = static_cast<std::int64_t>(w) * h;
+  if (!(sums.w > 0) || out.ring == 0) return out;
+  out.kept = true;
+  out.x = cx + sums.wx / sums.w;
+  out.y = cy + sums.wy / sums.w;
+  out.weight = sums.w;
+  return out;
+}
 
 #ifdef __CUDACC__
 // ---- One dot's block on the device --------------------------------------------------------

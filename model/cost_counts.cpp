@@ -61,6 +61,9 @@ const std::vector<CountField>& count_fields() {
       {"N_CC", &C::N_CC, "values", "through host memory by CPU work"},
       {"tree_steps", &C::tree_steps, "steps", "of host k-d tree builds and searches"},
       {"pixel_steps", &C::pixel_steps, "steps", "of host scalar pixel loops: pixels visited, neighbourhood labels read"},
+      {"label_steps", &C::label_steps, "steps", "of pixel_steps, pixels labelled (threshold and connected components)",
+       A::sum, &C::pixel_steps},
+      {"hist_steps", &C::hist_steps, "steps", "of pixel_steps, pixels counted into a histogram", A::sum, &C::pixel_steps},
       {"net_messages", &C::net_messages, "messages", "sent by one process to others (MPI)"},
       {"net_bytes", &C::net_bytes, "bytes", "of those messages' payloads"},
       {"cpu_syncs", &C::cpu_syncs, "syncs", "of the CPU threads: forks, joins, barriers"},
@@ -101,6 +104,11 @@ void check_consistent(const CostCounts& c) {
                                    "workload's counts are inconsistent",
                                    f.name, n, whole.name, total, f.name, f.unit, f.meaning));
   }
+  if (c.label_steps + c.hist_steps > c.pixel_steps)
+    throw InputError(fmt::format("the counts give label_steps = {} and hist_steps = {}, together more than "
+                                 "pixel_steps = {} (a pixel step is of one of these kinds at most): the workload's "
+                                 "counts are inconsistent",
+                                 c.label_steps, c.hist_steps, c.pixel_steps));
   // The two kinds of sliding-window FLOPs are priced apart, so none is in both.
   if (c.N_CW + c.N_CD + c.N_CA + c.N_CS + c.N_CM > c.N_C)
     throw InputError(fmt::format("the counts give N_CW = {}, N_CD = {}, N_CA = {}, N_CS = {} and N_CM = {}, together "

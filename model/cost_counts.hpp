@@ -104,6 +104,11 @@ struct CostCounts {
                                   // classified) and per label a neighbourhood scan reads: branchy
                                   // work on data in the caches that no FLOP rate or bandwidth prices
                                   // (latency+, L_pixel each)
+  std::int64_t label_steps = 0;   // of pixel_steps, those of a labelling (a pixel thresholded and
+                                  // given its 8-connected component, with the components' statistics)
+  std::int64_t hist_steps = 0;    // of pixel_steps, a pixel counted into a histogram. Where the profile
+                                  // has L_label, L_hist and L_scan (latency+): label_steps at L_label,
+                                  // hist_steps at L_hist, the rest at L_scan; else all at L_pixel
   std::int64_t cpu_syncs = 0;     // times the CPU threads start together or wait for each other
                                   // (a parallel region's fork and join, a barrier)
   std::int64_t net_messages = 0;  // messages one process sends to others (MPI; L_net each)

@@ -75,6 +75,12 @@ const std::vector<ParamInfo>& all_params() {
       {Param::V_CM, "V_CM", "FLOP/s", "CPU rate of moving-least-squares field arithmetic (a support dot's chain of rotations, square roots and divisions), one thread"},
       {Param::V_CM_all, "V_CM_all", "FLOP/s", "V_CM with every hardware thread at work: the FLOPs of all threads per second of wall time"},
       {Param::V_GM, "V_GM", "FLOP/s", "rate of one GPU thread's moving-least-squares field (a point's chain of rotations, square roots and divisions), the points' threads side by side"},
+      {Param::L_label, "L_label", "s", "one pixel of host labelling (a threshold and an 8-connected labelling with statistics, as OpenCV does it), one thread"},
+      {Param::L_label_all, "L_label_all", "s", "L_label with every hardware thread at work: the wall time of a labelled pixel the threads share"},
+      {Param::L_hist, "L_hist", "s", "one pixel counted into a 256-bin histogram on the host (Otsu's threshold), one thread"},
+      {Param::L_hist_all, "L_hist_all", "s", "L_hist with every hardware thread at work: what a histogram's count costs while the threads share the analysis"},
+      {Param::L_scan, "L_scan", "s", "one step of host scalar pixel work other than a labelling's or a histogram's: a window pixel classified, or a label of its neighbourhood read, one thread"},
+      {Param::L_scan_all, "L_scan_all", "s", "L_scan with every hardware thread at work: the wall time of such a step the threads share"},
       {Param::L_GP, "L_GP", "s", "one step of the device's per-dot pixel classification: a window pixel of a dot classified (its own, ring, or ignored, from its neighbourhood's labels), the dots' blocks side by side"},
   };
   return table;
@@ -128,6 +134,12 @@ bool device_param(Param p) {
     case Param::L_tree:
     case Param::L_pixel:
     case Param::L_pixel_all:
+    case Param::L_label:
+    case Param::L_label_all:
+    case Param::L_hist:
+    case Param::L_hist_all:
+    case Param::L_scan:
+    case Param::L_scan_all:
     case Param::V_CM:
     case Param::V_CM_all:
     case Param::L_net:

@@ -71,6 +71,12 @@ enum class Param {
   V_CM_all,        // V_CM with every hardware thread at work (cpu_threads > 1)             [FLOP/s]
   V_GM,            // rate of one GPU thread's moving-least-squares chain (N_GM)          [FLOP/s]
   L_GP,            // one device step of per-dot pixel classification (gpu_pixel_steps)    [s]
+  L_label,         // one labelled pixel of host pixel work (label_steps), one thread       [s]
+  L_label_all,     // L_label with every hardware thread at work (cpu_threads > 1)          [s]
+  L_hist,          // one pixel counted into a host histogram (hist_steps), one thread       [s]
+  L_hist_all,      // L_hist with every hardware thread at work (cpu_threads > 1)           [s]
+  L_scan,          // one other step of host pixel work (the rest of pixel_steps)           [s]
+  L_scan_all,      // L_scan with every hardware thread at work (cpu_threads > 1)           [s]
 };
 
 struct ParamInfo {

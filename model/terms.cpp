@@ -52,7 +52,9 @@ Pricing Pricing::of(const MachineProfile& m) {
   return {model_llc_bytes(m.identity), has_staging(m), m.has(Param::K_CW_all) || m.has(Param::K_CA_all),
           m.has(Param::V_CS), m.has(Param::B_L2) ? m.identity.gpu_l2_bytes : 0, m.has(Param::L_graph),
           m.has(Param::L_pixel_all), m.has(Param::V_CM), m.has(Param::V_CM_all),
-          m.has(Param::V_GM), m.has(Param::L_GP)};
+          m.has(Param::V_GM), m.has(Param::L_GP), 
+          m.has(Param::L_label) && m.has(Param::L_hist) && m.has(Param::L_scan),
+          m.has(Param::L_label_all) && m.has(Param::L_hist_all) && m.has(Param::L_scan_all)};
 }
 
 namespace {
@@ -288,13 +290,42 @@ double allreduce_seconds(const MachineProfile& m, const CostCounts& c, Variant, 
 }
 
 // lat_pixel. A step of pixel work costs L_pixel on one thread; on several, the wall time of a step
-// the threads share, L_pixel_all, where the profile has it (docs/model.md 2.6).
-Param l_pixel(const CostCounts& c, const Pricing& x) {
-  return x.pixel_all && c.cpu_threads > 1 ? Param::L_pixel_all : Param::L_pixel;
+// the threads share, L_pixel_all, where the profile has it (docs/model.md 2.6). Where the profile
+// has the figures of each kind of step (the cpu-pixel probe times them apart), a labelled pixel
+// (label_steps) costs L_label, a histogram's count (hist_steps) L_hist and every other step L_scan
+// (L_label_all, L_hist_all, L_scan_all on several threads): a labelling costs several times a
+// count or a label read, and frames differ in how much of their pixel work each kind is. The
+// richest figures the profile has price the steps.
+struct PixelPrices {
+  Param label, hist, scan;  // by kind; all three the same figure where the kinds are not apart
+  bool by_kind;
+};
+bool kinds_counted(const CostCounts& c) { return c.label_steps > 0 || c.hist_steps > 0; }
+PixelPrices pixel_prices(const CostCounts& c, const Pricing& x) {
+  const bool many = c.cpu_threads > 1;
+  if (kinds_counted(c) && many && x.pixel_kinds_all) return {Param::L_label_all, Param::L_hist_all, Param::L_scan_all, true};
+  if (many && x.pixel_all) return {Param::L_pixel_all, Param::L_pixel_all, Param::L_pixel_all, false};
+  if (kinds_counted(c) && x.pixel_kinds) return {Param::L_label, Param::L_hist, Param::L_scan, true};
+  return {Param::L_pixel, Param::L_pixel, Param::L_pixel, false};
 }
-std::vector<Param> pixel_needs(const CostCounts& c, Variant, const Pricing& x) { return {l_pixel(c, x)}; }
+std::int64_t scan_steps(const CostCounts& c) { return c.pixel_steps - c.label_steps - c.hist_steps; }
+std::vector<Param> pixel_needs(const CostCounts& c, Variant, const Pricing& x) {
+  const PixelPrices p = pixel_prices(c, x);
+  if (!p.by_kind) return {p.label};
+  std::vector<Param> out;
+  if (c.label_steps > 0) out.push_back(p.label);
+  if (c.hist_steps > 0) out.push_back(p.hist);
+  if (scan_steps(c) > 0) out.push_back(p.scan);
+  return out;
+}
 double pixel_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing& x) {
-  return static_cast<double>(c.pixel_steps) * m.get(l_pixel(c, x)).value;
+  const PixelPrices p = pixel_prices(c, x);
+  if (!p.by_kind) return static_cast<double>(c.pixel_steps) * m.get(p.label).value;
+  double s = 0;
+  if (c.label_steps > 0) s += static_cast<double>(c.label_steps) * m.get(p.label).value;
+  if (c.hist_steps > 0) s += static_cast<double>(c.hist_steps) * m.get(p.hist).value;
+  if (scan_steps(c) > 0) s += static_cast<double>(scan_steps(c)) * m.get(p.scan).value;
+  return s;
 }
 
 // The two simple shapes: P N / B, values moved over a bandwidth, and n L, events at a fixed cost.
@@ -390,8 +421,10 @@ const std::vector<Term>& terms() {
        per_event<&C::cpu_syncs, only<Param::L_sync>>()},
       {"lat_tree", &P::lat_tree, Phase::C, kLatencyVariants, sum, "tree_steps", "L_tree", "host k-d tree steps",
        per_event<&C::tree_steps, only<Param::L_tree>>()},
-      {"lat_pixel", &P::lat_pixel, Phase::C, kLatencyVariants, sum, "pixel_steps",
-       "L_pixel; L_pixel_all for cpu_threads > 1 where the profile has it", "host scalar pixel steps",
+      {"lat_pixel", &P::lat_pixel, Phase::C, kLatencyVariants, sum,
+       "pixel_steps; where the profile has L_label, L_hist and L_scan: label_steps, hist_steps and the rest apart",
+       "L_pixel; L_pixel_all for cpu_threads > 1 where the profile has it; L_label, L_hist and L_scan (their _all "
+       "for cpu_threads > 1) where it has them and label_steps or hist_steps > 0", "host scalar pixel steps",
        {positive<&C::pixel_steps>, pixel_needs, pixel_seconds}},
       {"lat_wait", &P::lat_wait, Phase::wait, kLatencyVariants, sum, "host_waits", "L_wait",
        "host waits for the device", per_event<&C::host_waits, only<Param::L_wait>>()},

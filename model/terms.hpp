@@ -89,6 +89,11 @@ struct Pricing {
   bool gpu_pixel = false;      // price the device's per-dot pixel classification (gpu_pixel_steps) at L_GP
                                // (the profile has it, or a fit is to find it); else not at all: its bytes
                                // are in N_GG at the device's bandwidth, as profiles made before it were fitted
+  bool pixel_kinds = false;    // price pixel steps by kind: a labelling's (label_steps) at L_label, a
+                               // histogram's (hist_steps) at L_hist, the rest at L_scan (the profile has the
+                               // three, or a fit is to find them); else every pixel step at L_pixel, as
+                               // profiles made before the probe timed them apart
+  bool pixel_kinds_all = false;  // price them on cpu_threads > 1 at L_label_all, L_hist_all and L_scan_all
   static Pricing of(const MachineProfile& profile);
 };
 

@@ -1,17 +1,20 @@
-// Host scalar pixel work (L_pixel, L_pixel_all): what one step of the DCT CPU backends' image
-// analysis costs on this machine, the work done pixel by pixel and branch by branch (a histogram's
-// count, a pixel labelled, a window pixel classified, a label of its neighbourhood read) that no
-// FLOP rate or bandwidth prices. The probe runs that analysis' own steps on a frame of dark discs,
-// with the libraries the workload uses: a 256-bin histogram (one step a pixel), OpenCV's threshold
-// and 8-connected labelling with statistics (one step a pixel), and the classification of each
-// component's window, every background window pixel reading the labels of its 5 x 5 neighbourhood
-// through a bounds-checked accessor (one step a window pixel and one a label read): the steps the
-// workload counts as pixel_steps (docs/model.md 2.6). The time of a pass over its steps gives
-// L_pixel on one thread (cpu-seq: the median over several placements of the thread,
-// probes/placements.hpp), and L_pixel_all on every usable CPU (cpu-par: OpenCV's threads for the
-// threshold and the labelling, the windows split between them, the histogram on one).
+// Host scalar pixel work (L_pixel, L_pixel_all; by kind L_label, L_hist, L_scan and their _all):
+// what one step of the DCT CPU backends' image analysis costs on this machine, the work done pixel
+// by pixel and branch by branch (a histogram's count, a pixel labelled, a window pixel classified,
+// a label of its neighbourhood read) that no FLOP rate or bandwidth prices. The probe runs that
+// analysis' own steps on a frame of dark discs, with the libraries the workload uses: a 256-bin
+// histogram (one step a pixel), OpenCV's threshold and 8-connected labelling with statistics (one
+// step a pixel), and the classification of each component's window, every background window pixel
+// reading the labels of its 5 x 5 neighbourhood through a bounds-checked accessor (one step a
+// window pixel and one a label read): the steps the workload counts as pixel_steps (docs/model.md
+// 2.6). The time of a pass over its steps gives L_pixel on one thread (cpu-seq: the median over
+// several placements of the thread, probes/placements.hpp), and L_pixel_all on every usable CPU
+// (cpu-par: OpenCV's threads for the threshold and the labelling, the windows split between them,
+// the histogram on one). The pass's labelling, its histogram (a step a pixel each) and its
+// windows' steps are timed apart too: L_label, L_hist, L_scan.
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <random>
 #include <string>
@@ -21,6 +24,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "kernels/dot_centroid.hpp"
 #include "model/stats.hpp"
 #include "probes/measure.hpp"
 #include "probes/opencv_threads.hpp"
@@ -35,7 +39,7 @@ constexpr int kSide = 1024;    // frame side, px: a 1 MP frame, its labels (4 Mi
 constexpr int kDiscs = 400;    // labelled discs
 constexpr int kRadius = 8;     // their radius, px
 constexpr int kMargin = 2;     // the neighbourhood's half-width: 5 x 5 labels
-constexpr int kGrow = kMargin + 2;  // a window is a disc's box grown by the margin and a 2 px ring
+constexpr int kGrow = kMargin + kernels::kRingWidth;  // a window: a disc's box grown by the margin and the ring
 
 struct Frame {
   std::vector<std::uint8_t> image;
@@ -64,7 +68,9 @@ struct Steps {
   std::int64_t counted = 0;   // histogram total
   std::int64_t components = 0;  // components the labelling found (background apart)
   std::int64_t bad_area = 0;    // of them, with another area than a disc's
-  std::int64_t classes[3] = {0, 0, 0};  // own, ring, ignored: must add up to the window pixels
+  std::int64_t window = 0, ring = 0;  // window pixels classified, and of them ring (the background's)
+  std::int64_t off_centre = 0;  // dots not kept, or whose centroid is 0.5 px or more off their disc's centre
+  double hist_seconds = 0;      // of the pass, the histogram (a step a pixel)
   double label_seconds = 0;     // of the pass, the threshold and the labelling (a step a pixel)
 };
 
@@ -86,8 +92,10 @@ std::int64_t disc_area() {
 Steps pass(const Frame& f, Buffers& b, int threads) {
   OpenCvThreads scope(threads);
   Steps s;
+  const auto h0 = std::chrono::steady_clock::now();
   std::array<std::int64_t, 256> hist{};
   for (std::uint8_t v : f.image) ++hist[v];
+  s.hist_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - h0).count();
   for (std::int64_t h : hist) s.counted += h;
   const cv::Mat image(kSide, kSide, CV_8U, const_cast<std::uint8_t*>(f.image.data()));
   const auto t0 = std::chrono::steady_clock::now();
@@ -98,40 +106,22 @@ Steps pass(const Frame& f, Buffers& b, int threads) {
   s.components = n - 1;
   const std::int64_t area = disc_area();
   std::vector<Steps> each(static_cast<std::size_t>(std::max(0, n - 1)));
+  // Every component's window through the workload's own routine (kernels::centroid_window): the
+  // classification with its label scans, the ring's plane and the weighted centroid.
   auto classify = [&](const cv::Range& range) {
     for (int id = range.start; id < range.end; ++id) {
       Steps& e = each[static_cast<std::size_t>(id - 1)];
       if (b.stats.at<int>(id, cv::CC_STAT_AREA) != area) ++e.bad_area;
-      const int x0 = b.stats.at<int>(id, cv::CC_STAT_LEFT) - kGrow, y0 = b.stats.at<int>(id, cv::CC_STAT_TOP) - kGrow;
-      const int x1 = x0 + b.stats.at<int>(id, cv::CC_STAT_WIDTH) + 2 * kGrow;
-      const int y1 = y0 + b.stats.at<int>(id, cv::CC_STAT_HEIGHT) + 2 * kGrow;
-      auto label = [&](int x, int y) -> int {
-        if (x < 0 || y < 0 || x >= kSide || y >= kSide) return -1;
-        const int l = b.labels.at<int>(y, x);
-        return l == 0 ? -1 : l;
-      };
-      for (int y = y0; y < y1; ++y)
-        for (int x = x0; x < x1; ++x) {
-          ++e.steps;
-          const int l = label(x, y);
-          if (l == id) {
-            ++e.classes[0];
-            continue;
-          }
-          if (l != -1) {
-            ++e.classes[2];
-            continue;
-          }
-          bool self = false, other = false;
-          for (int dy = -kMargin; dy <= kMargin; ++dy)
-            for (int dx = -kMargin; dx <= kMargin; ++dx) {
-              const int m = label(x + dx, y + dy);
-              self |= m == id;
-              other |= m != -1 && m != id;
-            }
-          e.steps += (2 * kMargin + 1) * (2 * kMargin + 1);
-          ++e.classes[other ? 2 : self ? 0 : 1];
-        }
+      const int bx = b.stats.at<int>(id, cv::CC_STAT_LEFT), by = b.stats.at<int>(id, cv::CC_STAT_TOP);
+      const int bw = b.stats.at<int>(id, cv::CC_STAT_WIDTH), bh = b.stats.at<int>(id, cv::CC_STAT_HEIGHT);
+      const kernels::WindowCentroid c =
+          kernels::centroid_window(f.image.data(), static_cast<std::size_t>(kSide), b.labels.ptr<int>(0),
+                                   b.labels.step1(), kSide, kSide, id, bx, by, bw, bh, kMargin, true);
+      e.steps += c.window + (2 * kMargin + 1) * (2 * kMargin + 1) * c.scanned;  // as the workload counts them
+      e.window += c.window;
+      e.ring += c.ring;
+      // A disc is symmetric about its box's centre, and its centroid there within a fraction of a pixel.
+      e.off_centre += !c.kept || std::abs(c.x - (bx + 0.5 * (bw - 1))) >= 0.5 || std::abs(c.y - (by + 0.5 * (bh - 1))) >= 0.5;
     }
   };
   if (threads > 1) cv::parallel_for_(cv::Range(1, n), classify);
@@ -139,18 +129,21 @@ Steps pass(const Frame& f, Buffers& b, int threads) {
   for (const Steps& e : each) {
     s.steps += e.steps;
     s.bad_area += e.bad_area;
-    for (int k = 0; k < 3; ++k) s.classes[k] += e.classes[k];
+    s.window += e.window;
+    s.ring += e.ring;
+    s.off_centre += e.off_centre;
   }
   return s;
 }
 
-// The time of a pass a step on `threads` threads: `reps` timed passes after an untimed one, each
-// checked. Returns the per-step times; `steps` is a pass's step count.
 // A pass's time a step, and apart: its labelling's a labelled pixel (OpenCV's threshold and
-// 8-connected labelling) and the rest's a step (the histogram and the windows' scans).
+// 8-connected labelling), its histogram's a count, and the rest's a step (the windows' scans).
 struct Passes {
-  std::vector<double> per_step, per_label, per_other;
+  std::vector<double> per_step, per_label, per_hist, per_scan;
 };
+
+// The time of a pass a step on `threads` threads: `reps` timed passes after an untimed one, each
+// checked; `steps` is a pass's step count.
 
 Passes time_passes(const Frame& f, int reps, int threads, std::int64_t& steps) {
   const std::int64_t window = static_cast<std::int64_t>(kDiscs) * (2 * (kRadius + kGrow) + 1) * (2 * (kRadius + kGrow) + 1);
@@ -161,47 +154,50 @@ Passes time_passes(const Frame& f, int reps, int threads, std::int64_t& steps) {
     const Steps s = pass(f, b, threads);
     const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     // The loops ran: every pixel counted once, every disc labelled whole and apart, every window
-    // pixel classified once, some of them as ring (the background plane's pixels).
+    // pixel classified once, some of them as ring (the background plane's pixels), and every
+    // disc's centroid at its centre.
     if (s.counted != static_cast<std::int64_t>(f.image.size()) || s.components != kDiscs || s.bad_area != 0 ||
-        s.classes[0] + s.classes[1] + s.classes[2] != window || s.classes[1] == 0)
+        s.window != window || s.ring == 0 || s.off_centre != 0)
       throw ValidationError(fmt::format(
-          "the pixel loops counted {} of {} pixels, labelled {} of {} discs ({} of another area) and classified {} of "
-          "{} window pixels",
-          s.counted, f.image.size(), s.components, kDiscs, s.bad_area, s.classes[0] + s.classes[1] + s.classes[2],
-          window));
+          "the pixel loops counted {} of {} pixels, labelled {} of {} discs ({} of another area), classified {} of "
+          "{} window pixels ({} ring) and put {} centroids off their disc's centre",
+          s.counted, f.image.size(), s.components, kDiscs, s.bad_area, s.window, window, s.ring, s.off_centre));
     steps = s.steps;
     if (k >= 0) {
       const auto pixels = static_cast<double>(f.image.size());
       out.per_step.push_back(t / static_cast<double>(s.steps));
       out.per_label.push_back(s.label_seconds / pixels);
-      out.per_other.push_back((t - s.label_seconds) / (static_cast<double>(s.steps) - pixels));
+      out.per_hist.push_back(s.hist_seconds / pixels);
+      out.per_scan.push_back((t - s.label_seconds - s.hist_seconds) / (static_cast<double>(s.steps) - 2 * pixels));
     }
   }
   return out;
 }
 
-// The labelling's step and the others', apart (no model parameter prices them apart yet: the
-// labelling costs several times a histogram step or a window scan's, so L_pixel, their average on
-// this frame, is low for frames whose labelling is more of their steps; docs/model.md 2.6).
-void add_split(ProbeReport& r, bool all_threads, const std::vector<double>& label, const std::vector<double>& other,
-               const std::string& how) {
+// The kinds of step apart: L_label, L_hist, L_scan (and _all). A labelling costs several times a
+// histogram's count or a window scan's step, so L_pixel, their average on this frame, is low for
+// frames whose pixel work is more labelling than the probe's and high for those with more windows;
+// the model prices the kinds apart where the profile has the three (docs/model.md 2.6).
+void add_kinds(ProbeReport& r, bool all_threads, const Passes& per_placement_or_pass, const std::string& how) {
   const char* suffix = all_threads ? "_all" : "";
   const char* who = all_threads ? "all threads" : "one thread";
   const struct {
     const char* key;
+    Param param;
     const char* label;
     const char* what;
     const std::vector<double>& seconds;
-  } parts[] = {
-      {"pixel_label", "a labelled pixel", "OpenCV's threshold and 8-connected labelling with statistics a pixel", label},
-      {"pixel_other", "a histogram or window-scan step", "the rest a step: the histogram's and the windows' scans",
-       other}};
-  for (const auto& part : parts) {
-    Measurement m = time_measurement(fmt::format("{}{}", part.key, suffix), fmt::format("{} ({})", part.label, who),
-                                     part.seconds, std::nullopt, fmt::format("of the pass, {}; {}", part.what, how));
-    m.detail = true;
-    r.measurements.push_back(m);
-  }
+  } kinds[] = {
+      {"label", all_threads ? Param::L_label_all : Param::L_label, "a labelled pixel",
+       "OpenCV's threshold and 8-connected labelling with statistics a pixel", per_placement_or_pass.per_label},
+      {"hist", all_threads ? Param::L_hist_all : Param::L_hist, "a histogram's count",
+       "the 256-bin histogram a pixel (on one thread, as the workload counts it)", per_placement_or_pass.per_hist},
+      {"scan", all_threads ? Param::L_scan_all : Param::L_scan, "a window-scan step",
+       "the rest a step: the windows' pixels and the labels their scans read", per_placement_or_pass.per_scan}};
+  for (const auto& kind : kinds)
+    r.measurements.push_back(time_measurement(fmt::format("{}{}", kind.key, suffix),
+                                              fmt::format("{} ({})", kind.label, who), kind.seconds, kind.param,
+                                              fmt::format("of the pass, {}; {}", kind.what, how)));
 }
 
 std::string what(std::int64_t steps) {
@@ -211,14 +207,15 @@ std::string what(std::int64_t steps) {
                      kSide, kDiscs, steps);
 }
 
-// L_pixel: one thread, the median over placements (probes/placements.hpp) of each one's median.
-Measurement measure_one(const Frame& f, int reps, Effort effort, std::vector<double>& label,
-                        std::vector<double>& other) {
+// L_pixel: one thread, the median over placements (probes/placements.hpp) of each one's median;
+// `kinds` gets each placement's median of each kind of step.
+Measurement measure_one(const Frame& f, int reps, Effort effort, Passes& kinds) {
   std::int64_t steps = 0;
   const Placed placed = on_placements(latency_placements(effort), [&] {
     const Passes p = time_passes(f, reps, 1, steps);
-    label.push_back(summarize(p.per_label).median);
-    other.push_back(summarize(p.per_other).median);
+    kinds.per_label.push_back(summarize(p.per_label).median);
+    kinds.per_hist.push_back(summarize(p.per_hist).median);
+    kinds.per_scan.push_back(summarize(p.per_scan).median);
     return summarize(p.per_step).median;
   });
   return time_measurement("pixel", "one step of the image analysis' pixel work (one thread)", placed.values,
@@ -231,9 +228,8 @@ Measurement measure_one(const Frame& f, int reps, Effort effort, std::vector<dou
 Measurement measure_all(const Frame& f, int reps, int threads, Passes& passes) {
   std::int64_t steps = 0;
   passes = time_passes(f, reps, threads, steps);
-  const std::vector<double>& per_step = passes.per_step;
   return time_measurement("pixel_all", fmt::format("one step of the image analysis' pixel work ({} threads)", threads),
-                          per_step, Param::L_pixel_all,
+                          passes.per_step, Param::L_pixel_all,
                           fmt::format("{} on {} threads; time / steps, median of {}", what(steps), threads, reps));
 }
 
@@ -241,21 +237,22 @@ ProbeReport run(const ProbeOptions& o) {
   ProbeReport r;
   const int reps = o.effort == Effort::full ? 11 : o.effort == Effort::quick ? 5 : 2;
   const Frame f = make_frame();
-  std::vector<double> label, other;
-  r.measurements.push_back(measure_one(f, reps, o.effort, label, other));
+  Passes kinds;
+  r.measurements.push_back(measure_one(f, reps, o.effort, kinds));
   const Stats one = r.measurements[0].stats;  // a copy: the next push_back may move it
-  add_split(r, false, label, other, "the median over the placements of each one's median");
+  add_kinds(r, false, kinds, "the median over the placements of each one's median");
   std::string all;
   if (const int threads = usable_cpus(); threads > 1) {
     Passes passes;
     r.measurements.push_back(
         measure_all(f, o.effort == Effort::full ? 31 : o.effort == Effort::quick ? 11 : 3, threads, passes));
     all = fmt::format(", {:.2f} ns on {} threads", r.measurements.back().value * 1e9, threads);
-    add_split(r, true, passes.per_label, passes.per_other, fmt::format("{} threads, median of the passes", threads));
+    add_kinds(r, true, passes, fmt::format("{} threads, median of the passes", threads));
   }
-  o.say(fmt::format("  pixel step: {:.2f} ns on one thread (placements {:.2f} .. {:.2f} ns){}; apart, a labelled "
-                    "pixel {:.2f} ns and another step {:.2f} ns", one.median * 1e9, one.min * 1e9, one.max * 1e9, all,
-                    summarize(label).median * 1e9, summarize(other).median * 1e9));
+  o.say(fmt::format("  pixel step: {:.2f} ns on one thread (placements {:.2f} .. {:.2f} ns){}; by kind, a labelled "
+                    "pixel {:.2f} ns, a histogram's count {:.2f} ns, a window-scan step {:.2f} ns",
+                    one.median * 1e9, one.min * 1e9, one.max * 1e9, all, summarize(kinds.per_label).median * 1e9,
+                    summarize(kinds.per_hist).median * 1e9, summarize(kinds.per_scan).median * 1e9));
   return r;
 }
 
@@ -264,7 +261,7 @@ ProbeReport run(const ProbeOptions& o) {
 
 DTFLOP_PROBE_UNIT(probe_cpu_pixel) {
   registry.add({"cpu-pixel",
-                "host scalar pixel work: one step of the image analysis' histogram, labelling or window label scans "
-                "(one thread and all)",
+                "host scalar pixel work: one step of the image analysis' histogram, labelling or window label scans, "
+                "and each kind apart (one thread and all)",
                 false, 28, dtflop::probes::run});
 }

@@ -101,6 +101,13 @@ TEST(Calibration, ACalibrationFittedWithoutACodeRateLeavesTheTargetsProbeOfItOut
   const Applied b = apply_calibration(with, target);
   ASSERT_TRUE(b.profile.has(Param::L_GP));
   EXPECT_DOUBLE_EQ(b.profile.get(Param::L_GP).value, 1.25 * 6e-11);
+  // And for cpu-pixel's kinds of step: a calibration fitted at one L_pixel a step is applied
+  // without the target's L_label, L_hist and L_scan, so its pixel steps are priced as they were fitted.
+  const Param kinds[] = {Param::L_label, Param::L_label_all, Param::L_hist,
+                         Param::L_hist_all, Param::L_scan, Param::L_scan_all};
+  for (Param q : kinds) target.set(q, Parameter{1e-9, Provenance::probed, {}, {}, {}});
+  const Applied c = apply_calibration(with, target);
+  for (Param q : kinds) EXPECT_FALSE(c.profile.has(q)) << info(q).name;
 }
 
 TEST(Calibration, RefusesAFittedTargetAndAGpuCalibrationForAMachineWithoutOne) {

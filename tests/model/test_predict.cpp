@@ -232,6 +232,65 @@ TEST(Predict, PixelStepsOnSeveralThreadsCostLPixelAllWhereTheProfileHasIt) {
   EXPECT_FALSE(fit_needs(c, Param::L_pixel));
 }
 
+// Where the profile has the figures of each kind of pixel step (cpu-pixel times them apart), a
+// labelled pixel costs L_label, a histogram's count L_hist and every other step L_scan; the
+// richest figures the profile has price them.
+TEST(Predict, PixelStepsArePricedByKindWhereTheProfileHasTheThreeFigures) {
+  auto m = test::round_profile();
+  m.set(Param::L_pixel, Parameter{2e-9, Provenance::probed, {}, {}, {}});
+  CostCounts c;
+  c.pixel_steps = 1'000'000;
+  c.label_steps = 200'000;
+  c.hist_steps = 100'000;
+  c.cpu_threads = 1;
+  // Without the three (a profile probed before the kinds were apart, or some of them), every
+  // step at L_pixel.
+  EXPECT_NEAR(predict(m, c, Variant::latency).lat_pixel, 2e-3, 1e-15);
+  m.set(Param::L_label, Parameter{7e-9, Provenance::probed, {}, {}, {}});
+  m.set(Param::L_scan, Parameter{1e-9, Provenance::probed, {}, {}, {}});
+  EXPECT_NEAR(predict(m, c, Variant::latency).lat_pixel, 2e-3, 1e-15);
+  m.set(Param::L_hist, Parameter{0.5e-9, Provenance::probed, {}, {}, {}});
+  // 2e5 x 7 ns + 1e5 x 0.5 ns + 7e5 x 1 ns = 1.4 ms + 0.05 ms + 0.7 ms.
+  EXPECT_NEAR(predict(m, c, Variant::latency).lat_pixel, 1.4e-3 + 0.05e-3 + 0.7e-3, 1e-15);
+  // Counts that never say which steps label or count (stores written before them) keep L_pixel.
+  CostCounts old = c;
+  old.label_steps = old.hist_steps = 0;
+  EXPECT_NEAR(predict(m, old, Variant::latency).lat_pixel, 2e-3, 1e-15);
+  // The seed variant has no pixel term at all.
+  EXPECT_EQ(predict(m, c, Variant::seed).lat_pixel, 0);
+  // A step is of one kind at most.
+  CostCounts over = c;
+  over.hist_steps = 900'000;
+  EXPECT_THROW(predict(m, over, Variant::latency), InputError);
+  // On several threads: the _all figures where the profile has the three; else L_pixel_all where
+  // it has that; else the one-thread kinds.
+  c.cpu_threads = 2;
+  EXPECT_NEAR(predict(m, c, Variant::latency).lat_pixel, 1.4e-3 + 0.05e-3 + 0.7e-3, 1e-15);
+  m.set(Param::L_pixel_all, Parameter{1e-9, Provenance::probed, {}, {}, {}});
+  EXPECT_NEAR(predict(m, c, Variant::latency).lat_pixel, 1e-3, 1e-15);
+  m.set(Param::L_label_all, Parameter{2e-9, Provenance::probed, {}, {}, {}});
+  m.set(Param::L_hist_all, Parameter{0.5e-9, Provenance::probed, {}, {}, {}});
+  m.set(Param::L_scan_all, Parameter{0.5e-9, Provenance::probed, {}, {}, {}});
+  EXPECT_NEAR(predict(m, c, Variant::latency).lat_pixel, 0.4e-3 + 0.05e-3 + 0.35e-3, 1e-15);
+  // Only the kinds the counts have are needed: every step a labelled one needs no L_scan or L_hist.
+  CostCounts all_label = c;
+  all_label.label_steps = all_label.pixel_steps;
+  all_label.hist_steps = 0;
+  const auto r = required_params(all_label, Variant::latency, Pricing{.pixel_kinds = true, .pixel_kinds_all = true});
+  EXPECT_EQ(std::count(r.begin(), r.end(), Param::L_label_all), 1);
+  EXPECT_EQ(std::count(r.begin(), r.end(), Param::L_hist_all), 0);
+  EXPECT_EQ(std::count(r.begin(), r.end(), Param::L_scan_all), 0);
+  // A fit finds the kinds' figures from samples that count them, L_pixel from those that do not.
+  const Pricing fit{.pixel_all = true, .pixel_kinds = true, .pixel_kinds_all = true};
+  c.cpu_threads = 1;
+  const auto one = required_params(c, Variant::latency, fit);
+  for (Param p : {Param::L_label, Param::L_hist, Param::L_scan}) EXPECT_EQ(std::count(one.begin(), one.end(), p), 1);
+  EXPECT_EQ(std::count(one.begin(), one.end(), Param::L_pixel), 0);
+  const auto before = required_params(old, Variant::latency, fit);
+  EXPECT_EQ(std::count(before.begin(), before.end(), Param::L_pixel), 1);
+  EXPECT_EQ(std::count(before.begin(), before.end(), Param::L_label), 0);
+}
+
 TEST(Predict, WindowsOnSeveralThreadsUseTheAllThreadRatiosWhereTheProfileHasThem) {
   auto m = test::round_profile();  // K_CW = 1.5, V_C1 100 GFLOP/s
   m.set(Param::K_CA, Parameter{2.0, Provenance::probed, {}, {}, {}});

@@ -142,17 +142,27 @@ TEST(CpuProbes, PixelGivesOneStepOfScalarPixelWork) {
   EXPECT_LT(m->value, 1e-7);
   EXPECT_EQ(m->stats.n, 2u);  // the smoke plan's placements, one figure each
   EXPECT_NE(m->note.find("2 placements"), std::string::npos) << m->note;
-  // The labelling's step and the others' apart, for the record (no parameter of their own yet).
-  for (const char* key : {"pixel_label", "pixel_other"}) {
-    const auto it = std::find_if(r.measurements.begin(), r.measurements.end(),
-                                 [&](const Measurement& x) { return x.key == key; });
-    ASSERT_NE(it, r.measurements.end()) << key;
-    EXPECT_TRUE(it->detail) << key;
-    EXPECT_FALSE(it->param.has_value()) << key;
-    EXPECT_EQ(it->stats.n, 2u) << key;
-    EXPECT_GT(it->value, 1e-11) << key;
-    EXPECT_LT(it->value, 1e-6) << key;
+  // The kinds of step apart, L_label, L_hist and L_scan: a labelled pixel (a threshold, a
+  // union-find step, the statistics) is no cheaper than a histogram's count.
+  const auto* label = find(r, Param::L_label);
+  const auto* hist = find(r, Param::L_hist);
+  const auto* scan = find(r, Param::L_scan);
+  ASSERT_NE(label, nullptr);
+  ASSERT_NE(hist, nullptr);
+  ASSERT_NE(scan, nullptr);
+  for (const auto* x : {label, hist, scan}) {
+    EXPECT_FALSE(x->detail) << x->key;
+    EXPECT_EQ(x->stats.n, 2u) << x->key;  // a figure a placement
+    EXPECT_GT(x->value, 1e-11) << x->key;
+    EXPECT_LT(x->value, 1e-6) << x->key;
   }
+  EXPECT_GT(label->value, hist->value);
+  // L_pixel is their average over the pass's steps: between the cheapest and the dearest kind,
+  // give or take the spread of timing each placement's median apart.
+  const double lo = std::min({label->value, hist->value, scan->value});
+  const double hi = std::max({label->value, hist->value, scan->value});
+  EXPECT_GT(m->value, 0.5 * lo);
+  EXPECT_LT(m->value, 2 * hi);
 }
 
 TEST(CpuProbes, TreeGivesOneStepOfTreeWorkOnEachPlacement) {

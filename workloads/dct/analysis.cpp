@@ -145,52 +145,21 @@ std::mutex opencv_threads_mutex;  // cv::setNumThreads is process-wide
 template <class Img>
 void centroid_of(const cv::Mat& img, const cv::Mat& labels, cv::Rect roi, int id, cv::Rect box, bool dark,
                  int margin, DotObservation& out, DotRejection& why, AnalysisStats& st, std::int64_t& first) {
-  const int grow = margin + kRingWidth;
-  const cv::Rect win = cv::Rect(box.x - grow, box.y - grow, box.width + 2 * grow, box.height + 2 * grow) &
-                       cv::Rect(0, 0, roi.width, roi.height);
-  auto label = [&](int x, int y) -> int {  // ROI coordinates
-    if (x < 0 || y < 0 || x >= roi.width || y >= roi.height) return -1;
-    const int l = labels.at<int>(y, x);
-    return l == 0 ? -1 : l;
-  };
-  const double cx = win.x + 0.5 * (win.width - 1), cy = win.y + 0.5 * (win.height - 1);
-  // Classify each window pixel once; both passes read the classes.
-  std::vector<std::uint8_t> cls(static_cast<std::size_t>(win.area()));
-  RingSums<double> ring;
-  std::int64_t nring = 0, nweight = 0, nscan = 0;
-  first = -1;
-  for (int y = win.y, k = 0; y < win.y + win.height; ++y)
-    for (int x = win.x; x < win.x + win.width; ++x, ++k) {
-      const int c = classify_pixel(label, x, y, id, margin);
-      cls[k] = static_cast<std::uint8_t>(c);
-      if (c == kRing) {
-        ring.add(x - cx, y - cy, static_cast<double>(img.template at<Img>(y + roi.y, x + roi.x)));
-        ++nring;
-      }
-      const int l = label(x, y);
-      nscan += l == -1;  // classify_pixel read its neighbourhood
-      if (first < 0 && l == id) first = static_cast<std::int64_t>(y) * roi.width + x;
-    }
-  double a, b, c;
-  solve_plane(ring, a, b, c);
-  WeightSums<double> w;
-  for (int y = win.y, k = 0; y < win.y + win.height; ++y)
-    for (int x = win.x; x < win.x + win.width; ++x, ++k)
-      if (cls[k] == kWeighted) {
-        w.add(x - cx, y - cy, static_cast<double>(img.template at<Img>(y + roi.y, x + roi.x)), a, b, c, dark);
-        ++nweight;
-      }
-  st.window_pixels += win.area();
-  st.ring_pixels += nring;
-  st.weighted_pixels += nweight;
-  st.scanned_pixels += nscan;
-  if (!(w.w > 0) || nring == 0) {
+  const kernels::WindowCentroid c =
+      kernels::centroid_window(img.ptr<Img>(roi.y) + roi.x, img.step1(), labels.ptr<int>(0), labels.step1(),
+                               roi.width, roi.height, id, box.x, box.y, box.width, box.height, margin, dark);
+  st.window_pixels += c.window;
+  st.ring_pixels += c.ring;
+  st.weighted_pixels += c.weighted;
+  st.scanned_pixels += c.scanned;
+  first = c.first;
+  if (!c.kept) {
     why = DotRejection::no_contrast;
     return;
   }
-  out.x = roi.x + cx + w.wx / w.w;
-  out.y = roi.y + cy + w.wy / w.w;
-  out.weight = w.w;
+  out.x = roi.x + c.x;
+  out.y = roi.y + c.y;
+  out.weight = c.weight;
   why = DotRejection::kept;
 }
 

@@ -165,6 +165,8 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
   // The scalar pixel loops (docs/model.md 2.6): Otsu's histogram, the labelling, the windows'
   // classification and the labels each background window pixel's neighbourhood scan reads.
   c.pixel_steps = (s.otsu ? s.roi_pixels : 0) + s.roi_pixels + s.window_pixels + scan * s.scanned_pixels;
+  c.label_steps = s.roi_pixels;                // of them, the labelling's: a step an analysed pixel
+  c.hist_steps = s.otsu ? s.roi_pixels : 0;    // and Otsu's histogram's: a count an analysed pixel
   const std::int64_t extra = s.adaptive ? 1 + (b == 2 ? 1 : 0) : (b == 2 ? 2 : 0);
   c.cpu_footprint = s.roi_pixels * (b + 1 + 4 + extra) + 8 * cpu_field_values(s);
   c.cpu_threads = threads < 1 ? 1 : threads;

@@ -87,6 +87,10 @@ std::int64_t mls_flops(const FrameShape& s);
 //          read: [Otsu: roi, the histogram's counts] + roi (labelling: each pixel's label
 //          decided) + window (each window pixel classified) + (2 margin + 1)^2 scanned (the
 //          labels of a background window pixel's neighbourhood; in the caches, so not in N_CC)
+//   label_steps = roi: of pixel_steps, the labelling's (OpenCV's threshold and 8-connected
+//          labelling with statistics, several times a histogram count or a label read);
+//          hist_steps = [Otsu: roi], the histogram's: priced apart, and the rest at L_scan, where
+//          the profile has L_label, L_hist and L_scan
 //   cpu_footprint = roi (b + 1 + 4) [+ 2 roi for the 16-bit mask | adaptive: + 1 roi, the
 //          mean, + 1 roi for the 16-bit image's 8-bit copy] + the fields' bytes: the frame, the
 //          mask and the labels, the working set the model weighs against the cache

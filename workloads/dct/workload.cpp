@@ -737,6 +737,8 @@ std::string counts_difference(const CostCounts& d, const CostCounts& m) {
   differ(out, "N_CC", d.N_CC, m.N_CC);
   differ(out, "cpu_footprint", d.cpu_footprint, m.cpu_footprint);
   differ(out, "pixel_steps", d.pixel_steps, m.pixel_steps);
+  differ(out, "label_steps", d.label_steps, m.label_steps);
+  differ(out, "hist_steps", d.hist_steps, m.hist_steps);
   differ(out, "tree_steps", d.tree_steps, m.tree_steps);
   differ(out, "transfers_CG", d.transfers_CG, m.transfers_CG);
   differ(out, "transfers_GC", d.transfers_GC, m.transfers_GC);

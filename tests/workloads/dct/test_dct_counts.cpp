@@ -51,6 +51,10 @@ TEST(DctCounts, CpuMatchesFormulas) {
   // Scalar pixel steps: Otsu's histogram and the labelling, a step each per analysed pixel; one
   // per window pixel classified; the 5 x 5 labels read around each scanned pixel (margin 2).
   EXPECT_EQ(c.pixel_steps, 2LL * 20'000'000 + 7'000'000 + 25LL * 2'500'000);
+  // Of them, the labelling's and the histogram's: a step per analysed pixel each, priced apart
+  // where the profile can.
+  EXPECT_EQ(c.label_steps, 20'000'000);
+  EXPECT_EQ(c.hist_steps, 20'000'000);
   EXPECT_EQ(c.cpu_footprint, 6LL * 20'000'000 + 8 * (1LL * 2048 * 60 + 8LL * 2048));
   EXPECT_EQ(c.P, 8);
   EXPECT_EQ(c.precision, Precision::fp64);
@@ -187,6 +191,9 @@ TEST(DctCounts, ThresholdMethodsArePriced) {
   EXPECT_EQ(cpu_counts(fixed, 1).cpu_footprint, cpu_counts(otsu, 1).cpu_footprint);
   // ... and no histogram steps: one step per analysed pixel (the labelling) less.
   EXPECT_EQ(cpu_counts(otsu, 1).pixel_steps - cpu_counts(fixed, 1).pixel_steps, roi);
+  EXPECT_EQ(cpu_counts(otsu, 1).hist_steps, roi);  // a fixed threshold counts no histogram
+  EXPECT_EQ(cpu_counts(fixed, 1).hist_steps, 0);
+  EXPECT_EQ(cpu_counts(fixed, 1).label_steps, roi);
   // Adaptive: box filter (1 read, 4 + 4 row sums, 1 mean written) and the comparison (2 read,
   // 1 written): 13 bytes a pixel; 5 operations a pixel; the mean adds a byte a pixel to the
   // working set.
