@@ -272,6 +272,40 @@ Ladder cache_ladder(const LadderPlan& p, cpu::Isa isa, const CpuInfo& ci, const 
   return out;
 }
 
+Measurement* find_param(ProbeReport& r, Param p) {
+  for (auto& m : r.measurements)
+    if (m.param == p) return &m;
+  return nullptr;
+}
+
+// The cache is never slower than memory: an in-cache triad below the memory one was timed while
+// something else held the cache or the cores (once in six quick probes of a lent H100's host, the
+// first after the machine started: 53 GB/s on 16 threads against 87 GB/s from memory, where the
+// others read 139-205 GB/s). Such a figure is measured again, twice at most, and the fastest
+// attempt kept; one still below memory says so in its note.
+void recheck_cache(ProbeReport& r, const Plan& in_cache, cpu::Isa isa, const ProbeOptions& o, int cpus) {
+  for (const bool all : {false, true}) {
+    if (all && cpus <= 1) continue;  // the all-thread figure is the one-thread figure
+    Measurement* llc = find_param(r, all ? kCache.all : kCache.one);
+    const Measurement* mem = find_param(r, all ? kMemory.all : kMemory.one);
+    if (!llc || !mem) continue;
+    for (int attempt = 0; attempt < 2 && llc->value < mem->value; ++attempt) {
+      o.say(fmt::format("  last-level cache, {}: triad {:.1f} GB/s, below the memory's {:.1f} GB/s; measuring again",
+                        all ? "all threads" : "1 thread", llc->value / 1e9, mem->value / 1e9));
+      const auto again = stream(all ? cpus : 1, in_cache, isa, o, kCache);
+      if (again[1].value <= llc->value) continue;
+      for (const Measurement& m : again)
+        for (auto& old : r.measurements)
+          if (old.key == m.key) old = m;
+      llc = find_param(r, all ? kCache.all : kCache.one);
+    }
+    if (llc->value < mem->value)
+      llc->note += fmt::format(" (below the memory's {:.3g} GB/s after three attempts: something else held the cache "
+                               "or the cores; probe again on a quiet machine)",
+                               mem->value / 1e9);
+  }
+}
+
 ProbeReport run(const ProbeOptions& o) {
   ProbeReport r;
   const CpuInfo ci = cpu_info();
@@ -311,6 +345,7 @@ ProbeReport run(const ProbeOptions& o) {
     // of these short runs.
     const Plan in_cache{*cache / 8, o.effort == Effort::full ? 200 : o.effort == Effort::quick ? 50 : 5, 2};
     measure(in_cache, kCache);
+    recheck_cache(r, in_cache, isa, o, ci.threads);
   }
   return r;
 }
