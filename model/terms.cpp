@@ -303,7 +303,8 @@ struct PixelPrices {
 bool kinds_counted(const CostCounts& c) { return c.label_steps > 0 || c.hist_steps > 0; }
 PixelPrices pixel_prices(const CostCounts& c, const Pricing& x) {
   const bool many = c.cpu_threads > 1;
-  if (kinds_counted(c) && many && x.pixel_kinds_all) return {Param::L_label_all, Param::L_hist_all, Param::L_scan_all, true};
+  if (kinds_counted(c) && many && x.pixel_kinds_all)
+    return {Param::L_label_all, Param::L_hist_all, Param::L_scan_all, true};
   if (many && x.pixel_all) return {Param::L_pixel_all, Param::L_pixel_all, Param::L_pixel_all, false};
   if (kinds_counted(c) && x.pixel_kinds) return {Param::L_label, Param::L_hist, Param::L_scan, true};
   return {Param::L_pixel, Param::L_pixel, Param::L_pixel, false};

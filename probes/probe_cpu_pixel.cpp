@@ -4,11 +4,12 @@
 // a label of its neighbourhood read) that no FLOP rate or bandwidth prices. The probe runs that
 // analysis' own steps on a frame of dark discs, with the libraries the workload uses: a 256-bin
 // histogram (one step a pixel), OpenCV's threshold and 8-connected labelling with statistics (one
-// step a pixel), and the classification of each component's window, every background window pixel
-// reading the labels of its 5 x 5 neighbourhood through a bounds-checked accessor (one step a
-// window pixel and one a label read): the steps the workload counts as pixel_steps (docs/model.md
-// 2.6). The time of a pass over its steps gives L_pixel on one thread (cpu-seq: the median over
-// several placements of the thread, probes/placements.hpp), and L_pixel_all on every usable CPU
+// step a pixel), and each component's window through the backends' own routine
+// (kernels::centroid_window: every window pixel classified, every background one reading the labels
+// of its 5 x 5 neighbourhood, the ring's plane and the weighted centroid; one step a window pixel
+// and one a label read): the steps the workload counts as pixel_steps (docs/model.md 2.6). The
+// time of a pass over its steps gives L_pixel on one thread (cpu-seq: the median over several
+// placements of the thread, probes/placements.hpp), and L_pixel_all on every usable CPU
 // (cpu-par: OpenCV's threads for the threshold and the labelling, the windows split between them,
 // the histogram on one). The pass's labelling, its histogram (a step a pixel each) and its
 // windows' steps are timed apart too: L_label, L_hist, L_scan.
@@ -121,7 +122,8 @@ Steps pass(const Frame& f, Buffers& b, int threads) {
       e.window += c.window;
       e.ring += c.ring;
       // A disc is symmetric about its box's centre, and its centroid there within a fraction of a pixel.
-      e.off_centre += !c.kept || std::abs(c.x - (bx + 0.5 * (bw - 1))) >= 0.5 || std::abs(c.y - (by + 0.5 * (bh - 1))) >= 0.5;
+      const double dx = c.x - (bx + 0.5 * (bw - 1)), dy = c.y - (by + 0.5 * (bh - 1));
+      e.off_centre += !c.kept || std::abs(dx) >= 0.5 || std::abs(dy) >= 0.5;
     }
   };
   if (threads > 1) cv::parallel_for_(cv::Range(1, n), classify);
@@ -144,7 +146,6 @@ struct Passes {
 
 // The time of a pass a step on `threads` threads: `reps` timed passes after an untimed one, each
 // checked; `steps` is a pass's step count.
-
 Passes time_passes(const Frame& f, int reps, int threads, std::int64_t& steps) {
   const std::int64_t window = static_cast<std::int64_t>(kDiscs) * (2 * (kRadius + kGrow) + 1) * (2 * (kRadius + kGrow) + 1);
   Buffers b;
