@@ -142,8 +142,9 @@ TEST(CpuProbes, PixelGivesOneStepOfScalarPixelWork) {
   EXPECT_LT(m->value, 1e-7);
   EXPECT_EQ(m->stats.n, 2u);  // the smoke plan's placements, one figure each
   EXPECT_NE(m->note.find("2 placements"), std::string::npos) << m->note;
-  // The kinds of step apart, L_label, L_hist and L_scan: a labelled pixel (a threshold, a
-  // union-find step, the statistics) is no cheaper than a histogram's count.
+  // The kinds of step apart, L_label, L_hist and L_scan. (Which kind is dearest is the build's:
+  // optimised, a labelled pixel costs several counts, but under the sanitizers the probe's own
+  // histogram loop is instrumented and OpenCV's labelling is not.)
   const auto* label = find(r, Param::L_label);
   const auto* hist = find(r, Param::L_hist);
   const auto* scan = find(r, Param::L_scan);
@@ -156,7 +157,6 @@ TEST(CpuProbes, PixelGivesOneStepOfScalarPixelWork) {
     EXPECT_GT(x->value, 1e-11) << x->key;
     EXPECT_LT(x->value, 1e-6) << x->key;
   }
-  EXPECT_GT(label->value, hist->value);
   // L_pixel is their average over the pass's steps: between the cheapest and the dearest kind,
   // give or take the spread of timing each placement's median apart.
   const double lo = std::min({label->value, hist->value, scan->value});
