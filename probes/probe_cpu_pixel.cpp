@@ -26,6 +26,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "kernels/dot_centroid.hpp"
+#include "kernels/histogram.hpp"
 #include "model/stats.hpp"
 #include "probes/measure.hpp"
 #include "probes/opencv_threads.hpp"
@@ -94,8 +95,9 @@ Steps pass(const Frame& f, Buffers& b, int threads) {
   OpenCvThreads scope(threads);
   Steps s;
   const auto h0 = std::chrono::steady_clock::now();
-  std::array<std::int64_t, 256> hist{};
-  for (std::uint8_t v : f.image) ++hist[v];
+  kernels::Histogram256 counts;  // the backends' own count
+  counts.add(f.image.data(), f.image.size());
+  const auto hist = counts.total();
   s.hist_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - h0).count();
   for (std::int64_t h : hist) s.counted += h;
   const cv::Mat image(kSide, kSide, CV_8U, const_cast<std::uint8_t*>(f.image.data()));

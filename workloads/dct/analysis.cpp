@@ -7,6 +7,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "kernels/histogram.hpp"
 #include "model/errors.hpp"
 #include "workloads/dct/kernels.hpp"
 
@@ -102,16 +103,14 @@ void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuff
     return;
   }
   if (o.method == ThresholdMethod::otsu) {
-    std::vector<std::int64_t> h(256, 0);
+    kernels::Histogram256 counts;
     for (int i = 0; i < image.rows; ++i) {
-      if (wide) {
-        const auto* p = image.ptr<std::uint16_t>(i);
-        for (int j = 0; j < image.cols; ++j) ++h[p[j] / 257];
-      } else {
-        const auto* p = image.ptr<std::uint8_t>(i);
-        for (int j = 0; j < image.cols; ++j) ++h[p[j]];
-      }
+      const auto n = static_cast<std::size_t>(image.cols);
+      if (wide) counts.add(image.ptr<std::uint16_t>(i), n);
+      else counts.add(image.ptr<std::uint8_t>(i), n);
     }
+    const auto total = counts.total();
+    const std::vector<std::int64_t> h(total.begin(), total.end());
     const double t = otsu_threshold(h);
     T = wide ? t * 257 + 256 : t;
   } else {
