@@ -54,7 +54,7 @@ void validate(const AnalysisOptions& o, cv::Size image) {
     throw InputError(fmt::format("adaptive block {} must be odd and >= 3", o.adaptive_block));
 }
 
-double otsu_threshold(const std::vector<std::int64_t>& h) {
+double otsu_threshold(const std::array<std::int64_t, 256>& h) {
   // Between-class variance maximised over t; class 0 = bins <= t. First maximum wins.
   double total = 0, sum = 0;
   for (int i = 0; i < 256; ++i) {
@@ -109,9 +109,7 @@ void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuff
       if (wide) counts.add(image.ptr<std::uint16_t>(i), n);
       else counts.add(image.ptr<std::uint8_t>(i), n);
     }
-    const auto total = counts.total();
-    const std::vector<std::int64_t> h(total.begin(), total.end());
-    const double t = otsu_threshold(h);
+    const double t = otsu_threshold(counts.total());
     T = wide ? t * 257 + 256 : t;
   } else {
     T = wide ? std::floor(o.threshold * 257) : std::floor(o.threshold);

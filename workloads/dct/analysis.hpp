@@ -5,6 +5,7 @@
 // with the same rules and the same per-dot arithmetic (kernels.hpp).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -92,7 +93,7 @@ void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuff
 
 // Otsu's threshold of an 8- or 16-bit image, from a 256-bin histogram of the 8-bit scale
 // (16-bit values are divided by 257 first), in native grey levels. Shared with the device.
-double otsu_threshold(const std::vector<std::int64_t>& hist256);
+double otsu_threshold(const std::array<std::int64_t, 256>& hist);
 
 std::string to_string(ThresholdMethod m);
 ThresholdMethod threshold_method_from_string(const std::string& s);

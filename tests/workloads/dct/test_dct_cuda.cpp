@@ -2,6 +2,7 @@
 // same matches, centroids and fields within float32 rounding; labelling against OpenCV's;
 // every statistic written; counts as declared. Skips without a device.
 #include <algorithm>
+#include <array>
 #include <map>
 #include <cmath>
 #include <cstdio>
@@ -357,7 +358,7 @@ TEST(DctCuda, OtsuKernelGivesTheSerialLoopsThreshold) {
     SCOPED_TRACE(fmt::format("frame {} ({}-bit)", i, frames[i].depth() == CV_8U ? 8 : 16));
     const cv::Mat& f = frames[i];
     const bool wide = f.depth() == CV_16U;
-    std::vector<std::int64_t> hist(256, 0);
+    std::array<std::int64_t, 256> hist{};
     for (int y = 0; y < f.rows; ++y)
       for (int x = 0; x < f.cols; ++x) ++hist[wide ? f.at<std::uint16_t>(y, x) / 257 : f.at<std::uint8_t>(y, x)];
     const int t = static_cast<int>(otsu_threshold(hist));
