@@ -1,6 +1,7 @@
 #include "workloads/dct/analysis.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <mutex>
 
 #include <fmt/format.h>
@@ -172,16 +173,24 @@ AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threa
   r.stats.roi_pixels = roi.area();
   const bool dark = o.polarity == Polarity::dark_dots;
 
+  using Clock = std::chrono::steady_clock;
+  const auto seconds = [](Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double>(b - a).count();
+  };
+  const auto t0 = Clock::now();
   std::unique_lock lock(opencv_threads_mutex);
   ThreadScope scope(std::max(1, threads));
   AnalysisBuffers local;
   AnalysisBuffers& buf = buffers ? *buffers : local;
+  const auto t1 = Clock::now();
   threshold_into(view, o, buf, &r.stats.threshold);
+  const auto t2 = Clock::now();
   const cv::Mat& mask = buf.mask;
   const cv::Mat& labels = buf.labels;
   const cv::Mat& stats = buf.stats;
   const int n =
       cv::connectedComponentsWithStats(mask, buf.labels, buf.stats, buf.centroids, 8, CV_32S, cv::CCL_DEFAULT);
+  const auto t3 = Clock::now();
   r.stats.components = n - 1;
   for (int id = 1; id < n; ++id) r.stats.foreground_pixels += stats.at<int>(id, cv::CC_STAT_AREA);
 
@@ -217,6 +226,8 @@ AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threa
   };
   if (threads > 1) cv::parallel_for_(cv::Range(1, n), work);
   else work(cv::Range(1, n));
+  const auto t4 = Clock::now();
+  r.times = {seconds(t0, t1), seconds(t1, t2), seconds(t2, t3), seconds(t3, t4)};
 
   std::vector<const Item*> kept;
   for (const auto& it : items) {

@@ -62,9 +62,19 @@ struct AnalysisStats {
   double threshold = 0;             // threshold used, native grey levels
 };
 
+// Where one analysis' time went, host clock, seconds: what the cpu-pixel probe's kinds of step
+// price (docs/model.md 2.6), reported with a run so a store's frames can be read against them.
+struct AnalysisTimes {
+  double setup = 0;      // the lock on OpenCV's thread count and setting it
+  double threshold = 0;  // the threshold (with Otsu, the histogram and its threshold) into the mask
+  double labelling = 0;  // the 8-connected labelling with statistics
+  double windows = 0;    // every component's filters and centroid window
+};
+
 struct AnalysisResult {
   std::vector<DotObservation> dots;  // in raster order of each dot's first pixel
   AnalysisStats stats;
+  AnalysisTimes times;
 };
 
 // The frame-sized images of one analysis (the mask, its 16-bit or 8-bit intermediate and the

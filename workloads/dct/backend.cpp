@@ -132,6 +132,10 @@ class CpuBackend final : public Backend {
     AnalysisResult r = analyze(frame, opt.analysis, threads_, &buffers_);
     double t1 = now();
     out.seconds["analysis"] = t1 - t0;
+    out.seconds["analysis_setup"] = r.times.setup;
+    out.seconds["analysis_threshold"] = r.times.threshold;
+    out.seconds["analysis_labelling"] = r.times.labelling;
+    out.seconds["analysis_windows"] = r.times.windows;
     out.dots = std::move(r.dots);
     out.stats = r.stats;
     std::vector<Vec2> found;
