@@ -5,6 +5,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 namespace dtflop::kernels {
 
@@ -41,5 +42,27 @@ class Histogram256 {
   }
   std::array<std::array<std::int64_t, 256>, 4> part_{};
 };
+
+// The counts of `rows` rows of `cols` pixels (row r at base + r * stride elements) in `stripes`
+// runs of rows, each into its own Histogram256, added at the end: the DCT CPU backends' count on
+// several threads, and the cpu-pixel probe's. `parallel_for(n, body)` calls body(s) for every
+// stripe s in [0, n), on as many threads as it likes (the callers: OpenCV's parallel_for_).
+template <class Pix, class ParallelFor>
+std::array<std::int64_t, 256> count_rows(const Pix* base, std::size_t stride, int cols, int rows, int stripes,
+                                         ParallelFor&& parallel_for) {
+  const int n = stripes < 1 ? 1 : stripes > rows ? (rows < 1 ? 1 : rows) : stripes;
+  std::vector<Histogram256> parts(static_cast<std::size_t>(n));
+  parallel_for(n, [&](int s) {
+    const auto r0 = static_cast<std::int64_t>(rows) * s / n, r1 = static_cast<std::int64_t>(rows) * (s + 1) / n;
+    for (std::int64_t r = r0; r < r1; ++r)
+      parts[static_cast<std::size_t>(s)].add(base + static_cast<std::size_t>(r) * stride, static_cast<std::size_t>(cols));
+  });
+  std::array<std::int64_t, 256> out{};
+  for (const auto& part : parts) {
+    const auto t = part.total();
+    for (std::size_t v = 0; v < out.size(); ++v) out[v] += t[v];
+  }
+  return out;
+}
 
 }  // namespace dtflop::kernels

@@ -10,8 +10,8 @@
 // and one a label read): the steps the workload counts as pixel_steps (docs/model.md 2.6). The
 // time of a pass over its steps gives L_pixel on one thread (cpu-seq: the median over several
 // placements of the thread, probes/placements.hpp), and L_pixel_all on every usable CPU
-// (cpu-par: OpenCV's threads for the threshold and the labelling, the windows split between them,
-// the histogram on one). The pass's labelling, its histogram (a step a pixel each) and its
+// (cpu-par: OpenCV's threads for the histogram, the threshold and the labelling, the windows
+// split between them). The pass's labelling, its histogram (a step a pixel each) and its
 // windows' steps are timed apart too: L_label, L_hist, L_scan.
 #include <array>
 #include <chrono>
@@ -95,9 +95,15 @@ Steps pass(const Frame& f, Buffers& b, int threads) {
   OpenCvThreads scope(threads);
   Steps s;
   const auto h0 = std::chrono::steady_clock::now();
-  kernels::Histogram256 counts;  // the backends' own count
-  counts.add(f.image.data(), f.image.size());
-  const auto hist = counts.total();
+  // The backends' own count: a stripe of rows a thread (one on one thread).
+  const auto stripes = [threads](int n, const auto& body) {
+    if (threads <= 1) {
+      for (int k = 0; k < n; ++k) body(k);
+      return;
+    }
+    cv::parallel_for_(cv::Range(0, n), [&](const cv::Range& r) { for (int k = r.start; k < r.end; ++k) body(k); }, n);
+  };
+  const auto hist = kernels::count_rows(f.image.data(), static_cast<std::size_t>(kSide), kSide, kSide, threads, stripes);
   s.hist_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - h0).count();
   for (std::int64_t h : hist) s.counted += h;
   const cv::Mat image(kSide, kSide, CV_8U, const_cast<std::uint8_t*>(f.image.data()));
@@ -194,7 +200,7 @@ void add_kinds(ProbeReport& r, bool all_threads, const Passes& per_placement_or_
       {"label", all_threads ? Param::L_label_all : Param::L_label, "a labelled pixel",
        "OpenCV's threshold and 8-connected labelling with statistics a pixel", per_placement_or_pass.per_label},
       {"hist", all_threads ? Param::L_hist_all : Param::L_hist, "a histogram's count",
-       "the 256-bin histogram a pixel (on one thread, as the workload counts it)", per_placement_or_pass.per_hist},
+       "the 256-bin histogram a pixel (a stripe of rows a thread, as the workload counts it)", per_placement_or_pass.per_hist},
       {"scan", all_threads ? Param::L_scan_all : Param::L_scan, "a window-scan step",
        "the rest a step: the windows' pixels and the labels their scans read", per_placement_or_pass.per_scan}};
   for (const auto& kind : kinds)

@@ -85,7 +85,8 @@ cv::Mat threshold_image(const cv::Mat& image, const AnalysisOptions& o, double* 
   return b.mask;
 }
 
-void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuffers& buf, double* used) {
+void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuffers& buf, double* used,
+                    int threads) {
   const bool dark = o.polarity == Polarity::dark_dots;
   const bool wide = image.depth() == CV_16U;
   cv::Mat& mask = buf.mask;
@@ -104,13 +105,21 @@ void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuff
     return;
   }
   if (o.method == ThresholdMethod::otsu) {
-    kernels::Histogram256 counts;
-    for (int i = 0; i < image.rows; ++i) {
-      const auto n = static_cast<std::size_t>(image.cols);
-      if (wide) counts.add(image.ptr<std::uint16_t>(i), n);
-      else counts.add(image.ptr<std::uint8_t>(i), n);
-    }
-    const double t = otsu_threshold(counts.total());
+    // The counts in a stripe of rows a thread (one stripe on one thread), the stripes' added.
+    const auto stripes = [threads](int n, const auto& body) {
+      if (threads <= 1 || n <= 1) {
+        for (int s = 0; s < n; ++s) body(s);
+        return;
+      }
+      cv::parallel_for_(
+          cv::Range(0, n), [&](const cv::Range& r) { for (int s = r.start; s < r.end; ++s) body(s); }, n);
+    };
+    const int n = std::max(1, threads);
+    const auto counts = wide ? kernels::count_rows(image.ptr<std::uint16_t>(0), image.step1(), image.cols, image.rows,
+                                                   n, stripes)
+                             : kernels::count_rows(image.ptr<std::uint8_t>(0), image.step1(), image.cols, image.rows,
+                                                   n, stripes);
+    const double t = otsu_threshold(counts);
     T = wide ? t * 257 + 256 : t;
   } else {
     T = wide ? std::floor(o.threshold * 257) : std::floor(o.threshold);
@@ -183,7 +192,7 @@ AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threa
   AnalysisBuffers local;
   AnalysisBuffers& buf = buffers ? *buffers : local;
   const auto t1 = Clock::now();
-  threshold_into(view, o, buf, &r.stats.threshold);
+  threshold_into(view, o, buf, &r.stats.threshold, threads);
   const auto t2 = Clock::now();
   const cv::Mat& mask = buf.mask;
   const cv::Mat& labels = buf.labels;

@@ -98,8 +98,10 @@ AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threa
 
 // The binary mask (255 = dot pixel) and the threshold used, for inspection and tests.
 cv::Mat threshold_image(const cv::Mat& image, const AnalysisOptions& o, double* used = nullptr);
-// The same into `b.mask` (b.wide holds the 16-bit intermediate).
-void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuffers& b, double* used = nullptr);
+// The same into `b.mask` (b.wide holds the 16-bit intermediate); Otsu's histogram counted in a
+// stripe of rows a thread on `threads` threads (OpenCV's, set by the caller).
+void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuffers& b, double* used = nullptr,
+                    int threads = 1);
 
 // Otsu's threshold of an 8- or 16-bit image, from a 256-bin histogram of the 8-bit scale
 // (16-bit values are divided by 257 first), in native grey levels. Shared with the device.

@@ -2,11 +2,14 @@
 // 0.05 px targets), polarity, bit depth, lighting, region of interest and the filters.
 #include <cmath>
 #include <cstdio>
+#include <random>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "kernels/dot_centroid.hpp"
+#include "kernels/histogram.hpp"
 #include "model/errors.hpp"
 #include "workloads/dct/analysis.hpp"
 #include "workloads/dct/specimen.hpp"
@@ -162,6 +165,100 @@ TEST(DctFilters, AreaShapeBorderAndRoi) {
   bad.max_area = 5;
   EXPECT_THROW(analyze(img, bad), InputError);
   EXPECT_THROW(analyze(cv::Mat(10, 10, CV_32F), AnalysisOptions{}), InputError);
+}
+
+// Otsu's counts in stripes of rows (cpu-par counts a stripe a thread) against OpenCV's histogram of
+// the same region, for 8- and 16-bit frames, a region that is not the whole frame, any stripe count.
+TEST(DctThreshold, StripedCountsMatchOpenCvsHistogram) {
+  std::mt19937 rng(7);
+  for (const int depth : {CV_8U, CV_16U}) {
+    cv::Mat frame(203, 157, depth);
+    cv::randu(frame, 0, depth == CV_8U ? 256 : 65536);
+    const cv::Mat view = frame(cv::Rect(5, 9, 131, 187));  // rows not contiguous
+    cv::Mat eight;
+    view.convertTo(eight, CV_8U, depth == CV_8U ? 1.0 : 1.0 / 257);
+    // convertTo rounds; the count truncates v / 257: build the reference by truncation.
+    if (depth == CV_16U)
+      for (int y = 0; y < view.rows; ++y)
+        for (int x = 0; x < view.cols; ++x) eight.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(view.at<std::uint16_t>(y, x) / 257);
+    cv::Mat ref;
+    const int channels[] = {0}, bins[] = {256};
+    const float range[] = {0, 256};
+    const float* ranges[] = {range};
+    cv::calcHist(&eight, 1, channels, cv::Mat(), ref, 1, bins, ranges);
+    for (const int stripes : {1, 2, 5, 187, 400}) {
+      const auto serial = [](int n, const auto& body) {
+        for (int k = n - 1; k >= 0; --k) body(k);  // any order
+      };
+      const auto counts = depth == CV_8U ? kernels::count_rows(view.ptr<std::uint8_t>(0), view.step1(), view.cols,
+                                                               view.rows, stripes, serial)
+                                         : kernels::count_rows(view.ptr<std::uint16_t>(0), view.step1(), view.cols,
+                                                               view.rows, stripes, serial);
+      for (int v = 0; v < 256; ++v)
+        ASSERT_EQ(counts[static_cast<std::size_t>(v)], static_cast<std::int64_t>(ref.at<float>(v)))
+            << "depth " << depth << ", " << stripes << " stripes, grey level " << v;
+    }
+  }
+  // The threshold on several threads is the one on one thread, and OpenCV's Otsu.
+  Specimen s = random_specimen(6, 52);
+  s.render.noise_sigma = 3;
+  const cv::Mat img = s.deformed_image();
+  cv::Mat mask;
+  const double cv_t = cv::threshold(img, mask, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
+  for (const int threads : {1, 2, 3}) {
+    AnalysisBuffers b;
+    double t = -1;
+    threshold_into(img, AnalysisOptions{}, b, &t, threads);
+    EXPECT_EQ(t, cv_t) << threads << " threads";
+  }
+}
+
+// The window routine reads labels unchecked where the window's neighbourhoods stay inside the
+// region and checked at its edge: both give the same centroid for a window inside, and every
+// margin the workload allows finds a noiseless dot's centre.
+TEST(DctCentroids, EveryMarginAndBothLabelReadsAgree) {
+  for (const int margin : {0, 1, 2, 3, 5, 8}) {
+    Specimen s = parse_specimen("uniform:size=300x240,pattern=grid,pitch=60,radius=9,strain=0");
+    const cv::Mat img = s.reference_image();
+    AnalysisOptions o;
+    o.margin = margin;
+    const auto r = analyze(img, o);
+    const Errors e = compare(s.reference_centres(), r.dots);
+    EXPECT_EQ(e.missing, 0) << "margin " << margin;
+    EXPECT_LE(e.max, 0.02) << "margin " << margin;
+
+    AnalysisBuffers b;
+    threshold_into(img, o, b);
+    const int n = cv::connectedComponentsWithStats(b.mask, b.labels, b.stats, b.centroids, 8, CV_32S);
+    ASSERT_GT(n, 1);
+    const int* labels = b.labels.ptr<int>(0);
+    const std::size_t stride = b.labels.step1();
+    const auto at = [labels, stride](int x, int y) {
+      const int l = labels[static_cast<std::size_t>(y) * stride + static_cast<std::size_t>(x)];
+      return l == 0 ? -1 : l;
+    };
+    const auto checked = [&](int x, int y) { return x < 0 || y < 0 || x >= img.cols || y >= img.rows ? -1 : at(x, y); };
+    for (int id = 1; id < n; ++id) {
+      const int grow = margin + kernels::kRingWidth;
+      const int x0 = b.stats.at<int>(id, cv::CC_STAT_LEFT) - grow, y0 = b.stats.at<int>(id, cv::CC_STAT_TOP) - grow;
+      const int x1 = x0 + b.stats.at<int>(id, cv::CC_STAT_WIDTH) + 2 * grow;
+      const int y1 = y0 + b.stats.at<int>(id, cv::CC_STAT_HEIGHT) + 2 * grow;
+      ASSERT_TRUE(x0 - margin >= 0 && y0 - margin >= 0 && x1 + margin <= img.cols && y1 + margin <= img.rows);
+      const auto fast = kernels::centroid_window(img.ptr<std::uint8_t>(0), img.step1(), labels, stride, img.cols,
+                                                 img.rows, id, b.stats.at<int>(id, cv::CC_STAT_LEFT),
+                                                 b.stats.at<int>(id, cv::CC_STAT_TOP),
+                                                 b.stats.at<int>(id, cv::CC_STAT_WIDTH),
+                                                 b.stats.at<int>(id, cv::CC_STAT_HEIGHT), margin, true);
+      const auto slow = kernels::detail::centroid_window_in<-1, true>(checked, img.ptr<std::uint8_t>(0), img.step1(),
+                                                                      img.cols, id, x0, y0, x1, y1, margin);
+      ASSERT_TRUE(fast.kept);
+      EXPECT_EQ(fast.x, slow.x) << "margin " << margin << ", dot " << id;
+      EXPECT_EQ(fast.y, slow.y) << "margin " << margin << ", dot " << id;
+      EXPECT_EQ(fast.scanned, slow.scanned);
+      EXPECT_EQ(fast.ring, slow.ring);
+      EXPECT_EQ(fast.weighted, slow.weighted);
+    }
+  }
 }
 
 }  // namespace
