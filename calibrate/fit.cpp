@@ -141,7 +141,8 @@ std::vector<Param> exercised_params(const CostCounts& c, Variant v, const Machin
                          Pricing{.llc_bytes = model_llc_bytes(start.identity), .staging = true, .all_threads = true,
                                  .serial = true, .gpu_l2_bytes = start.identity.gpu_l2_bytes, .graph = true,
                                  .pixel_all = true, .mls = true, .mls_all = true, .gpu_mls = true,
-                                 .gpu_pixel = true, .pixel_kinds = true, .pixel_kinds_all = true});
+                                 .gpu_pixel = true, .pixel_kinds = true, .pixel_kinds_all = true,
+                                 .pixel_pass_all = true});
 }
 
 }  // namespace

@@ -42,6 +42,9 @@ struct CostCounts {
                                 // window along a row re-reads the lines of the taps before it.
                                 // Priced K_GR times a FLOP at V_G (latency+); 0 = none
   std::int64_t N_CC = 0;        // values moved through host memory by CPU work (extended model)
+  std::int64_t N_CC_pixel = 0;  // of N_CC, those of the passes priced as pixel steps (a frame's histogram,
+                                // threshold, labelling and windows): where the profile prices the steps by
+                                // kind, figures timed on such passes over memory, dt_CC leaves them out
   std::int64_t N_CW = 0;        // of N_C, the FLOPs of vectorized sliding-window loops, bound by
                                 // their loads: a correlation along contiguous memory whose every
                                 // vector FMA loads its operand one value on from the previous
@@ -109,6 +112,9 @@ struct CostCounts {
   std::int64_t hist_steps = 0;    // of pixel_steps, a pixel counted into a histogram. Where the profile
                                   // has L_label, L_hist and L_scan (latency+): label_steps at L_label,
                                   // hist_steps at L_hist, the rest at L_scan; else all at L_pixel
+  std::int64_t pixel_passes = 0;  // frames whose pixel steps run as passes over the frame: on several
+                                  // threads each costs a fixed L_pass_all beside its steps (threads woken,
+                                  // stripes merged), where the profile has it
   std::int64_t cpu_syncs = 0;     // times the CPU threads start together or wait for each other
                                   // (a parallel region's fork and join, a barrier)
   std::int64_t net_messages = 0;  // messages one process sends to others (MPI; L_net each)

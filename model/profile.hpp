@@ -77,6 +77,7 @@ enum class Param {
   L_hist_all,      // L_hist with every hardware thread at work (cpu_threads > 1)           [s]
   L_scan,          // one other step of host pixel work (the rest of pixel_steps)           [s]
   L_scan_all,      // L_scan with every hardware thread at work (cpu_threads > 1)           [s]
+  L_pass_all,      // a frame's pixel passes' fixed cost on every hardware thread (pixel_passes) [s]
 };
 
 struct ParamInfo {

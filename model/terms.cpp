@@ -54,7 +54,8 @@ Pricing Pricing::of(const MachineProfile& m) {
           m.has(Param::L_pixel_all), m.has(Param::V_CM), m.has(Param::V_CM_all),
           m.has(Param::V_GM), m.has(Param::L_GP), 
           m.has(Param::L_label) && m.has(Param::L_hist) && m.has(Param::L_scan),
-          m.has(Param::L_label_all) && m.has(Param::L_hist_all) && m.has(Param::L_scan_all)};
+          m.has(Param::L_label_all) && m.has(Param::L_hist_all) && m.has(Param::L_scan_all),
+          m.has(Param::L_pass_all)};
 }
 
 namespace {
@@ -231,19 +232,6 @@ double c_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const 
          (mls_fields(c, v, x) ? static_cast<double>(c.N_CM) / m.get(v_cm(c, x)).value : 0.0);
 }
 
-// dt_CC. The CPU work's host memory traffic, over the bandwidth of cpu_threads threads; the
-// share the last-level cache serves (cpu_footprint < LLC) at the cache's (docs/model.md 2.4).
-std::vector<Param> cc_needs(const CostCounts& c, Variant, const Pricing& x) {
-  auto out = cpu_params(Param::B_host_1, Param::B_host, c.cpu_threads);
-  if (c.cpu_footprint > 0 && c.cpu_footprint < x.llc_bytes)
-    for (Param p : cpu_params(Param::B_llc_1, Param::B_llc, c.cpu_threads)) out.push_back(p);
-  return out;
-}
-double cc_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing&) {
-  const double P = c.P;
-  return P * static_cast<double>(c.N_CC) * host_seconds_per_byte(m, c);
-}
-
 // dt_net: bytes (not values of P bytes) over B_net.
 double net_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing&) {
   return static_cast<double>(c.net_bytes) / m.get(Param::B_net).value;
@@ -310,6 +298,13 @@ PixelPrices pixel_prices(const CostCounts& c, const Pricing& x) {
   return {Param::L_pixel, Param::L_pixel, Param::L_pixel, false};
 }
 std::int64_t scan_steps(const CostCounts& c) { return c.pixel_steps - c.label_steps - c.hist_steps; }
+// On several threads, priced by kind, a frame's passes also cost a fixed L_pass_all each where the
+// profile has it: the probe finds the kinds' figures as the slopes of its passes over two frame
+// sizes and this as what is left at none (threads woken, stripes merged, the parallel labelling's
+// set-up), which a per-step figure measured on one frame size spreads over its steps.
+bool passes_priced(const CostCounts& c, const Pricing& x, const PixelPrices& p) {
+  return p.by_kind && p.label == Param::L_label_all && x.pixel_pass_all && c.pixel_passes > 0;
+}
 std::vector<Param> pixel_needs(const CostCounts& c, Variant, const Pricing& x) {
   const PixelPrices p = pixel_prices(c, x);
   if (!p.by_kind) return {p.label};
@@ -317,6 +312,7 @@ std::vector<Param> pixel_needs(const CostCounts& c, Variant, const Pricing& x) {
   if (c.label_steps > 0) out.push_back(p.label);
   if (c.hist_steps > 0) out.push_back(p.hist);
   if (scan_steps(c) > 0) out.push_back(p.scan);
+  if (passes_priced(c, x, p)) out.push_back(Param::L_pass_all);
   return out;
 }
 double pixel_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing& x) {
@@ -326,7 +322,28 @@ double pixel_seconds(const MachineProfile& m, const CostCounts& c, Variant, cons
   if (c.label_steps > 0) s += static_cast<double>(c.label_steps) * m.get(p.label).value;
   if (c.hist_steps > 0) s += static_cast<double>(c.hist_steps) * m.get(p.hist).value;
   if (scan_steps(c) > 0) s += static_cast<double>(scan_steps(c)) * m.get(p.scan).value;
+  if (passes_priced(c, x, p)) s += static_cast<double>(c.pixel_passes) * m.get(Param::L_pass_all).value;
   return s;
+}
+
+// dt_CC. The CPU work's host memory traffic, over the bandwidth of cpu_threads threads; the
+// share the last-level cache serves (cpu_footprint < LLC) at the cache's (docs/model.md 2.4).
+// Where the pixel steps are priced by kind, the values of their passes (N_CC_pixel) are not: the
+// kinds' figures were timed on such passes, their memory traffic in them (docs/model.md 2.6).
+std::int64_t cc_values(const CostCounts& c, const Pricing& x) {
+  return c.N_CC - (c.pixel_steps > 0 && pixel_prices(c, x).by_kind ? c.N_CC_pixel : 0);
+}
+std::vector<Param> cc_needs(const CostCounts& c, Variant, const Pricing& x) {
+  if (cc_values(c, x) <= 0) return {};
+  auto out = cpu_params(Param::B_host_1, Param::B_host, c.cpu_threads);
+  if (c.cpu_footprint > 0 && c.cpu_footprint < x.llc_bytes)
+    for (Param p : cpu_params(Param::B_llc_1, Param::B_llc, c.cpu_threads)) out.push_back(p);
+  return out;
+}
+double cc_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing& x) {
+  const std::int64_t values = cc_values(c, x);
+  if (values <= 0) return 0;
+  return static_cast<double>(c.P) * static_cast<double>(values) * host_seconds_per_byte(m, c);
 }
 
 // The two simple shapes: P N / B, values moved over a bandwidth, and n L, events at a fixed cost.
@@ -415,7 +432,8 @@ const std::vector<Term>& terms() {
        "K_CA for cpu_threads > 1 where the profile has them; V_CS (latency+, N_CS > 0); V_CM, or V_CM_all for "
        "cpu_threads > 1 where the profile has it (latency+, N_CM > 0)",
        "CPU arithmetic", {positive<&C::N_C>, c_needs, c_seconds}},
-      {"dt_CC", &P::dt_CC, Phase::C, kHostMemoryVariants, overlap, "P N_CC",
+      {"dt_CC", &P::dt_CC, Phase::C, kHostMemoryVariants, overlap,
+       "P N_CC; less N_CC_pixel where the pixel steps are priced by kind (2.6)",
        "B_host_1, and B_host for cpu_threads > 1; B_llc_1 (and B_llc) when 0 < cpu_footprint < LLC (2.4)",
        "host memory traffic", {positive<&C::N_CC>, cc_needs, cc_seconds}},
       {"lat_sync", &P::lat_sync, Phase::C, kLatencyVariants, sum, "cpu_syncs", "L_sync", "CPU thread syncs",
@@ -423,9 +441,11 @@ const std::vector<Term>& terms() {
       {"lat_tree", &P::lat_tree, Phase::C, kLatencyVariants, sum, "tree_steps", "L_tree", "host k-d tree steps",
        per_event<&C::tree_steps, only<Param::L_tree>>()},
       {"lat_pixel", &P::lat_pixel, Phase::C, kLatencyVariants, sum,
-       "pixel_steps; where the profile has L_label, L_hist and L_scan: label_steps, hist_steps and the rest apart",
+       "pixel_steps; where the profile has L_label, L_hist and L_scan: label_steps, hist_steps and the rest apart, "
+       "and for cpu_threads > 1 pixel_passes",
        "L_pixel; L_pixel_all for cpu_threads > 1 where the profile has it; L_label, L_hist and L_scan (their _all "
-       "for cpu_threads > 1) where it has them and label_steps or hist_steps > 0", "host scalar pixel steps",
+       "for cpu_threads > 1) where it has them and label_steps or hist_steps > 0; L_pass_all (so priced on "
+       "cpu_threads > 1, where the profile has it)", "host scalar pixel steps",
        {positive<&C::pixel_steps>, pixel_needs, pixel_seconds}},
       {"lat_wait", &P::lat_wait, Phase::wait, kLatencyVariants, sum, "host_waits", "L_wait",
        "host waits for the device", per_event<&C::host_waits, only<Param::L_wait>>()},

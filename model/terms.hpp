@@ -94,6 +94,7 @@ struct Pricing {
                                // three, or a fit is to find them); else every pixel step at L_pixel, as
                                // profiles made before the probe timed them apart
   bool pixel_kinds_all = false;  // price them on cpu_threads > 1 at L_label_all, L_hist_all and L_scan_all
+  bool pixel_pass_all = false;   // and, so priced, a frame's passes (pixel_passes) at L_pass_all each
   static Pricing of(const MachineProfile& profile);
 };
 

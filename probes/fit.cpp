@@ -99,4 +99,16 @@ PerEventFit fit_per_event(std::span<const TransferPoint> points) {
   return e;
 }
 
+KindsFit fit_kinds(std::span<const std::vector<TransferPoint>> kinds) {
+  KindsFit out;
+  double variance = 0;
+  for (const auto& points : kinds) {
+    out.kinds.push_back(fit_per_event(points));
+    out.fixed += out.kinds.back().fixed;
+    variance += out.kinds.back().fixed_hw95 * out.kinds.back().fixed_hw95;
+  }
+  out.fixed_hw95 = std::sqrt(variance);
+  return out;
+}
+
 }  // namespace dtflop::probes

@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <span>
+#include <vector>
 
 namespace dtflop::probes {
 
@@ -47,6 +48,17 @@ struct PerEventFit {
   bool fixed_clamped = false;    // as LatencyBandwidthFit::latency_clamped
 };
 PerEventFit fit_per_event(std::span<const TransferPoint> points);
+
+// Several kinds of event timed apart within the same runs (a pass over a frame: its pixels
+// labelled, counted, its window steps), runs of two or more sizes: each kind's line fitted alone
+// (fit_per_event, its events against its seconds), and the runs' fixed cost, the kinds' fixed
+// costs added, with the half-widths added in quadrature. Throws as fit_per_event() does.
+struct KindsFit {
+  std::vector<PerEventFit> kinds;  // in the order given
+  double fixed = 0;                // the runs' time at no events, every kind's [s]
+  double fixed_hw95 = 0;
+};
+KindsFit fit_kinds(std::span<const std::vector<TransferPoint>> kinds);
 
 // Two-sided 95% quantile of Student's t distribution with `dof` degrees of freedom
 // (tabulated up to 30, 1.96 beyond). Throws std::invalid_argument for dof < 1.

@@ -291,6 +291,59 @@ TEST(Predict, PixelStepsArePricedByKindWhereTheProfileHasTheThreeFigures) {
   EXPECT_EQ(std::count(before.begin(), before.end(), Param::L_label), 0);
 }
 
+// Priced by kind, the pixel passes' memory traffic is in the kinds' figures (timed on such passes):
+// dt_CC prices the rest of N_CC only. On several threads a frame's passes cost L_pass_all each
+// beside their steps, where the profile has it.
+TEST(Predict, PixelPassesCarryTheirTrafficAndOnSeveralThreadsAFixedCost) {
+  auto m = test::round_profile();  // B_host_1 20 GB/s, B_host 60 GB/s
+  m.set(Param::L_pixel, Parameter{2e-9, Provenance::probed, {}, {}, {}});
+  m.set(Param::L_pixel_all, Parameter{1e-9, Provenance::probed, {}, {}, {}});
+  CostCounts c;
+  c.P = 8;
+  c.N_CC = 1'000'000;
+  c.N_CC_pixel = 750'000;
+  c.pixel_steps = 1'000'000;
+  c.label_steps = 200'000;
+  c.hist_steps = 100'000;
+  c.pixel_passes = 2;
+  c.cpu_threads = 1;
+  // One figure for every step (no kinds): N_CC whole, 8 MB at 20 GB/s; no fixed cost.
+  EXPECT_NEAR(predict(m, c, Variant::memory).dt_CC, 8e6 / 20e9, 1e-15);
+  EXPECT_NEAR(predict(m, c, Variant::memory).lat_pixel, 2e-3, 1e-15);
+  for (Param p : {Param::L_label, Param::L_label_all}) m.set(p, Parameter{7e-9, Provenance::probed, {}, {}, {}});
+  for (Param p : {Param::L_hist, Param::L_hist_all}) m.set(p, Parameter{0.5e-9, Provenance::probed, {}, {}, {}});
+  for (Param p : {Param::L_scan, Param::L_scan_all}) m.set(p, Parameter{1e-9, Provenance::probed, {}, {}, {}});
+  // By kind: 250'000 values, 2 MB at 20 GB/s.
+  EXPECT_NEAR(predict(m, c, Variant::memory).dt_CC, 2e6 / 20e9, 1e-15);
+  const double steps = 1.4e-3 + 0.05e-3 + 0.7e-3;
+  EXPECT_NEAR(predict(m, c, Variant::memory).lat_pixel, steps, 1e-15);
+  // One thread has no fixed cost even where the profile has L_pass_all.
+  m.set(Param::L_pass_all, Parameter{300e-6, Provenance::probed, {}, {}, {}});
+  EXPECT_NEAR(predict(m, c, Variant::memory).lat_pixel, steps, 1e-15);
+  c.cpu_threads = 2;
+  EXPECT_NEAR(predict(m, c, Variant::memory).lat_pixel, steps + 2 * 300e-6, 1e-15);
+  const double two_threads_by_kind = predict(m, c, Variant::memory).dt_CC;  // 250'000 values
+  EXPECT_GT(two_threads_by_kind, 0);
+  auto needs = required_params(c, Variant::memory, Pricing::of(m));
+  EXPECT_EQ(std::count(needs.begin(), needs.end(), Param::L_pass_all), 1);
+  // Without L_pass_all the _all kinds price the steps alone; so do the L_pixel_all figure's
+  // profiles, with every value of N_CC at the bandwidth.
+  m.erase(Param::L_pass_all);
+  EXPECT_NEAR(predict(m, c, Variant::memory).lat_pixel, steps, 1e-15);
+  for (Param p : {Param::L_label_all, Param::L_hist_all, Param::L_scan_all}) m.erase(p);
+  EXPECT_NEAR(predict(m, c, Variant::memory).lat_pixel, 1e-3, 1e-15);
+  EXPECT_NEAR(predict(m, c, Variant::memory).dt_CC, 4 * two_threads_by_kind, 1e-15);  // all 1'000'000
+  // Every value a pixel pass's, priced by kind: no bandwidth needed.
+  c.cpu_threads = 1;
+  c.N_CC_pixel = c.N_CC;
+  EXPECT_EQ(predict(m, c, Variant::memory).dt_CC, 0);
+  needs = required_params(c, Variant::memory, Pricing::of(m));
+  EXPECT_EQ(std::count(needs.begin(), needs.end(), Param::B_host_1), 0);
+  // The part cannot exceed its whole.
+  c.N_CC_pixel = c.N_CC + 1;
+  EXPECT_THROW(predict(m, c, Variant::memory), InputError);
+}
+
 TEST(Predict, WindowsOnSeveralThreadsUseTheAllThreadRatiosWhereTheProfileHasThem) {
   auto m = test::round_profile();  // K_CW = 1.5, V_C1 100 GFLOP/s
   m.set(Param::K_CA, Parameter{2.0, Provenance::probed, {}, {}, {}});

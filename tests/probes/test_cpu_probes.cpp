@@ -163,6 +163,25 @@ TEST(CpuProbes, PixelGivesOneStepOfScalarPixelWork) {
   const double hi = std::max({label->value, hist->value, scan->value});
   EXPECT_GT(m->value, 0.5 * lo);
   EXPECT_LT(m->value, 2 * hi);
+  // On several CPUs the kinds on all threads too; where the passes of the small frame show a fixed
+  // part (not on a quiet 2-vCPU machine, as a rule), the kinds are slopes beside it, each with its
+  // interval, and the fixed part is a frame's: more than a microsecond, less than a second.
+  if (usable_cpus() > 1) {
+    for (Param p : {Param::L_label_all, Param::L_hist_all, Param::L_scan_all}) {
+      const auto* x = find(r, p);
+      ASSERT_NE(x, nullptr) << info(p).name;
+      EXPECT_GT(x->value, 1e-12) << info(p).name;
+      EXPECT_EQ(x->uncertainty.has_value(), find(r, Param::L_pass_all) != nullptr) << info(p).name;
+    }
+    if (const auto* fixed = find(r, Param::L_pass_all)) {
+      EXPECT_GT(fixed->value, 1e-6);
+      EXPECT_LT(fixed->value, 1.0);
+      EXPECT_NE(fixed->note.find("intercepts"), std::string::npos) << fixed->note;
+    }
+  } else {
+    EXPECT_EQ(find(r, Param::L_label_all), nullptr);
+    EXPECT_EQ(find(r, Param::L_pass_all), nullptr);
+  }
 }
 
 TEST(CpuProbes, TreeGivesOneStepOfTreeWorkOnEachPlacement) {

@@ -90,6 +90,35 @@ TEST(PerEventFit, RecoversTheCostPerEventAndTheFixedCost) {
   EXPECT_LT(f.per_event_hw95, 1e-18);
 }
 
+// cpu-pixel's all-thread passes: three kinds timed within each pass, passes over two frame sizes
+// (11 of each, 2% noise): each kind's slope and the passes' fixed cost, the kinds' intercepts added.
+TEST(KindsFit, RecoversEachKindsSlopeAndThePassesFixedCost) {
+  std::mt19937_64 rng(2026);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  const double slope[3] = {0.4e-9, 0.1e-9, 0.19e-9}, fixed[3] = {400e-6, 60e-6, 40e-6};
+  const double large[3] = {1048576, 1048576, 4.5e6}, small[3] = {262144, 262144, 1.1e6};
+  std::vector<std::vector<TransferPoint>> kinds(3);
+  for (int k = 0; k < 3; ++k)
+    for (const double* n : {large, small})
+      for (int i = 0; i < 11; ++i) kinds[k].push_back({n[k], (fixed[k] + slope[k] * n[k]) * (1 + noise(rng))});
+  const KindsFit f = fit_kinds(kinds);
+  ASSERT_EQ(f.kinds.size(), 3u);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(f.kinds[k].per_event, slope[k], 0.1 * slope[k]) << k;
+    EXPECT_LE(std::abs(f.kinds[k].per_event - slope[k]), f.kinds[k].per_event_hw95 * 1.5) << k;
+  }
+  EXPECT_NEAR(f.fixed, 500e-6, 50e-6);
+  EXPECT_GT(f.fixed_hw95, 0);
+  EXPECT_LE(std::abs(f.fixed - 500e-6), 1.5 * f.fixed_hw95);
+  // Without a fixed part each kind's line goes through (about) zero; one frame size cannot be fitted.
+  for (int k = 0; k < 3; ++k)
+    for (auto& p : kinds[k]) p.seconds = slope[k] * p.bytes;
+  EXPECT_NEAR(fit_kinds(kinds).fixed, 0, 1e-12);
+  std::vector<std::vector<TransferPoint>> one_size(1);
+  for (int i = 0; i < 5; ++i) one_size[0].push_back({1e6, 1e-3});
+  EXPECT_THROW(fit_kinds(one_size), std::invalid_argument);
+}
+
 TEST(PerEventFit, IntervalIsTheBandwidthsMappedToACostPerEvent) {
   std::mt19937_64 rng(777);
   std::normal_distribution<double> noise(0.0, 0.02);

@@ -159,14 +159,17 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
   c.N_CM = mls_flops(s);
   const std::int64_t scan = static_cast<std::int64_t>(2 * s.margin + 1) * (2 * s.margin + 1);
   const std::int64_t threshold = s.adaptive ? 13 + (b == 2 ? 3 : 0) : b == 2 ? 2 * b + 3 : b + 1;
-  const std::int64_t bytes = (s.otsu ? b : 0) * s.roi_pixels + threshold * s.roi_pixels + 13 * s.roi_pixels +
-                             10 * s.window_pixels + b * (s.ring_pixels + s.weighted_pixels) + 8 * cpu_field_values(s);
+  const std::int64_t pixel_bytes = (s.otsu ? b : 0) * s.roi_pixels + threshold * s.roi_pixels + 13 * s.roi_pixels +
+                                   10 * s.window_pixels + b * (s.ring_pixels + s.weighted_pixels);
+  const std::int64_t bytes = pixel_bytes + 8 * cpu_field_values(s);
   c.N_CC = (bytes + 7) / 8;
+  c.N_CC_pixel = pixel_bytes / 8;  // of them, the pixel passes' (a whole value each, not above N_CC)
   // The scalar pixel loops (docs/model.md 2.6): Otsu's histogram, the labelling, the windows'
   // classification and the labels each background window pixel's neighbourhood scan reads.
   c.pixel_steps = (s.otsu ? s.roi_pixels : 0) + s.roi_pixels + s.window_pixels + scan * s.scanned_pixels;
   c.label_steps = s.roi_pixels;                // of them, the labelling's: a step an analysed pixel
   c.hist_steps = s.otsu ? s.roi_pixels : 0;    // and Otsu's histogram's: a count an analysed pixel
+  c.pixel_passes = s.roi_pixels > 0 ? 1 : 0;    // one frame's passes
   const std::int64_t extra = s.adaptive ? 1 + (b == 2 ? 1 : 0) : (b == 2 ? 2 : 0);
   c.cpu_footprint = s.roi_pixels * (b + 1 + 4 + extra) + 8 * cpu_field_values(s);
   c.cpu_threads = threads < 1 ? 1 : threads;

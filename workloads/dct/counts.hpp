@@ -83,6 +83,9 @@ std::int64_t mls_flops(const FrameShape& s);
 //          point's 3 triangle dots, 3 shape functions, 8 outputs). Values gathered by a dot's or
 //          triangle's index (positions, displacements, gradients) come from tables that stay in
 //          the caches and are not counted (counts.cpp, cpu_field_values)
+//   N_CC_pixel = of N_CC, the pixel passes' bytes (all but the fields'), / 8 (rounded down): where
+//          the profile prices the pixel steps by kind, figures timed on such passes, dt_CC leaves
+//          them out
 //   pixel_steps = the scalar pixel loops, one step per pixel visited and per neighbourhood label
 //          read: [Otsu: roi, the histogram's counts] + roi (labelling: each pixel's label
 //          decided) + window (each window pixel classified) + (2 margin + 1)^2 scanned (the
@@ -91,6 +94,8 @@ std::int64_t mls_flops(const FrameShape& s);
 //          labelling with statistics, several times a histogram count or a label read);
 //          hist_steps = [Otsu: roi], the histogram's: priced apart, and the rest at L_scan, where
 //          the profile has L_label, L_hist and L_scan
+//   pixel_passes = 1: the frame's passes (histogram, threshold, labelling, windows), on several
+//          threads a fixed L_pass_all beside their steps where the profile has it
 //   cpu_footprint = roi (b + 1 + 4) [+ 2 roi for the 16-bit mask | adaptive: + 1 roi, the
 //          mean, + 1 roi for the 16-bit image's 8-bit copy] + the fields' bytes: the frame, the
 //          mask and the labels, the working set the model weighs against the cache

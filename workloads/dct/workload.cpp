@@ -735,10 +735,12 @@ std::string counts_difference(const CostCounts& d, const CostCounts& m) {
   differ(out, "N_C", d.N_C, m.N_C);
   differ(out, "N_G", d.N_G, m.N_G);
   differ(out, "N_CC", d.N_CC, m.N_CC);
+  differ(out, "N_CC_pixel", d.N_CC_pixel, m.N_CC_pixel);
   differ(out, "cpu_footprint", d.cpu_footprint, m.cpu_footprint);
   differ(out, "pixel_steps", d.pixel_steps, m.pixel_steps);
   differ(out, "label_steps", d.label_steps, m.label_steps);
   differ(out, "hist_steps", d.hist_steps, m.hist_steps);
+  differ(out, "pixel_passes", d.pixel_passes, m.pixel_passes);
   differ(out, "tree_steps", d.tree_steps, m.tree_steps);
   differ(out, "transfers_CG", d.transfers_CG, m.transfers_CG);
   differ(out, "transfers_GC", d.transfers_GC, m.transfers_GC);

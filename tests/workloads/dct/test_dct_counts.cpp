@@ -55,6 +55,9 @@ TEST(DctCounts, CpuMatchesFormulas) {
   // where the profile can.
   EXPECT_EQ(c.label_steps, 20'000'000);
   EXPECT_EQ(c.hist_steps, 20'000'000);
+  // Of N_CC, the pixel passes' (all but the fields'), which the kinds' figures carry; one frame's passes.
+  EXPECT_EQ(c.N_CC_pixel, (16LL * 20'000'000 + 10LL * 7'000'000 + 6'500'000) / 8);
+  EXPECT_EQ(c.pixel_passes, 1);
   EXPECT_EQ(c.cpu_footprint, 6LL * 20'000'000 + 8 * (1LL * 2048 * 60 + 8LL * 2048));
   EXPECT_EQ(c.P, 8);
   EXPECT_EQ(c.precision, Precision::fp64);
