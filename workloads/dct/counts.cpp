@@ -159,11 +159,14 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
   c.N_CM = mls_flops(s);
   const std::int64_t scan = static_cast<std::int64_t>(2 * s.margin + 1) * (2 * s.margin + 1);
   const std::int64_t threshold = s.adaptive ? 13 + (b == 2 ? 3 : 0) : b == 2 ? 2 * b + 3 : b + 1;
-  const std::int64_t pixel_bytes = (s.otsu ? b : 0) * s.roi_pixels + threshold * s.roi_pixels + 13 * s.roi_pixels +
-                                   10 * s.window_pixels + b * (s.ring_pixels + s.weighted_pixels);
-  const std::int64_t bytes = pixel_bytes + 8 * cpu_field_values(s);
+  const std::int64_t bytes = (s.otsu ? b : 0) * s.roi_pixels + threshold * s.roi_pixels + 13 * s.roi_pixels +
+                             10 * s.window_pixels + b * (s.ring_pixels + s.weighted_pixels) + 8 * cpu_field_values(s);
   c.N_CC = (bytes + 7) / 8;
-  c.N_CC_pixel = pixel_bytes / 8;  // of them, the pixel passes' (a whole value each, not above N_CC)
+  // Of them, what the passes the cpu-pixel probe times move on an 8-bit frame: its histogram, a
+  // fixed threshold, the labelling and the windows. A 16-bit frame's wider reads and mask, and an
+  // adaptive threshold's box filter, are work the probe does not do, and stay in dt_CC.
+  c.N_CC_pixel = ((s.otsu ? 1 : 0) * s.roi_pixels + 2 * s.roi_pixels + 13 * s.roi_pixels + 10 * s.window_pixels +
+                  (s.ring_pixels + s.weighted_pixels)) / 8;
   // The scalar pixel loops (docs/model.md 2.6): Otsu's histogram, the labelling, the windows'
   // classification and the labels each background window pixel's neighbourhood scan reads.
   c.pixel_steps = (s.otsu ? s.roi_pixels : 0) + s.roi_pixels + s.window_pixels + scan * s.scanned_pixels;

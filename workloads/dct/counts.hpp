@@ -83,9 +83,11 @@ std::int64_t mls_flops(const FrameShape& s);
 //          point's 3 triangle dots, 3 shape functions, 8 outputs). Values gathered by a dot's or
 //          triangle's index (positions, displacements, gradients) come from tables that stay in
 //          the caches and are not counted (counts.cpp, cpu_field_values)
-//   N_CC_pixel = of N_CC, the pixel passes' bytes (all but the fields'), / 8 (rounded down): where
-//          the profile prices the pixel steps by kind, figures timed on such passes, dt_CC leaves
-//          them out
+//   N_CC_pixel = of N_CC, what the passes the cpu-pixel probe times move on an 8-bit frame, / 8
+//          (rounded down): [Otsu: roi] + 2 roi (a fixed threshold) + 13 roi + 10 window + ring +
+//          weighted. Where the profile prices the pixel steps by kind, figures timed on such
+//          passes, dt_CC leaves them out; a 16-bit frame's wider reads and mask and an adaptive
+//          threshold's filter stay in it
 //   pixel_steps = the scalar pixel loops, one step per pixel visited and per neighbourhood label
 //          read: [Otsu: roi, the histogram's counts] + roi (labelling: each pixel's label
 //          decided) + window (each window pixel classified) + (2 margin + 1)^2 scanned (the

@@ -55,7 +55,8 @@ TEST(DctCounts, CpuMatchesFormulas) {
   // where the profile can.
   EXPECT_EQ(c.label_steps, 20'000'000);
   EXPECT_EQ(c.hist_steps, 20'000'000);
-  // Of N_CC, the pixel passes' (all but the fields'), which the kinds' figures carry; one frame's passes.
+  // Of N_CC, the pixel passes' (an 8-bit frame's, all but the fields'), which the kinds' figures
+  // carry; one frame's passes.
   EXPECT_EQ(c.N_CC_pixel, (16LL * 20'000'000 + 10LL * 7'000'000 + 6'500'000) / 8);
   EXPECT_EQ(c.pixel_passes, 1);
   EXPECT_EQ(c.cpu_footprint, 6LL * 20'000'000 + 8 * (1LL * 2048 * 60 + 8LL * 2048));
@@ -68,8 +69,10 @@ TEST(DctCounts, CpuMatchesFormulas) {
   FrameShape w = s;
   w.bytes_per_pixel = 2;
   EXPECT_EQ(cpu_counts(w, 1).N_CC - c.N_CC, (20'000'000LL * (2 - 1) + 20'000'000LL * (7 - 2) + 6'500'000) / 8);
-  // ... and the same scalar steps: a 16-bit pixel is counted and labelled once, like an 8-bit one.
+  // ... and the same scalar steps: a 16-bit pixel is counted and labelled once, like an 8-bit one;
+  // the probe's passes are 8-bit, so the wider bytes stay out of N_CC_pixel.
   EXPECT_EQ(cpu_counts(w, 1).pixel_steps, c.pixel_steps);
+  EXPECT_EQ(cpu_counts(w, 1).N_CC_pixel, c.N_CC_pixel);
   // A wider centroid margin reads (2 margin + 1)^2 labels per scanned pixel.
   FrameShape m3 = s;
   m3.margin = 3;
@@ -206,6 +209,10 @@ TEST(DctCounts, ThresholdMethodsArePriced) {
   EXPECT_EQ(cpu_counts(adaptive, 1).N_C, flops + 5 * roi);
   EXPECT_EQ(cpu_counts(adaptive, 1).cpu_footprint, cpu_counts(otsu, 1).cpu_footprint + roi);
   EXPECT_EQ(cpu_counts(adaptive, 1).pixel_steps, cpu_counts(fixed, 1).pixel_steps);  // vector loops: no scalar steps
+  // The box filter is not a pass the probe times: its bytes stay priced in dt_CC, the passes' are
+  // a fixed threshold's.
+  EXPECT_EQ(cpu_counts(adaptive, 1).N_CC_pixel, cpu_counts(fixed, 1).N_CC_pixel);
+  EXPECT_EQ(cpu_counts(otsu, 1).N_CC_pixel - cpu_counts(fixed, 1).N_CC_pixel, roi / 8);  // Otsu's histogram
   // 16-bit adaptive: converted to 8 bits first (2 read, 1 written, a multiply), the 8-bit copy
   // in the working set; the rest of the frame reads the 16-bit ring and weighted pixels.
   FrameShape wide = adaptive;
