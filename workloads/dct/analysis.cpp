@@ -104,17 +104,18 @@ void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuff
     if (used) *used = -1;
     return;
   }
+  // Work in a stripe of rows a thread (one stripe on one thread).
+  const int n = std::max(1, threads);
+  const auto stripes = [threads](int count, const auto& body) {
+    if (threads <= 1 || count <= 1) {
+      for (int s = 0; s < count; ++s) body(s);
+      return;
+    }
+    cv::parallel_for_(
+        cv::Range(0, count), [&](const cv::Range& r) { for (int s = r.start; s < r.end; ++s) body(s); }, count);
+  };
   if (o.method == ThresholdMethod::otsu) {
-    // The counts in a stripe of rows a thread (one stripe on one thread), the stripes' added.
-    const auto stripes = [threads](int n, const auto& body) {
-      if (threads <= 1 || n <= 1) {
-        for (int s = 0; s < n; ++s) body(s);
-        return;
-      }
-      cv::parallel_for_(
-          cv::Range(0, n), [&](const cv::Range& r) { for (int s = r.start; s < r.end; ++s) body(s); }, n);
-    };
-    const int n = std::max(1, threads);
+    // The counts in each stripe, the stripes' added.
     const auto counts = wide ? kernels::count_rows(image.ptr<std::uint16_t>(0), image.step1(), image.cols, image.rows,
                                                    n, stripes)
                              : kernels::count_rows(image.ptr<std::uint8_t>(0), image.step1(), image.cols, image.rows,
@@ -125,8 +126,23 @@ void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuff
     T = wide ? std::floor(o.threshold * 257) : std::floor(o.threshold);
   }
   if (wide) {
-    cv::threshold(image, buf.wide, T, 255, dark ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
-    buf.wide.convertTo(mask, CV_8U);
+    // Straight into the 8-bit mask, a stripe of rows a thread, as cv::threshold's binary modes
+    // decide (a dot pixel: dark v <= T, light v > T): no 16-bit mask to write, read and convert
+    // on one thread.
+    mask.create(image.size(), CV_8U);
+    const int rows = image.rows, parts = std::min(n, std::max(1, rows));
+    const bool everything = T < 0, nothing = T >= 65535;  // every pixel above T, or none
+    const auto level = static_cast<std::uint16_t>(everything || nothing ? 0 : T);  // T is whole
+    const std::uint8_t above = dark ? 0 : 255, below = dark ? 255 : 0;
+    stripes(parts, [&](int s) {
+      const int r0 = static_cast<int>(static_cast<std::int64_t>(rows) * s / parts);
+      const int r1 = static_cast<int>(static_cast<std::int64_t>(rows) * (s + 1) / parts);
+      cv::Mat out = mask.rowRange(r0, r1);
+      if (everything || nothing)
+        out.setTo(everything ? above : below);
+      else  // OpenCV's vectorised comparison, 255 where it holds
+        cv::compare(image.rowRange(r0, r1), cv::Scalar(level), out, dark ? cv::CMP_LE : cv::CMP_GT);
+    });
   } else {
     cv::threshold(image, mask, T, 255, dark ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
   }

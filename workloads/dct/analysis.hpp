@@ -84,7 +84,7 @@ struct AnalysisResult {
 // on the 2-vCPU VM their page faults added ~2 ns a pixel to frames over 8 MP and nothing
 // below; docs/PERFORMANCE.md, DCT calibration.)
 struct AnalysisBuffers {
-  cv::Mat wide;    // 16-bit frames: the 16-bit mask (fixed, Otsu) or the 8-bit copy (adaptive)
+  cv::Mat wide;    // 16-bit frames with the adaptive threshold: the 8-bit copy
   cv::Mat mask;    // 8-bit mask, 255 = dot pixel
   cv::Mat labels;  // 32-bit component labels
   cv::Mat stats, centroids;

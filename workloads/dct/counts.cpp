@@ -158,12 +158,12 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
   // rotations, square roots and divisions, far slower than the FMA rate.
   c.N_CM = mls_flops(s);
   const std::int64_t scan = static_cast<std::int64_t>(2 * s.margin + 1) * (2 * s.margin + 1);
-  const std::int64_t threshold = s.adaptive ? 13 + (b == 2 ? 3 : 0) : b == 2 ? 2 * b + 3 : b + 1;
+  const std::int64_t threshold = s.adaptive ? 13 + (b == 2 ? 3 : 0) : b + 1;
   const std::int64_t bytes = (s.otsu ? b : 0) * s.roi_pixels + threshold * s.roi_pixels + 13 * s.roi_pixels +
                              10 * s.window_pixels + b * (s.ring_pixels + s.weighted_pixels) + 8 * cpu_field_values(s);
   c.N_CC = (bytes + 7) / 8;
   // Of them, what the passes the cpu-pixel probe times move on an 8-bit frame: its histogram, a
-  // fixed threshold, the labelling and the windows. A 16-bit frame's wider reads and mask, and an
+  // fixed threshold, the labelling and the windows. A 16-bit frame's wider reads, and an
   // adaptive threshold's box filter, are work the probe does not do, and stay in dt_CC.
   c.N_CC_pixel = ((s.otsu ? 1 : 0) * s.roi_pixels + 2 * s.roi_pixels + 13 * s.roi_pixels + 10 * s.window_pixels +
                   (s.ring_pixels + s.weighted_pixels)) / 8;
@@ -173,7 +173,7 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
   c.label_steps = s.roi_pixels;                // of them, the labelling's: a step an analysed pixel
   c.hist_steps = s.otsu ? s.roi_pixels : 0;    // and Otsu's histogram's: a count an analysed pixel
   c.pixel_passes = s.roi_pixels > 0 ? 1 : 0;    // one frame's passes
-  const std::int64_t extra = s.adaptive ? 1 + (b == 2 ? 1 : 0) : (b == 2 ? 2 : 0);
+  const std::int64_t extra = s.adaptive ? 1 + (b == 2 ? 1 : 0) : 0;
   c.cpu_footprint = s.roi_pixels * (b + 1 + 4 + extra) + 8 * cpu_field_values(s);
   c.cpu_threads = threads < 1 ? 1 : threads;
   c.tree_steps = s.tree_steps;  // the matching, on one thread

@@ -72,8 +72,8 @@ std::int64_t mls_flops(const FrameShape& s);
 //            and a subtract each, and its scale: integer arithmetic, counted with the FLOPs)
 //            [16-bit: + 1 roi, the scale of the conversion to 8 bits]
 //   N_CC = the bytes the stages read and write, / 8 (rounded up), b bytes per pixel:
-//          Otsu histogram b roi; threshold (b + 1) roi (16-bit: a 16-bit mask converted to
-//          8 bits, 2b + 3) | adaptive 13 roi (box filter: image read, 4-byte row sums written
+//          Otsu histogram b roi; threshold (b + 1) roi (16-bit too: read, the 8-bit mask
+//          written) | adaptive 13 roi (box filter: image read, 4-byte row sums written
 //          and read, the mean written; then image and mean read, mask written) [16-bit: + 3 roi,
 //          the image converted to 8 bits first]; labelling with statistics 13 roi (mask read, labels written,
 //          read and written again); centroids 10 window (label read twice, class written
@@ -86,7 +86,7 @@ std::int64_t mls_flops(const FrameShape& s);
 //   N_CC_pixel = of N_CC, what the passes the cpu-pixel probe times move on an 8-bit frame, / 8
 //          (rounded down): [Otsu: roi] + 2 roi (a fixed threshold) + 13 roi + 10 window + ring +
 //          weighted. Where the profile prices the pixel steps by kind, figures timed on such
-//          passes, dt_CC leaves them out; a 16-bit frame's wider reads and mask and an adaptive
+//          passes, dt_CC leaves them out; a 16-bit frame's wider reads and an adaptive
 //          threshold's filter stay in it
 //   pixel_steps = the scalar pixel loops, one step per pixel visited and per neighbourhood label
 //          read: [Otsu: roi, the histogram's counts] + roi (labelling: each pixel's label
@@ -98,8 +98,8 @@ std::int64_t mls_flops(const FrameShape& s);
 //          the profile has L_label, L_hist and L_scan
 //   pixel_passes = 1: the frame's passes (histogram, threshold, labelling, windows), on several
 //          threads a fixed L_pass_all beside their steps where the profile has it
-//   cpu_footprint = roi (b + 1 + 4) [+ 2 roi for the 16-bit mask | adaptive: + 1 roi, the
-//          mean, + 1 roi for the 16-bit image's 8-bit copy] + the fields' bytes: the frame, the
+//   cpu_footprint = roi (b + 1 + 4) [adaptive: + 1 roi, the mean, + 1 roi for the 16-bit
+//          image's 8-bit copy] + the fields' bytes: the frame, the
 //          mask and the labels, the working set the model weighs against the cache
 CostCounts cpu_counts(const FrameShape& s, int threads);
 

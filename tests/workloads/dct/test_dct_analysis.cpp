@@ -199,6 +199,32 @@ TEST(DctThreshold, StripedCountsMatchOpenCvsHistogram) {
             << "depth " << depth << ", " << stripes << " stripes, grey level " << v;
     }
   }
+  // A 16-bit frame goes straight into the 8-bit mask, stripe by stripe: OpenCV's binary threshold of
+  // the 16-bit frame, converted, for both polarities, fixed and Otsu, on one thread and three.
+  {
+    cv::Mat frame(121, 97, CV_16U);
+    cv::randu(frame, 0, 65536);
+    const cv::Mat view = frame(cv::Rect(3, 4, 90, 113));
+    for (const auto polarity : {Polarity::dark_dots, Polarity::light_dots})
+      for (const auto method : {ThresholdMethod::fixed, ThresholdMethod::otsu})
+        for (const int threads : {1, 3}) {
+          AnalysisOptions o;
+          o.polarity = polarity;
+          o.method = method;
+          o.threshold = 100.4;
+          AnalysisBuffers b;
+          double used = -1;
+          threshold_into(view, o, b, &used, threads);
+          cv::Mat wide, ref;
+          cv::threshold(view, wide, used, 255,
+                        polarity == Polarity::dark_dots ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
+          wide.convertTo(ref, CV_8U);
+          ASSERT_EQ(b.mask.type(), CV_8U);
+          EXPECT_EQ(cv::countNonZero(b.mask != ref), 0)
+              << to_string(method) << ", " << threads << " threads, threshold " << used;
+          EXPECT_GT(cv::countNonZero(b.mask), 0);
+        }
+  }
   // The threshold on several threads is the one on one thread, and OpenCV's Otsu.
   Specimen s = random_specimen(6, 52);
   s.render.noise_sigma = 3;

@@ -65,10 +65,10 @@ TEST(DctCounts, CpuMatchesFormulas) {
   EXPECT_EQ(c.cpu_threads, 16);
   EXPECT_EQ(c.N_CG + c.N_GC + c.N_GG + c.N_G + c.launches, 0);
   EXPECT_EQ(cpu_counts(s, 0).cpu_threads, 1);
-  // 16-bit frames: twice the pixel reads, a 16-bit mask converted to 8 bits.
+  // 16-bit frames: twice the pixel reads (the histogram's and the threshold's), the same 8-bit mask.
   FrameShape w = s;
   w.bytes_per_pixel = 2;
-  EXPECT_EQ(cpu_counts(w, 1).N_CC - c.N_CC, (20'000'000LL * (2 - 1) + 20'000'000LL * (7 - 2) + 6'500'000) / 8);
+  EXPECT_EQ(cpu_counts(w, 1).N_CC - c.N_CC, (20'000'000LL * (2 - 1) + 20'000'000LL * (3 - 2) + 6'500'000) / 8);
   // ... and the same scalar steps: a 16-bit pixel is counted and labelled once, like an 8-bit one;
   // the probe's passes are 8-bit, so the wider bytes stay out of N_CC_pixel.
   EXPECT_EQ(cpu_counts(w, 1).pixel_steps, c.pixel_steps);
