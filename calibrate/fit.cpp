@@ -135,14 +135,16 @@ std::string fmt_value(double v, Param p) { return fmt::format("{:.4g} {}", v, in
 // The parameters a sample's counts exercise: every refinement the model has is priced, those the
 // start profile lacks found by the fit (staging, serial chains, all-thread windows, the GPU's L2
 // where its size is known, graph launches, all-thread pixel steps, MLS fields at their own rate on
-// the CPU and on the GPU, pixel steps by kind).
+// the CPU and on the GPU, pixel steps by kind). A frame's fixed cost on many threads (L_pass_all)
+// only where the probe found one: where it read none (zero within the noise), a fit has nothing to
+// tell it from the steps and would push it to a bound.
 std::vector<Param> exercised_params(const CostCounts& c, Variant v, const MachineProfile& start) {
   return required_params(c, v,
                          Pricing{.llc_bytes = model_llc_bytes(start.identity), .staging = true, .all_threads = true,
                                  .serial = true, .gpu_l2_bytes = start.identity.gpu_l2_bytes, .graph = true,
                                  .pixel_all = true, .mls = true, .mls_all = true, .gpu_mls = true,
                                  .gpu_pixel = true, .pixel_kinds = true, .pixel_kinds_all = true,
-                                 .pixel_pass_all = true});
+                                 .pixel_pass_all = start.has(Param::L_pass_all)});
 }
 
 }  // namespace
