@@ -348,6 +348,6 @@ ProbeReport run(const ProbeOptions& o) {
 DTFLOP_PROBE_UNIT(probe_cpu_pixel) {
   registry.add({"cpu-pixel",
                 "host scalar pixel work: one step of the image analysis' histogram, labelling or window label scans, "
-                "and each kind apart (one thread and all)",
+                "and each kind apart (one thread and all), with a frame's fixed cost on all threads",
                 false, 28, dtflop::probes::run});
 }
