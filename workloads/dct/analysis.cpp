@@ -130,19 +130,16 @@ void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuff
     // decide (a dot pixel: dark v <= T, light v > T): no 16-bit mask to write, read and convert
     // on one thread.
     mask.create(image.size(), CV_8U);
-    const int rows = image.rows, parts = std::min(n, std::max(1, rows));
-    const bool everything = T < 0, nothing = T >= 65535;  // every pixel above T, or none
-    const auto level = static_cast<std::uint16_t>(everything || nothing ? 0 : T);  // T is whole
-    const std::uint8_t above = dark ? 0 : 255, below = dark ? 255 : 0;
-    stripes(parts, [&](int s) {
-      const int r0 = static_cast<int>(static_cast<std::int64_t>(rows) * s / parts);
-      const int r1 = static_cast<int>(static_cast<std::int64_t>(rows) * (s + 1) / parts);
-      cv::Mat out = mask.rowRange(r0, r1);
-      if (everything || nothing)
-        out.setTo(everything ? above : below);
-      else  // OpenCV's vectorised comparison, 255 where it holds
-        cv::compare(image.rowRange(r0, r1), cv::Scalar(level), out, dark ? cv::CMP_LE : cv::CMP_GT);
-    });
+    if (T < 0 || T >= 65535) {  // every pixel above T, or none
+      mask.setTo((T < 0) != dark ? 255 : 0);
+    } else {  // OpenCV's vectorised comparison, 255 where it holds; T is whole
+      const auto compare_rows = [&](const cv::Range& r) {
+        cv::compare(image.rowRange(r.start, r.end), cv::Scalar(static_cast<std::uint16_t>(T)),
+                    mask.rowRange(r.start, r.end), dark ? cv::CMP_LE : cv::CMP_GT);
+      };
+      if (n > 1) cv::parallel_for_(cv::Range(0, image.rows), compare_rows, n);
+      else compare_rows(cv::Range(0, image.rows));
+    }
   } else {
     cv::threshold(image, mask, T, 255, dark ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
   }

@@ -77,8 +77,8 @@ struct AnalysisResult {
   AnalysisTimes times;
 };
 
-// The frame-sized images of one analysis (the mask, its 16-bit or 8-bit intermediate and the
-// labels). A pipeline keeps one across frames, as a camera's would: frames of one size then
+// The frame-sized images of one analysis (the mask, a 16-bit frame's 8-bit copy for the adaptive
+// threshold, and the labels). A pipeline keeps one across frames, as a camera's would: frames of one size then
 // reuse them instead of allocating ~5-7 bytes per pixel each frame. (Allocations above glibc's
 // 32 MiB mmap limit, the labels of a frame over 8 MP, come fresh from the kernel every time:
 // on the 2-vCPU VM their page faults added ~2 ns a pixel to frames over 8 MP and nothing
@@ -98,8 +98,9 @@ AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threa
 
 // The binary mask (255 = dot pixel) and the threshold used, for inspection and tests.
 cv::Mat threshold_image(const cv::Mat& image, const AnalysisOptions& o, double* used = nullptr);
-// The same into `b.mask` (b.wide holds the 16-bit intermediate); Otsu's histogram counted in a
-// stripe of rows a thread on `threads` threads (OpenCV's, set by the caller).
+// The same into `b.mask` (b.wide holds a 16-bit frame's 8-bit copy for the adaptive threshold);
+// Otsu's histogram, and a 16-bit frame's comparison, in a stripe of rows a thread on `threads`
+// threads (OpenCV's, set by the caller).
 void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuffers& b, double* used = nullptr,
                     int threads = 1);
 
