@@ -121,6 +121,16 @@ struct ResidualFunctor {
   }
 };
 
+// The prior's residual: weight x log(value / probed) = weight x (theta + offset).
+struct PriorCost {
+  double weight, offset;
+  template <typename T>
+  bool operator()(const T* theta, T* r) const {
+    r[0] = T(weight) * (theta[0] + T(offset));
+    return true;
+  }
+};
+
 ceres::LossFunction* make_loss(const FitOptions& o) {
   switch (o.loss) {
     case Loss::none: return nullptr;
@@ -280,6 +290,33 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
 
+  // The samples' rms relative residual (no loss applied) at theta.
+  auto rms_of = [&] {
+    double ss = 0;
+    for (const auto& r : residuals) {
+      MachineProfile m = base;
+      for (int p : r.params) m.set(ids[p], Parameter{starts[p] * std::exp(theta[p]), Provenance::fitted, {}, {}, {}});
+      const double rel = (predicted(predict(m, r.sample->counts, o.variant), r.component) - r.measured) / r.measured;
+      ss += rel * rel;
+    }
+    return residuals.empty() ? 0.0 : std::sqrt(ss / static_cast<double>(residuals.size()));
+  };
+  if (o.prior_log_sigma > 0 && summary.IsSolutionUsable()) {
+    // MAP with the samples' residuals as normal with the scatter the fit without the prior left:
+    // a prior residual (theta - log(probed / start)) / prior_log_sigma, scaled to that scatter.
+    const double weight = rms_of() / o.prior_log_sigma;
+    int priors = 0;
+    for (std::size_t i = 0; i < ids.size() && weight > 0; ++i) {
+      const Parameter* sp = start.find(ids[i]);
+      if (!identifiable[i] || !sp || sp->provenance != Provenance::probed || !(sp->value > 0)) continue;
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PriorCost, 1, 1>(
+                                   new PriorCost{weight, std::log(starts[i] / sp->value)}),
+                               nullptr, &theta[i]);
+      ++priors;
+    }
+    if (priors > 0) ceres::Solve(so, &problem, &summary);
+  }
+
   FitResult out;
   out.variant = o.variant;
   out.samples = n_samples;
@@ -309,14 +346,8 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
 
   // Unrobustified residuals at the solution: their variance scales the covariance, since
   // relative residuals have no known standard deviation of their own.
-  double ss = 0;
-  for (const auto& r : residuals) {
-    MachineProfile m = base;
-    for (int p : r.params) m.set(ids[p], Parameter{starts[p] * std::exp(theta[p]), Provenance::fitted, {}, {}, {}});
-    const double rel = (predicted(predict(m, r.sample->counts, o.variant), r.component) - r.measured) / r.measured;
-    ss += rel * rel;
-  }
-  out.rms_relative = residuals.empty() ? 0 : std::sqrt(ss / static_cast<double>(residuals.size()));
+  out.rms_relative = rms_of();
+  const double ss = out.rms_relative * out.rms_relative * static_cast<double>(residuals.size());
   const int dof = out.residuals - free;
   const double s2 = dof > 0 ? ss / dof : 0;
 

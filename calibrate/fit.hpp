@@ -37,6 +37,13 @@ struct FitOptions {
   // never wins has no gradient and could never be fitted. So extended starts from the latency
   // variant's fit to the same samples (the start profile stays the reference for the flags).
   bool warm_start = true;
+  // A prior on every probed parameter: log(fitted / probed) is taken as normal with this standard
+  // deviation, weighed against the samples' own scatter (the rms relative residual of the fit
+  // without it). Where the samples cannot tell two parameters apart (two steps that come in a
+  // fixed ratio in every configuration) or barely feel one, it stays near what the probe measured
+  // instead of absorbing the other's time or running to a bound; where the samples do determine a
+  // parameter, they outweigh it. Parameters without a probed value get none. 0: no prior.
+  double prior_log_sigma = 0;
 };
 
 struct FittedParameter {

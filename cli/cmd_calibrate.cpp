@@ -39,6 +39,7 @@ struct CalibrateOptions {
   std::string loss = "huber";
   double loss_scale = 0.05;
   double flag_ratio = 1.5;
+  double prior = 0;
   std::vector<std::string> backends;
   std::vector<std::string> match;  // sample keys must contain each
   bool total_only = false;
@@ -105,6 +106,7 @@ void run(const CalibrateOptions& o) {
   else throw InputError(fmt::format("--loss '{}' is unknown; use huber, cauchy or none", o.loss));
   fo.loss_scale = o.loss_scale;
   fo.flag_ratio = o.flag_ratio;
+  fo.prior_log_sigma = o.prior;
   if (o.total_only) fo.components.clear();
 
   const MachineProfile probed = load_profile(o.machine);
@@ -299,6 +301,7 @@ void run(const CalibrateOptions& o) {
   out.metadata["fit_cv_rms_log"] = fmt::format("{:.4g}", error.rms_log);
   out.metadata["fit_error"] = error.how;
   out.metadata["fit_loss"] = fmt::format("{} (scale {})", to_string(fo.loss), fo.loss_scale);
+  if (fo.prior_log_sigma > 0) out.metadata["fit_prior_log_sigma"] = fmt::format("{:.4g}", fo.prior_log_sigma);
   out.metadata["fit_from"] = fs::path(o.machine).lexically_normal().string();
   out.metadata["fitted_at"] = utc_now();
   std::string kept;
@@ -352,6 +355,11 @@ void add_calibrate_command(CLI::App& root) {
       ->capture_default_str();
   app->add_option("--flag-ratio", o->flag_ratio, "Flag a fitted value this many times off the probed one")
       ->check(number_in(1, 1e6))
+      ->capture_default_str();
+  app->add_option("--prior", o->prior,
+                  "Keep each probed parameter near its probe: log(fitted / probed) taken as normal with this "
+                  "standard deviation, weighed against the samples' scatter (0: no prior; docs/calibration.md, Prior)")
+      ->check(number_in(0, 100))
       ->capture_default_str();
   app->add_flag("--total-only", o->total_only, "Fit totals only, not the measured components");
   app->add_flag("--accept-bounds", o->accept_bounds,

@@ -242,6 +242,14 @@ TEST_F(CalibCli, CalibrateThenValidate) {
   EXPECT_NEAR(fitted.get(Param::B_CG_pageable).value / truth.get(Param::B_CG_pageable).value, 1, 0.05);
   EXPECT_TRUE(fitted.get(Param::B_CG_pageable).uncertainty.has_value());
   EXPECT_EQ(fitted.get(Param::V_C1_fp64).provenance, Provenance::probed);  // not exercised
+  EXPECT_EQ(fitted.metadata.count("fit_prior_log_sigma"), 0u);
+  // With a prior the fit says so in the profile and still finds what these samples determine.
+  r = test::run_dtflop(fmt::format("calibrate --store {} --machine {} -o {} --variant latency --prior 0.5",
+                                   path("fit.jsonl"), path("probed.json"), path("fitted-prior.json")));
+  ASSERT_EQ(r.status, 0) << r.err << r.out;
+  const MachineProfile with_prior = load_profile(path("fitted-prior.json"));
+  EXPECT_EQ(with_prior.metadata.at("fit_prior_log_sigma"), "0.5");
+  EXPECT_NEAR(with_prior.get(Param::B_CG_pageable).value / truth.get(Param::B_CG_pageable).value, 1, 0.05);
 
   r = test::run_dtflop(fmt::format("validate --store {} --machine {}", path("held.jsonl"), path("fitted.json")));
   ASSERT_EQ(r.status, 0) << r.err;
@@ -369,6 +377,8 @@ TEST_F(CalibCli, CalibrateRefusesBadInputAndWritesNothing) {
   expect_error(calibrate(path("good.jsonl"), "--variant fancy"), "fancy");
   expect_error(calibrate(path("good.jsonl"), "--rounds-combine mean"), "--rounds-combine 'mean'");
   expect_error(calibrate(path("good.jsonl"), "--folds 1"), "--folds");
+  expect_error(calibrate(path("good.jsonl"), "--prior -0.5"), "--prior");
+  expect_error(calibrate(path("good.jsonl"), "--prior nan"), "--prior");
   const auto r = test::run_dtflop(fmt::format("calibrate --store {} --machine {} -o {}", path("good.jsonl"),
                                               path("probed.json"), path("probed.json")));
   EXPECT_EQ(r.status, 2);

@@ -179,6 +179,60 @@ TEST(CalibFit, ExtendedStartsFromTheLatencyFitSoBothSidesOfAMaxAreFitted) {
   EXPECT_GT(cold.rms_relative, 10 * warm.rms_relative);
 }
 
+// Frames whose labelled pixels and histogram counts always come one to one (a pixel labelled is a
+// pixel counted, as in 8-bit frames of one region): the samples fix L_label + L_hist, not each. With
+// the prior each stays near its probe and has an interval; a parameter the samples do determine
+// (L_scan, probed 1.5x off) still goes to the truth, and the prior costs the fit nothing it can see.
+TEST(CalibFit, APriorKeepsWhatTheSamplesCannotSeparateAtItsProbe) {
+  MachineProfile truth = test::round_profile();
+  const std::vector<std::pair<Param, double>> steps = {{Param::L_label, 6e-9}, {Param::L_hist, 0.3e-9}, {Param::L_scan, 1.3e-9}};
+  for (auto [p, v] : steps) truth.set(p, Parameter{v, Provenance::user, {}, {}, {}});
+  std::mt19937_64 rng(5);
+  std::vector<Sample> samples;
+  for (int i = 0; i < 24; ++i) {
+    CostCounts c;
+    c.cpu_threads = 1;
+    c.label_steps = 1'000'000LL * (1 + i % 6);
+    c.hist_steps = c.label_steps;
+    c.pixel_steps = c.label_steps + c.hist_steps + 700'000LL * (1 + i / 6);
+    samples.push_back(test::synthetic_sample(fmt::format("frame{}", i), c, truth, Variant::latency, 0.02, rng, "cpu-seq"));
+  }
+  MachineProfile start = truth;
+  // The probes: labelling 10% cheap, the histogram 3x dear (their sum the truth's: 5.4 + 0.9 ns),
+  // the scan step 1.5x dear.
+  for (auto [p, f] : {std::pair{Param::L_label, 0.9}, {Param::L_hist, 3.0}, {Param::L_scan, 1.5}})
+    start.set(p, Parameter{truth.get(p).value * f, Provenance::probed, {}, {}, {}});
+  FitOptions o;
+  o.variant = Variant::latency;
+  const FitResult plain = fit(samples, start, o);
+  EXPECT_FALSE(plain.covariance_ok);  // the two steps' columns are one
+  o.prior_log_sigma = 0.3;
+  const FitResult with = fit(samples, start, o);
+  ASSERT_TRUE(with.covariance_ok) << with.covariance_note;
+  auto value = [](const FitResult& r, Param p) { return r.profile.get(p).value; };
+  // Near the probes, not pushed apart to explain the noise.
+  EXPECT_NEAR(value(with, Param::L_label) / start.get(Param::L_label).value, 1.0, 0.05);
+  EXPECT_NEAR(value(with, Param::L_hist) / start.get(Param::L_hist).value, 1.0, 0.3);
+  // What the samples fix: the sum, and the scan step, whose probe was 1.5x off.
+  const double sum = value(with, Param::L_label) + value(with, Param::L_hist);
+  EXPECT_NEAR(sum / 6.3e-9, 1.0, 0.03);
+  EXPECT_NEAR(value(with, Param::L_scan) / 1.3e-9, 1.0, 0.05);
+  EXPECT_NEAR(value(plain, Param::L_scan) / 1.3e-9, 1.0, 0.05);
+  EXPECT_LT(with.rms_relative, 1.05 * plain.rms_relative);
+  for (const auto& f : with.params) {
+    EXPECT_TRUE(f.fitted) << info(f.id).name;
+    EXPECT_TRUE(f.has_interval) << info(f.id).name;
+    EXPECT_FALSE(f.at_physical_bound) << info(f.id).name;
+  }
+  // On exact samples the scatter is nil, so is the prior's weight: the fit is the plain one.
+  std::vector<Sample> exact;
+  for (const auto& s0 : samples) exact.push_back(test::synthetic_sample(s0.key, s0.counts, truth, Variant::latency, 0.0, rng, "cpu-seq"));
+  const FitResult e = fit(exact, start, o);
+  o.prior_log_sigma = 0;
+  const FitResult e0 = fit(exact, start, o);
+  for (auto [p, v] : steps) EXPECT_NEAR(value(e, p) / value(e0, p), 1.0, 1e-6) << info(p).name;
+}
+
 TEST(CalibFit, RefusesWhatItCannotDo) {
   const MachineProfile truth = test::round_profile();
   FitOptions o;
