@@ -81,7 +81,8 @@ void run(const RunCommon& o, const WorkloadArgs& a) {
     measured[std::string(to_string(comp))] = {{"median", stats.median / steps},
                                               {"p25", stats.p25 / steps},
                                               {"p75", stats.p75 / steps}};
-  const CostCounts per_step = c.backend->counts(c.config, profile ? &profile->identity : nullptr);
+  // What ran here, a step of it (not the profile's machine: its threads and multiprocessors may differ).
+  const CostCounts per_step = c.backend->counts(c.config, &here);
   nlohmann::json out = {{"workload", std::string(w.name())},
                         {"backend", c.backend->name()},
                         {"description", w.describe(*c.backend, c.config)},

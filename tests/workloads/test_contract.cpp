@@ -4,8 +4,10 @@
 // every backend that can run here is measured through the shared protocol with its declared work
 // matching what it did. A workload or backend added later is checked by this file unchanged.
 #include <ostream>
+#include <algorithm>
 #include <set>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -57,6 +59,28 @@ TEST_P(Contract, DefaultsValidateAndTheKeyNamesTheConfiguration) {
   if (small != c) {
     EXPECT_NE(w->key(*b, small), key);
   }
+}
+
+// Counts for another machine (predict --machine, tune) are that machine's: a backend on "every hardware
+// thread" counts the target's threads, not this machine's; one on a fixed number counts that number.
+TEST_P(Contract, CountsForAnotherMachineUseItsThreads) {
+  const auto [w, b] = GetParam();
+  const Config c = small_config(*w, *b);
+  MachineIdentity target;
+  target.cpu_threads = 96;
+  const CostCounts here = b->counts(c, nullptr), there = b->counts(c, &target);
+  const bool all_threads = c.contains("threads") && c.at("threads") == 0;
+  // A thread count defaults to every hardware thread, resolved on the machine the counts are for.
+  if (c.contains("threads")) EXPECT_TRUE(all_threads) << c.dump();
+  if (!all_threads) {
+    EXPECT_EQ(there.cpu_threads, here.cpu_threads);
+    return;
+  }
+  EXPECT_EQ(there.cpu_threads, 96);
+  EXPECT_EQ(here.cpu_threads, static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  Config four = c;
+  four["threads"] = 4;
+  EXPECT_EQ(b->counts(w->validate(four, *b), &target).cpu_threads, 4);
 }
 
 TEST_P(Contract, UnknownOrForeignParametersAreRefusedWithOneLine) {

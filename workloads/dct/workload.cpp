@@ -36,7 +36,6 @@ constexpr double kEdge = 8;
 // gives up after 200 tries per dot; at 0.35 the plans' dots are placed at the first try.
 constexpr double kMaxCover = 0.35;
 
-double hw_threads() { return static_cast<double>(std::max(1u, std::thread::hardware_concurrency())); }
 
 // Defaults of the parameters added after stores were measured (keyed_at_default = false): what
 // every configuration did before they existed.
@@ -221,8 +220,11 @@ class ContractBackend final : public wl::Backend {
     return why.empty() ? why : fmt::format("the {} backend cannot run here: {}; use cpu-seq or cpu-par", name(), why);
   }
 
-  CostCounts counts(const wl::Config& c, const MachineIdentity*) const override {
-    return kind_.frame_counts(estimated_shape(c), pipeline_options(c, name()));
+  // `threads` 0 (every hardware thread) means the target's where the counts are for another machine.
+  CostCounts counts(const wl::Config& c, const MachineIdentity* target) const override {
+    PipelineOptions o = pipeline_options(c, name());
+    if (o.threads == 0 && target && target->cpu_threads > 0) o.threads = target->cpu_threads;
+    return kind_.frame_counts(estimated_shape(c), o);
   }
 
   std::unique_ptr<wl::Run> prepare(const wl::Config& c, std::int64_t steps) const override {
@@ -343,7 +345,7 @@ class DctWorkload final : public wl::Workload {
          "dot density (about dots x pi r^2 / pattern area)",
          0, 0, 16384, {}, {}, "px"},
         {"bits", Kind::choice, "bits per pixel of the frames", "8", 0, 0, {"8", "16"}, {}, ""},
-        {"threads", Kind::integer, "CPU threads (default: every hardware thread)", static_cast<int>(hw_threads()), 1, 1024, {},
+        {"threads", Kind::integer, "CPU threads (0: every hardware thread of the machine that runs it, or of --machine's)", 0, 0, 1024, {},
          {"cpu-par"}, ""},
         {"host-memory", Kind::choice,
          "host memory the frames are uploaded from: pinned (a camera's DMA buffer) or pageable", "pinned", 0, 0,

@@ -27,7 +27,8 @@ Shape shape_of(const Config& c) {
   return {nx, ny, ix, iy};
 }
 
-// The backend options a configuration names; `target` gives cuda-resident's multiprocessors.
+// The backend options a configuration names; `target` gives cuda-resident's multiprocessors and the
+// hardware threads of cpu-par's "every hardware thread".
 BackendOptions options_of(const Config& c, const MachineIdentity* target) {
   BackendOptions o;
   if (workload::has(c, "host-memory"))
@@ -43,6 +44,8 @@ BackendOptions options_of(const Config& c, const MachineIdentity* target) {
     else if (p == "full") o.prediction = Convolution::full;
   }
   if (target && target->gpu_sms > 0) o.gpu_sms = target->gpu_sms;
+  // 0 threads (every hardware thread) are the target's where the counts are for another machine.
+  if (target && target->cpu_threads > 0 && o.threads == 0) o.threads = target->cpu_threads;
   return o;
 }
 

@@ -61,7 +61,9 @@ TEST(DctWorkload, DefaultsFillEveryApplicableParameter) {
   EXPECT_FALSE(seq.contains("threads"));
   EXPECT_FALSE(seq.contains("host-memory"));
   const wl::Config par = W().validate(json::object(), W().backend("cpu-par"));
-  EXPECT_EQ(par["threads"].get<int>(), static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  EXPECT_EQ(par["threads"].get<int>(), 0);  // every hardware thread of the machine that runs or is predicted
+  EXPECT_EQ(W().backend("cpu-par").counts(par, nullptr).cpu_threads,
+            static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
   const wl::Config gpu = W().validate(json::object(), W().backend("cuda"));
   EXPECT_EQ(gpu["host-memory"], "pinned");
   EXPECT_FALSE(gpu.contains("threads"));
