@@ -460,17 +460,13 @@ std::vector<int> shuffled_indices(int n, std::uint64_t seed) {
 
 }  // namespace
 
-std::vector<CvResult> cross_validate(const std::vector<Sample>& samples, const MachineProfile& start,
-                                     const FitOptions& base, const std::vector<Variant>& variants,
-                                     int k, std::uint64_t seed) {
-  const int n = static_cast<int>(samples.size());
-  if (k < 2) throw InputError(fmt::format("cross-validation needs at least 2 folds, got {}", k));
-  if (n < k)
-    throw InputError(fmt::format("{}-fold cross-validation needs at least {} samples, the store holds {}", k, k, n));
-  const auto order = shuffled_indices(n, seed);
-  std::vector<int> fold_of(n);
-  for (int i = 0; i < n; ++i) fold_of[order[i]] = i % k;
+namespace {
 
+// Each variant fitted to every fold's complement and scored on the fold (fold_of[i] in 0..k-1).
+std::vector<CvResult> cross_validate_folds(const std::vector<Sample>& samples, const MachineProfile& start,
+                                           const FitOptions& base, const std::vector<Variant>& variants,
+                                           const std::vector<int>& fold_of, int k) {
+  const int n = static_cast<int>(samples.size());
   std::vector<CvResult> out;
   for (Variant v : variants) {
     CvResult cv;
@@ -516,6 +512,41 @@ std::vector<CvResult> cross_validate(const std::vector<Sample>& samples, const M
     out.push_back(std::move(cv));
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<CvResult> cross_validate(const std::vector<Sample>& samples, const MachineProfile& start,
+                                     const FitOptions& base, const std::vector<Variant>& variants,
+                                     int k, std::uint64_t seed) {
+  const int n = static_cast<int>(samples.size());
+  if (k < 2) throw InputError(fmt::format("cross-validation needs at least 2 folds, got {}", k));
+  if (n < k)
+    throw InputError(fmt::format("{}-fold cross-validation needs at least {} samples, the store holds {}", k, k, n));
+  const auto order = shuffled_indices(n, seed);
+  std::vector<int> fold_of(n);
+  for (int i = 0; i < n; ++i) fold_of[order[i]] = i % k;
+  return cross_validate_folds(samples, start, base, variants, fold_of, k);
+}
+
+std::vector<std::string> plans_of(const std::vector<Sample>& samples) {
+  std::vector<std::string> plans;
+  for (const auto& s : samples)
+    if (std::find(plans.begin(), plans.end(), s.plan) == plans.end()) plans.push_back(s.plan);
+  return plans;
+}
+
+CvResult cross_validate_by_plan(const std::vector<Sample>& samples, const MachineProfile& start,
+                                const FitOptions& options) {
+  const std::vector<std::string> plans = plans_of(samples);
+  if (plans.size() < 2)
+    throw InputError(fmt::format("leaving one plan out needs samples of at least 2 plans, these are all of '{}'",
+                                 plans.empty() ? std::string() : plans.front()));
+  std::vector<int> fold_of;
+  for (const auto& s : samples)
+    fold_of.push_back(static_cast<int>(std::find(plans.begin(), plans.end(), s.plan) - plans.begin()));
+  return cross_validate_folds(samples, start, options, {options.variant}, fold_of, static_cast<int>(plans.size()))
+      .front();
 }
 
 VariantChoice choose_variant(const std::vector<CvResult>& cv) {
@@ -567,6 +598,13 @@ ErrorFigure error_figure(const CvResult& cv, int samples) {
   e.max_rel = cv.max_rel;
   e.rms_log = cv.rms_log;
   e.how = fmt::format("{}-fold cross-validation of {} samples, variant {}", cv.folds, samples, to_string(cv.variant));
+  return e;
+}
+
+ErrorFigure plan_error_figure(const CvResult& cv, int samples) {
+  ErrorFigure e = error_figure(cv, samples);
+  e.how = fmt::format("each of {} plans predicted by a fit to the others ({} samples, variant {})", cv.folds, samples,
+                      to_string(cv.variant));
   return e;
 }
 

@@ -119,6 +119,15 @@ std::vector<CvResult> cross_validate(const std::vector<Sample>& samples, const M
                                      const FitOptions& base, const std::vector<Variant>& variants,
                                      int k, std::uint64_t seed);
 
+// The sweep plans the samples come from, in order of first appearance.
+std::vector<std::string> plans_of(const std::vector<Sample>& samples);
+// Leave one plan out: each plan's samples predicted by a fit of `options.variant` to the other plans'.
+// Random k-fold folds share every plan, so they measure interpolation among configurations like the
+// training ones; this measures how far a fit carries to a kind of configuration it was not fitted to,
+// which is what a held-out set of other configurations asks of it. Needs samples of >= 2 plans.
+CvResult cross_validate_by_plan(const std::vector<Sample>& samples, const MachineProfile& start,
+                                const FitOptions& options);
+
 struct VariantChoice {
   Variant chosen = Variant::extended;
   std::string reason;  // one paragraph: the CV errors and the rule applied
@@ -137,5 +146,7 @@ Calibration to_calibration(const FitResult& r, const std::string& workload, cons
                            const std::vector<std::string>& match, const ErrorFigure& error);
 // The cross-validated error of `cv` as an ErrorFigure.
 ErrorFigure error_figure(const CvResult& cv, int samples);
+// The same of a leave-one-plan-out result (cross_validate_by_plan).
+ErrorFigure plan_error_figure(const CvResult& cv, int samples);
 
 }  // namespace dtflop::calib

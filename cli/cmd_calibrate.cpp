@@ -6,7 +6,9 @@
 #include <cstdio>
 #include <stdexcept>
 #include <filesystem>
+#include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -193,6 +195,17 @@ void run(const CalibrateOptions& o) {
     error.max_rel = r.rms_relative;
     error.how = "the fit's rms residual on its own samples (too few samples to cross-validate: an optimistic figure)";
   }
+  // Random folds share every plan: they measure a fit among configurations like its own. Each plan
+  // predicted by a fit to the others measures how far it carries to configurations of another kind,
+  // as a held-out set's are; a calibration's intervals carry the larger of the two errors.
+  std::optional<CvResult> by_plan;
+  if (plans_of(samples).size() >= 2) {
+    FitOptions po = fo;
+    po.variant = r.variant;
+    by_plan = cross_validate_by_plan(samples, probed, po);
+    if (by_plan->failed_folds == 0 && by_plan->held_out > 0 && by_plan->rms_log > error.rms_log)
+      error = plan_error_figure(*by_plan, static_cast<int>(samples.size()));
+  }
 
   // Report: tables, or with --json the same as one object.
   std::FILE* tables = o.json ? nullptr : stdout;
@@ -242,6 +255,22 @@ void run(const CalibrateOptions& o) {
                             : (c.variant == choice.chosen ? "chosen" : "")});
     print(t.str());
   }
+  if (by_plan) {
+    nlohmann::json bp = {{"plans", by_plan->folds}, {"mean_rel", by_plan->mean_rel}, {"max_rel", by_plan->max_rel},
+                         {"rms_log", by_plan->rms_log}, {"failed_folds", by_plan->failed_folds}};
+    result["cross_validation_by_plan"] = bp;
+    print(by_plan->failed_folds
+              ? fmt::format("\nEach of the {} plans predicted by a fit to the others: the fit failed without {} of them "
+                            "({}).\n",
+                            by_plan->folds, by_plan->failed_folds, by_plan->failure)
+              : fmt::format("\nEach of the {} plans predicted by a fit to the others ({} variant): mean {:.2f}%, max "
+                            "{:.1f}%, rms log {:.3f}.\n",
+                            by_plan->folds, to_string(r.variant), 100 * by_plan->mean_rel, 100 * by_plan->max_rel,
+                            by_plan->rms_log));
+  }
+  result["error_for_intervals"] = {{"rms_log", error.rms_log}, {"how", error.how}};
+  print(fmt::format("Predictions of this fit carry an rms log error of {:.3f} in their intervals ({}).\n",
+                    error.rms_log, error.how));
   print(fmt::format("{}\n\nParameters:\n", choice.reason));
   nlohmann::json params_json = nlohmann::json::array();
   Table t({"parameter", "probed", "fitted", "95% interval", "fitted/probed", "note"}, "lrrrrl");

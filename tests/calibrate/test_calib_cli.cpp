@@ -235,6 +235,9 @@ TEST_F(CalibCli, CalibrateThenValidate) {
   ASSERT_EQ(r.status, 0) << r.err << r.out;
   EXPECT_NE(r.out.find("5-fold"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("95% interval"), std::string::npos) << r.out;
+  // One plan: the intervals carry the random folds' error, and the report says which.
+  EXPECT_NE(r.out.find("carry an rms log error of"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("plans predicted by a fit to the others"), std::string::npos) << r.out;
   const MachineProfile fitted = load_profile(path("fitted.json"));
   EXPECT_EQ(fitted.metadata.at("model_variant"), "latency") << r.out;
   EXPECT_FALSE(fitted.metadata.at("model_variant_reason").empty());

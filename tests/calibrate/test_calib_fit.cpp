@@ -278,6 +278,40 @@ TEST(CalibFit, CrossValidationPrefersTheVariantThatGeneratedTheData) {
   EXPECT_NE(choice.reason.find("seed"), std::string::npos);
 }
 
+// Two plans whose configurations run at different rates (a kind of configuration the machine runs
+// 30% slower): random folds mix them and see a compromise; leaving a plan out sees the whole shift,
+// which is what a held-out set of the other kind meets.
+TEST(CalibFit, LeavingAPlanOutSeesWhatRandomFoldsAverageAway) {
+  MachineProfile truth = test::round_profile();
+  MachineProfile slower = truth;
+  slower.set(Param::V_C_fp32, Parameter{0.7 * truth.get(Param::V_C_fp32).value, Provenance::user, {}, {}, {}});
+  std::mt19937_64 rng(4);
+  std::vector<Sample> samples;
+  for (int i = 1; i <= 24; ++i) {
+    CostCounts c;
+    c.N_C = 1'000'000LL * i;
+    c.cpu_threads = truth.identity.cpu_threads;
+    Sample s = test::synthetic_sample(fmt::format("cpu{}", i), c, i % 2 ? truth : slower, Variant::seed, 0.01, rng, "cpu-par");
+    s.plan = i % 2 ? "small-frames" : "large-frames";
+    samples.push_back(s);
+  }
+  FitOptions o;
+  o.variant = Variant::seed;
+  EXPECT_EQ(plans_of(samples), (std::vector<std::string>{"small-frames", "large-frames"}));
+  const CvResult by_plan = cross_validate_by_plan(samples, truth, o);
+  EXPECT_EQ(by_plan.folds, 2);
+  EXPECT_EQ(by_plan.failed_folds, 0) << by_plan.failure;
+  EXPECT_EQ(by_plan.held_out, 24);
+  // Fitted to one plan, the other is 30% (or 1/0.7 - 1 = 43%) off.
+  EXPECT_NEAR(by_plan.rms_log, std::log(1 / 0.7), 0.03);
+  const CvResult random = cross_validate(samples, truth, o, {Variant::seed}, 4, 1).front();
+  EXPECT_LT(random.rms_log, 0.7 * by_plan.rms_log);
+  EXPECT_NE(plan_error_figure(by_plan, 24).how.find("each of 2 plans"), std::string::npos);
+  // One plan: nothing to leave out.
+  for (auto& s : samples) s.plan = "one";
+  EXPECT_THROW(cross_validate_by_plan(samples, truth, o), InputError);
+}
+
 TEST(CalibFit, CrossValidationNeedsEnoughSamples) {
   const MachineProfile truth = test::round_profile();
   auto samples = test::seed_pipeline_samples(truth, Variant::latency, 0.0);
