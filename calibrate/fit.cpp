@@ -36,7 +36,6 @@ const double kLogBound = std::log(1e6);      // how far from its start a fitted 
 double default_start(Param p) {
   const auto unit = info(p).unit;
   if (p == Param::L_tree) return 30e-9;  // a step of a k-d tree: a few dependent loads
-  if (p == Param::L_tree_small) return 10e-9;  // the same in the first-level cache
   if (p == Param::L_pixel || p == Param::L_pixel_all || p == Param::L_scan || p == Param::L_scan_all)
     return 1e-9;  // a step of a scalar pixel loop: a few cycles
   if (p == Param::L_hist || p == Param::L_hist_all) return 0.5e-9;  // a histogram's count: a load and an increment
@@ -146,9 +145,7 @@ std::string fmt_value(double v, Param p) { return fmt::format("{:.4g} {}", v, in
 // The parameters a sample's counts exercise: every refinement the model has is priced, those the
 // start profile lacks found by the fit (staging, serial chains, all-thread windows, the GPU's L2
 // where its size is known, graph launches, all-thread pixel steps, MLS fields at their own rate on
-// the CPU and on the GPU, pixel steps by kind). Tree steps by their trees' size only where the probe
-// measured the small trees' step (a profile without L_tree_small prices them all at L_tree, as it was
-// fitted). A frame's fixed cost on many threads (L_pass_all)
+// the CPU and on the GPU, pixel steps by kind). A frame's fixed cost on many threads (L_pass_all)
 // only where the probe found one: where it read none (zero within the noise), a fit has nothing to
 // tell it from the steps and would push it to a bound.
 std::vector<Param> exercised_params(const CostCounts& c, Variant v, const MachineProfile& start) {
@@ -157,8 +154,7 @@ std::vector<Param> exercised_params(const CostCounts& c, Variant v, const Machin
                                  .serial = true, .gpu_l2_bytes = start.identity.gpu_l2_bytes, .graph = true,
                                  .pixel_all = true, .mls = true, .mls_all = true, .gpu_mls = true,
                                  .gpu_pixel = true, .pixel_kinds = true, .pixel_kinds_all = true,
-                                 .pixel_pass_all = start.has(Param::L_pass_all),
-                                 .tree_sizes = start.has(Param::L_tree_small)});
+                                 .pixel_pass_all = start.has(Param::L_pass_all)});
 }
 
 }  // namespace

@@ -78,13 +78,12 @@ Applied apply_calibration(const Calibration& c, const MachineProfile& target) {
     out.profile.set(f.id, par);
   }
   // The figures of code whose probes came after calibrations were first made (cpu-mls, gpu-mls,
-  // gpu-centroid, cpu-pixel's kinds of step apart, cpu-tree's small trees): a fit that had none of them priced that code as
+  // gpu-centroid, cpu-pixel's kinds of step apart): a fit that had none of them priced that code as
   // other FLOPs, bytes or pixel steps and fitted the rest around it, so a calibration without one
   // is applied without the target's probe of it, priced as it was fitted. (A fit made since finds
   // each one its backend's counts exercise, and carries it as a factor.)
   for (Param p : {Param::V_CM, Param::V_CM_all, Param::V_GM, Param::L_GP, Param::L_label, Param::L_label_all,
-                  Param::L_hist, Param::L_hist_all, Param::L_scan, Param::L_scan_all, Param::L_pass_all,
-                  Param::L_tree_small})
+                  Param::L_hist, Param::L_hist_all, Param::L_scan, Param::L_scan_all, Param::L_pass_all})
     if (std::none_of(c.factors.begin(), c.factors.end(), [p](const CalibrationFactor& f) { return f.id == p; }))
       out.profile.erase(p);
   out.profile.metadata[kChosenVariantKey] = std::string(to_string(c.variant));

@@ -1,7 +1,6 @@
 #include "model/cost_counts.hpp"
 
 #include <algorithm>
-#include <cmath>
 
 #include <fmt/format.h>
 
@@ -23,15 +22,6 @@ std::int64_t tree_depth(std::int64_t n) {
 
 std::int64_t tree_build_steps(std::int64_t n) { return n * tree_depth(n); }
 std::int64_t tree_search_steps(std::int64_t n, std::int64_t k) { return tree_depth(n) + kKdTreeLeaf + k; }
-
-double tree_large_weight(std::int64_t n) {
-  if (n <= kTreeSmall) return 0;
-  if (n >= kTreeLarge) return 1;
-  return std::log(static_cast<double>(n) / kTreeSmall) / std::log(static_cast<double>(kTreeLarge) / kTreeSmall);
-}
-std::int64_t tree_large_steps(std::int64_t steps, std::int64_t n) {
-  return std::llround(static_cast<double>(steps) * tree_large_weight(n));
-}
 
 void add_copies(std::vector<CopySize>& sizes, std::int64_t bytes, std::int64_t count) {
   if (count == 0) return;
@@ -72,8 +62,6 @@ const std::vector<CountField>& count_fields() {
       {"N_CC_pixel", &C::N_CC_pixel, "values", "of N_CC, of the passes priced as pixel steps (histogram, threshold, labelling, windows)",
        A::sum, &C::N_CC},
       {"tree_steps", &C::tree_steps, "steps", "of host k-d tree builds and searches"},
-      {"tree_steps_large", &C::tree_steps_large, "steps", "of tree_steps, their share priced as steps in a large tree (by each tree's size)",
-       A::sum, &C::tree_steps},
       {"pixel_steps", &C::pixel_steps, "steps", "of host scalar pixel loops: pixels visited, neighbourhood labels read"},
       {"label_steps", &C::label_steps, "steps", "of pixel_steps, pixels labelled (threshold and connected components)",
        A::sum, &C::pixel_steps},

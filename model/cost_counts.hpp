@@ -102,9 +102,6 @@ struct CostCounts {
   std::int64_t tree_steps = 0;    // steps of the CPU's k-d tree work (a point placed at one level of a build,
                                   // a level descended or a leaf point examined by a search): irregular
                                   // host work that no FLOP rate prices (latency+, L_tree each)
-  std::int64_t tree_steps_large = 0;  // of tree_steps, the share priced as steps in a large tree: each tree's
-                                      // steps x its weight w(n) (tree_large_steps); the rest cost L_tree_small
-                                      // where the profile has it (latency+)
   std::int64_t pixel_steps = 0;   // steps of the CPU's scalar pixel work, one per pixel a scalar loop
                                   // visits (a histogram's count, a label decided, a window pixel
                                   // classified) and per label a neighbourhood scan reads: branchy
@@ -156,14 +153,6 @@ struct CostCounts {
 inline constexpr std::int64_t kKdTreeLeaf = 10;
 std::int64_t tree_build_steps(std::int64_t n);
 std::int64_t tree_search_steps(std::int64_t n, std::int64_t k);
-// A step costs more as a tree outgrows the first-level cache: L_tree_small in a tree of kTreeSmall
-// points, L_tree in one of kTreeLarge (the cpu-tree probe times both), and in a tree of n points
-// between them by the log of n: w(n) = clamp(log(n / kTreeSmall) / log(kTreeLarge / kTreeSmall), 0, 1)
-// of its steps at L_tree and the rest at L_tree_small. tree_large_steps(steps, n) = round(steps w(n)).
-inline constexpr std::int64_t kTreeSmall = 128;
-inline constexpr std::int64_t kTreeLarge = 4096;
-double tree_large_weight(std::int64_t n);
-std::int64_t tree_large_steps(std::int64_t steps, std::int64_t n);
 
 // ceil(a / b) for a >= 0, b > 0: whole blocks, waves or chunks that a count fills.
 constexpr std::int64_t ceil_div(std::int64_t a, std::int64_t b) { return (a + b - 1) / b; }

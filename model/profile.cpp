@@ -81,7 +81,6 @@ const std::vector<ParamInfo>& all_params() {
       {Param::L_hist_all, "L_hist_all", "s", "L_hist with every hardware thread at work: what a histogram's count costs while the threads share the analysis"},
       {Param::L_scan, "L_scan", "s", "one step of host scalar pixel work other than a labelling's or a histogram's: a window pixel classified, or a label of its neighbourhood read, one thread"},
       {Param::L_scan_all, "L_scan_all", "s", "L_scan with every hardware thread at work: the wall time of such a step the threads share"},
-      {Param::L_tree_small, "L_tree_small", "s", "one step of host k-d tree work in a small tree (128 points, in the first-level cache); L_tree is a step in a large one (4096 points), and a tree between them costs between the two by the log of its size"},
       {Param::L_pass_all, "L_pass_all", "s", "the fixed cost of a frame's pixel passes with every hardware thread at work, beside their steps at L_label_all, L_hist_all and L_scan_all: threads started, stripes merged, the parallel labelling's set-up"},
       {Param::L_GP, "L_GP", "s", "one step of the device's per-dot pixel classification: a window pixel of a dot classified (its own, ring, or ignored, from its neighbourhood's labels), the dots' blocks side by side"},
   };
@@ -143,7 +142,6 @@ bool device_param(Param p) {
     case Param::L_scan:
     case Param::L_scan_all:
     case Param::L_pass_all:
-    case Param::L_tree_small:
     case Param::V_CM:
     case Param::V_CM_all:
     case Param::L_net:

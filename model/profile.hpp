@@ -78,8 +78,6 @@ enum class Param {
   L_scan,          // one other step of host pixel work (the rest of pixel_steps)           [s]
   L_scan_all,      // L_scan with every hardware thread at work (cpu_threads > 1)           [s]
   L_pass_all,      // a frame's pixel passes' fixed cost on every hardware thread (pixel_passes) [s]
-  L_tree_small,    // one step of host k-d tree work in a tree of kTreeSmall points (in the first-level
-                   // cache); L_tree is a step in one of kTreeLarge (tree_steps_large)        [s]
 };
 
 struct ParamInfo {

@@ -55,7 +55,7 @@ Pricing Pricing::of(const MachineProfile& m) {
           m.has(Param::V_GM), m.has(Param::L_GP), 
           m.has(Param::L_label) && m.has(Param::L_hist) && m.has(Param::L_scan),
           m.has(Param::L_label_all) && m.has(Param::L_hist_all) && m.has(Param::L_scan_all),
-          m.has(Param::L_pass_all), m.has(Param::L_tree_small)};
+          m.has(Param::L_pass_all)};
 }
 
 namespace {
@@ -326,26 +326,6 @@ double pixel_seconds(const MachineProfile& m, const CostCounts& c, Variant, cons
   return s;
 }
 
-// lat_tree. A step of k-d tree work costs L_tree; where the profile has L_tree_small (the cpu-tree
-// probe's step in a tree within the first-level cache), the steps a tree's size weighs as large
-// (tree_steps_large) cost L_tree and the rest L_tree_small (docs/model.md 2.6).
-bool trees_by_size(const Pricing& x) { return x.tree_sizes; }
-std::vector<Param> tree_needs(const CostCounts& c, Variant, const Pricing& x) {
-  if (!trees_by_size(x)) return {Param::L_tree};
-  std::vector<Param> out;
-  if (c.tree_steps_large > 0) out.push_back(Param::L_tree);
-  if (c.tree_steps > c.tree_steps_large) out.push_back(Param::L_tree_small);
-  return out;
-}
-double tree_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing& x) {
-  if (!trees_by_size(x)) return static_cast<double>(c.tree_steps) * m.get(Param::L_tree).value;
-  double s = 0;
-  if (c.tree_steps_large > 0) s += static_cast<double>(c.tree_steps_large) * m.get(Param::L_tree).value;
-  if (c.tree_steps > c.tree_steps_large)
-    s += static_cast<double>(c.tree_steps - c.tree_steps_large) * m.get(Param::L_tree_small).value;
-  return s;
-}
-
 // dt_CC. The CPU work's host memory traffic, over the bandwidth of cpu_threads threads; the
 // share the last-level cache serves (cpu_footprint < LLC) at the cache's (docs/model.md 2.4).
 // Where the pixel steps are priced by kind, the values of their passes (N_CC_pixel) are not: the
@@ -458,10 +438,8 @@ const std::vector<Term>& terms() {
        "host memory traffic", {positive<&C::N_CC>, cc_needs, cc_seconds}},
       {"lat_sync", &P::lat_sync, Phase::C, kLatencyVariants, sum, "cpu_syncs", "L_sync", "CPU thread syncs",
        per_event<&C::cpu_syncs, only<Param::L_sync>>()},
-      {"lat_tree", &P::lat_tree, Phase::C, kLatencyVariants, sum,
-       "tree_steps; where the profile has L_tree_small, tree_steps_large and the rest apart",
-       "L_tree; L_tree_small for the steps not in tree_steps_large where the profile has it", "host k-d tree steps",
-       {positive<&C::tree_steps>, tree_needs, tree_seconds}},
+      {"lat_tree", &P::lat_tree, Phase::C, kLatencyVariants, sum, "tree_steps", "L_tree", "host k-d tree steps",
+       per_event<&C::tree_steps, only<Param::L_tree>>()},
       {"lat_pixel", &P::lat_pixel, Phase::C, kLatencyVariants, sum,
        "pixel_steps; where the profile has L_label, L_hist and L_scan: label_steps, hist_steps and the rest apart, "
        "and for cpu_threads > 1 pixel_passes",

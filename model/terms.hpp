@@ -95,8 +95,6 @@ struct Pricing {
                                // profiles made before the probe timed them apart
   bool pixel_kinds_all = false;  // price them on cpu_threads > 1 at L_label_all, L_hist_all and L_scan_all
   bool pixel_pass_all = false;   // and, so priced, a frame's passes (pixel_passes) at L_pass_all each
-  bool tree_sizes = false;       // price tree steps by their trees' size: tree_steps_large at L_tree, the rest at
-                                 // L_tree_small (the profile has it, or a fit is to find it); else all at L_tree
   static Pricing of(const MachineProfile& profile);
 };
 

@@ -644,45 +644,6 @@ TEST(Predict, ThreadSyncsWavesAndHostWaitsAreFixedCostsOfTheLatencyVariants) {
   }
 }
 
-// A tree step's weight as a large tree's: none up to kTreeSmall points, all from kTreeLarge, by the log
-// of the size between (the formula of model/cost_counts.hpp written out again here).
-TEST(TreeSizes, StepsAreWeighedByTheLogOfTheTreesSize) {
-  EXPECT_EQ(tree_large_weight(1), 0);
-  EXPECT_EQ(tree_large_weight(kTreeSmall), 0);
-  EXPECT_EQ(tree_large_weight(kTreeLarge), 1);
-  EXPECT_EQ(tree_large_weight(100000), 1);
-  EXPECT_NEAR(tree_large_weight(1024), std::log(1024.0 / 128) / std::log(4096.0 / 128), 1e-15);  // 0.6
-  EXPECT_NEAR(tree_large_weight(1024), 0.6, 1e-12);
-  EXPECT_EQ(tree_large_steps(1000, 1024), 600);
-  EXPECT_EQ(tree_large_steps(1000, 50), 0);
-  EXPECT_EQ(tree_large_steps(1000, 5000), 1000);
-}
-
-// Where the profile has L_tree_small, the large share of the steps costs L_tree and the rest L_tree_small;
-// without it every step costs L_tree, as before the probe timed small trees.
-TEST(Predict, TreeStepsArePricedByTheirTreesSizeWhereTheProfileHasBoth) {
-  auto m = test::round_profile();
-  m.set(Param::L_tree, {16e-9, Provenance::probed, {}, {}, ""});
-  CostCounts c;
-  c.P = 8;
-  c.precision = Precision::fp64;
-  c.tree_steps = 100'000;
-  c.tree_steps_large = 60'000;
-  EXPECT_NEAR(predict(m, c, Variant::latency).lat_tree, 100'000 * 16e-9, 1e-15);
-  auto needs = required_params(c, Variant::latency, Pricing::of(m));
-  EXPECT_EQ(std::count(needs.begin(), needs.end(), Param::L_tree_small), 0);
-  m.set(Param::L_tree_small, {6e-9, Provenance::probed, {}, {}, ""});
-  EXPECT_NEAR(predict(m, c, Variant::latency).lat_tree, 60'000 * 16e-9 + 40'000 * 6e-9, 1e-15);
-  needs = required_params(c, Variant::latency, Pricing::of(m));
-  EXPECT_EQ(std::count(needs.begin(), needs.end(), Param::L_tree_small), 1);
-  EXPECT_EQ(std::count(needs.begin(), needs.end(), Param::L_tree), 1);
-  // Every step in a large tree: L_tree_small is not needed.
-  c.tree_steps_large = c.tree_steps;
-  EXPECT_NEAR(predict(m, c, Variant::latency).lat_tree, 100'000 * 16e-9, 1e-15);
-  needs = required_params(c, Variant::latency, Pricing::of(m));
-  EXPECT_EQ(std::count(needs.begin(), needs.end(), Param::L_tree_small), 0);
-}
-
 TEST(Predict, PixelAndTreeStepsAreFixedCostsOfTheCpuPhaseInTheLatencyVariants) {
   auto m = test::round_profile();
   m.set(Param::L_pixel, {1.5e-9, Provenance::fitted, {}, {}, ""});

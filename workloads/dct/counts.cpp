@@ -177,7 +177,6 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
   c.cpu_footprint = s.roi_pixels * (b + 1 + 4 + extra) + 8 * cpu_field_values(s);
   c.cpu_threads = threads < 1 ? 1 : threads;
   c.tree_steps = s.tree_steps;  // the matching, on one thread
-  c.tree_steps_large = tree_large_steps(s.tree_steps, s.dots);  // its trees hold the frame's dots
   return c;
 }
 
@@ -247,7 +246,6 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
   c.host_waits = nc > 0 ? 3 : 2;
   // The host matches the frame's dots to the reference (a k-d tree): its only counted CPU work.
   c.tree_steps = s.tree_steps;
-  c.tree_steps_large = tree_large_steps(s.tree_steps, s.dots);
   return c;
 }
 

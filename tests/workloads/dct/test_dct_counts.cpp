@@ -59,13 +59,6 @@ TEST(DctCounts, CpuMatchesFormulas) {
   // carry; one frame's passes.
   EXPECT_EQ(c.N_CC_pixel, (16LL * 20'000'000 + 10LL * 7'000'000 + 6'500'000) / 8);
   EXPECT_EQ(c.pixel_passes, 1);
-  // The matching's tree steps; of them, those priced as a large tree's: its trees hold the 1600
-  // dots, log(1600 / 128) / log(4096 / 128) = 0.7288 of the steps.
-  FrameShape matched = s;
-  matched.tree_steps = 100'000;
-  EXPECT_EQ(cpu_counts(matched, 1).tree_steps, 100'000);
-  EXPECT_EQ(cpu_counts(matched, 1).tree_steps_large, 72'877);
-  EXPECT_EQ(cuda_counts(matched, HostMemory::pinned).tree_steps_large, 72'877);
   EXPECT_EQ(c.cpu_footprint, 6LL * 20'000'000 + 8 * (1LL * 2048 * 60 + 8LL * 2048));
   EXPECT_EQ(c.P, 8);
   EXPECT_EQ(c.precision, Precision::fp64);
