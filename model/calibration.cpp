@@ -82,10 +82,20 @@ Applied apply_calibration(const Calibration& c, const MachineProfile& target) {
   // other FLOPs, bytes or pixel steps and fitted the rest around it, so a calibration without one
   // is applied without the target's probe of it, priced as it was fitted. (A fit made since finds
   // each one its backend's counts exercise, and carries it as a factor.)
+  const auto carries = [&c](Param p) {
+    return std::any_of(c.factors.begin(), c.factors.end(), [p](const CalibrationFactor& f) { return f.id == p; });
+  };
   for (Param p : {Param::V_CM, Param::V_CM_all, Param::V_GM, Param::L_GP, Param::L_label, Param::L_label_all,
-                  Param::L_hist, Param::L_hist_all, Param::L_scan, Param::L_scan_all, Param::L_pass_all})
-    if (std::none_of(c.factors.begin(), c.factors.end(), [p](const CalibrationFactor& f) { return f.id == p; }))
-      out.profile.erase(p);
+                  Param::L_hist, Param::L_hist_all, Param::L_scan, Param::L_scan_all})
+    if (!carries(p)) out.profile.erase(p);
+  // A frame's fixed cost on many threads (L_pass_all) is another matter: a fit exercises it only where
+  // its machine's probe found one, and cpu-pixel finds none where it is under a tenth of a small
+  // frame's pass (the 2-vCPU VM). A calibration that carries the all-thread pixel steps was fitted
+  // with that probe, so the source machine had no fixed cost worth a parameter, and the target's, where
+  // its probe found one, is the target's: kept. Only a calibration from before the kinds drops it.
+  if (!carries(Param::L_pass_all) && !(carries(Param::L_label_all) && carries(Param::L_hist_all) &&
+                                       carries(Param::L_scan_all)))
+    out.profile.erase(Param::L_pass_all);
   out.profile.metadata[kChosenVariantKey] = std::string(to_string(c.variant));
   out.profile.metadata["calibration"] = fmt::format("{}/{} fitted on {}", c.workload, c.backend, from);
   return out;

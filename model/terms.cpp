@@ -196,9 +196,10 @@ bool serial_chain(const CostCounts& c, Variant v, const Pricing& x) {
 }
 // latency+: the FLOPs of moving-least-squares fields (N_CM) run at their own rate, V_CM on one
 // thread and V_CM_all on several where the profile has it (docs/model.md 2.6); a profile without
-// V_CM prices them at the CPU rate, as the fits made before the probe were.
+// the rate they would run at prices them at the CPU rate, as the fits made before the probe were.
+// (On several threads V_CM_all alone will do: a cpu-par calibration carries it without V_CM.)
 bool mls_fields(const CostCounts& c, Variant v, const Pricing& x) {
-  return x.mls && kLatencyVariants.contains(v) && c.N_CM > 0;
+  return (x.mls || (x.mls_all && c.cpu_threads > 1)) && kLatencyVariants.contains(v) && c.N_CM > 0;
 }
 Param v_cm(const CostCounts& c, const Pricing& x) {
   return x.mls_all && c.cpu_threads > 1 ? Param::V_CM_all : Param::V_CM;

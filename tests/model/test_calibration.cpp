@@ -110,6 +110,34 @@ TEST(Calibration, ACalibrationFittedWithoutACodeRateLeavesTheTargetsProbeOfItOut
   for (Param q : kinds) EXPECT_FALSE(c.profile.has(q)) << info(q).name;
 }
 
+// A frame's fixed cost on several threads: a calibration fitted with the all-thread pixel kinds but
+// no L_pass_all (its machine's probe found no fixed cost worth one) keeps the target's L_pass_all;
+// one from before the kinds (no L_*_all) leaves it out, as its fit priced the passes' fixed part in
+// the steps.
+TEST(Calibration, AFramesFixedCostIsTheTargetsWhereTheSourceProbeFoundNone) {
+  MachineProfile target = probed(test::round_profile());
+  target.identity.gpu_name = "Other GPU";
+  for (Param q : {Param::L_label_all, Param::L_hist_all, Param::L_scan_all})
+    target.set(q, Parameter{1e-9, Provenance::probed, {}, {}, {}});
+  target.set(Param::L_pass_all, Parameter{250e-6, Provenance::probed, {}, {}, {}});
+  Calibration before = pinned_copy_calibration();
+  before.workload = "dct";
+  before.backend = "cpu-par";
+  before.match = {};
+  EXPECT_FALSE(apply_calibration(before, target).profile.has(Param::L_pass_all));
+  Calibration kinds = before;
+  for (Param q : {Param::L_label_all, Param::L_hist_all, Param::L_scan_all})
+    kinds.factors.push_back(CalibrationFactor{.id = q, .relative = true, .factor = 0.5, .value = 0.5e-9,
+                                              .source_probed = 1e-9});
+  const Applied a = apply_calibration(kinds, target);
+  ASSERT_TRUE(a.profile.has(Param::L_pass_all));
+  EXPECT_DOUBLE_EQ(a.profile.get(Param::L_pass_all).value, 250e-6);
+  EXPECT_DOUBLE_EQ(a.profile.get(Param::L_label_all).value, 0.5e-9);
+  // Without two of the three kinds it is a calibration from before them: left out.
+  kinds.factors.resize(kinds.factors.size() - 2);
+  EXPECT_FALSE(apply_calibration(kinds, target).profile.has(Param::L_pass_all));
+}
+
 TEST(Calibration, RefusesAFittedTargetAndAGpuCalibrationForAMachineWithoutOne) {
   MachineProfile fitted = probed(test::round_profile());
   fitted.set(Param::B_GG, Parameter{1e12, Provenance::fitted, {}, {}, {}});
@@ -260,8 +288,17 @@ TEST(Uncertainty, ACarriedCalibrationAddsTheTransferError) {
   EXPECT_DOUBLE_EQ(here.sigma, 0.025);
   const BasisError there = basis_of(c, Basis::transferred);
   EXPECT_DOUBLE_EQ(there.sigma, std::hypot(0.025, kTransferSigma.gpu));  // a GPU backend's calibration
+  // The backend's measured error of carried calibrations replaces kTransferSigma, in quadrature
+  // with the calibration's own; on its own machine it plays no part.
+  BasisError carried;
+  carried.sigma = 0.34;
+  carried.source = "measured error of this backend's carried calibrations";
+  EXPECT_DOUBLE_EQ(basis_of(c, Basis::transferred, carried).sigma, std::hypot(0.025, 0.34));
+  EXPECT_NE(basis_of(c, Basis::transferred, carried).source.find("carried calibrations"), std::string::npos);
+  EXPECT_DOUBLE_EQ(basis_of(c, Basis::calibrated, carried).sigma, 0.025);
   c.transfer_error = ErrorFigure{50, 0.04, 0.1, 0.05, "held-out"};
   EXPECT_DOUBLE_EQ(basis_of(c, Basis::transferred).sigma, 0.05);  // measured: it replaces the default
+  EXPECT_DOUBLE_EQ(basis_of(c, Basis::transferred, carried).sigma, 0.05);  // and the backend's figure
 }
 
 }  // namespace

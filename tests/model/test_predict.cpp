@@ -502,6 +502,15 @@ TEST(Predict, MlsFieldFlopsRunAtTheirOwnRateOnOneThreadOrAll) {
   EXPECT_NEAR(predict(m, c, Variant::latency).dt_C, 0.25e-3 + rest_all, 1e-15);
   EXPECT_TRUE(has(priced_params(m, c, Variant::latency), Param::V_CM_all));
   EXPECT_FALSE(has(priced_params(m, c, Variant::latency), Param::V_CM));
+  // V_CM_all alone (a cpu-par calibration carries no V_CM) prices them on several threads; on one
+  // thread such a profile has no rate of theirs and prices them at the CPU rate.
+  auto all_only = m;
+  all_only.erase(Param::V_CM);
+  EXPECT_NEAR(predict(all_only, c, Variant::latency).dt_C, 0.25e-3 + rest_all, 1e-15);
+  EXPECT_TRUE(has(priced_params(all_only, c, Variant::latency), Param::V_CM_all));
+  auto one = c;
+  one.cpu_threads = 1;
+  EXPECT_NEAR(predict(all_only, one, Variant::latency).dt_C, 3e6 / m.get(Param::V_C1_fp64).value, 1e-15);
   // Only fields: no CPU rate needed.
   c.N_C = c.N_CM;
   auto fields_only = m;
