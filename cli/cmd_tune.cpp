@@ -125,7 +125,7 @@ Inputs load_inputs(const TuneOptions& o) {
       throw InputError(fmt::format("calibration '{}' is of {}, and the scenario tunes {}: use a calibration of {}", f,
                                    lc.calibration.workload, in.w->name(), in.w->name()));
     lc.applied = apply_calibration(lc.calibration, in.machine);
-    lc.basis = basis_of(lc.calibration, lc.applied.basis);
+    lc.basis = basis_of(lc.calibration, lc.applied.basis, in.w->backend(lc.calibration.backend).transfer_error());
     in.calibrations.push_back(std::move(lc));
     in.files.push_back(f);
   }

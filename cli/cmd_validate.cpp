@@ -92,7 +92,8 @@ int run(const ValidateOptions& o) {
     Applied a = apply_calibration(*calibration, profile);
     for (const auto& n : a.notes) fmt::print(stderr, "dtflop: note: {}\n", n);
     profile = std::move(a.profile);
-    calibration_basis = basis_of(*calibration, a.basis);
+    calibration_basis = basis_of(*calibration, a.basis,
+                                 workload::find(calibration->workload).backend(calibration->backend).transfer_error());
   }
   Variant variant = Variant::extended;
   std::string variant_from = "default";

@@ -188,7 +188,7 @@ PredictionProfile prediction_profile(const PredictArgs& args, const workload::Wo
   Applied a = apply_calibration(c, machine);
   out.profile = std::move(a.profile);
   out.notes = std::move(a.notes);
-  out.calibration = basis_of(c, a.basis);
+  out.calibration = basis_of(c, a.basis, b.transfer_error());
   return out;
 }
 

@@ -77,7 +77,7 @@ BasisError basis_of(const MachineProfile& profile, const CostCounts& counts, Var
   return b;
 }
 
-BasisError basis_of(const Calibration& c, Basis applied) {
+BasisError basis_of(const Calibration& c, Basis applied, const std::optional<BasisError>& carried) {
   BasisError b;
   b.basis = applied;
   b.from = hardware_class(c.fitted_on, uses_gpu(c));
@@ -90,6 +90,9 @@ BasisError basis_of(const Calibration& c, Basis applied) {
   if (c.transfer_error) {
     b.sigma = c.transfer_error->rms_log;
     b.source = fmt::format("its error measured when carried to {} ({})", c.transfer_measured_on, c.transfer_error->how);
+  } else if (carried) {
+    b.sigma = std::hypot(own, carried->sigma);
+    b.source = fmt::format("its own error ({}) and the {}", c.fit_error.how, carried->source);
   } else {
     b.sigma = std::hypot(own, uses_gpu(c) ? kTransferSigma.gpu : kTransferSigma.cpu);
     b.source = fmt::format("its own error ({}) and the measured error of carried calibrations "

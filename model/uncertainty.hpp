@@ -54,8 +54,12 @@ inline constexpr BasisSigma kTransferSigma = {0.13, 1.3};
 // (workload::Backend::probe_only_error); else kProbeOnlySigma stands for it.
 BasisError basis_of(const MachineProfile& profile, const CostCounts& counts, Variant variant,
                     const std::optional<BasisError>& probe_only = std::nullopt);
-// The basis of a prediction from `c` applied as `applied` (apply_calibration's basis).
-BasisError basis_of(const Calibration& c, Basis applied);
+// The basis of a prediction from `c` applied as `applied` (apply_calibration's basis). Carried to
+// another machine: the error measured for this very calibration there (`dtflop validate
+// --record-error`), else its own error and `carried`, the measured error of its backend's
+// calibrations carried between machines (workload::Backend::transfer_error), added in quadrature;
+// without that, kTransferSigma.
+BasisError basis_of(const Calibration& c, Basis applied, const std::optional<BasisError>& carried = std::nullopt);
 
 // Standard deviation of log(total) from the uncertainties of the parameters the prediction uses.
 double parameter_log_sigma(const MachineProfile& profile, const CostCounts& counts, Variant variant);

@@ -135,6 +135,11 @@ class Backend {
   // been measured with today's probes and counts; none (the default) leaves the interval to
   // kProbeOnlySigma, the widest such error of any backend.
   virtual std::optional<BasisError> probe_only_error() const { return std::nullopt; }
+  // The measured error of this backend's calibrations carried to another machine's probe profile
+  // (sigma: the largest rms of log(measured / predicted) over held-out sets of a machine the
+  // calibration was not fitted on, source: which), where it has been measured; it is added in
+  // quadrature to a carried calibration's own error. None (the default) leaves it to kTransferSigma.
+  virtual std::optional<BasisError> transfer_error() const { return std::nullopt; }
   // Why this backend cannot run on this machine, one line ending with what to do; empty when it
   // can (the default: a CPU backend always can; GPU backends say whether a CUDA device is usable).
   virtual std::string unavailable() const;

@@ -175,6 +175,22 @@ TEST(Registry, BackendsDeclareTheProbeOnlyErrorMeasuredForThem) {
   EXPECT_FALSE(find("rbe").backend("cuda-bands").probe_only_error().has_value());  // peer terms: one pair of GPUs measured
 }
 
+TEST(Registry, GpuBackendsDeclareTheMeasuredErrorOfTheirCarriedCalibrationsWhereItIsLarge) {
+  // docs/PERFORMANCE.md, "H200 lend (2026-11-28)": the largest rms log error of dct cuda's and rbe
+  // cuda-seed's calibrations carried between a lent H100 and H200; the others are left to kTransferSigma.
+  const auto e = find("dct").backend("cuda").transfer_error();
+  ASSERT_TRUE(e.has_value());
+  EXPECT_DOUBLE_EQ(e->sigma, 0.34);
+  EXPECT_NE(e->source.find("dct cuda"), std::string::npos);
+  for (const char* b : {"cpu-seq", "cpu-par"}) EXPECT_FALSE(find("dct").backend(b).transfer_error().has_value()) << b;
+  const auto s = find("rbe").backend("cuda-seed").transfer_error();
+  ASSERT_TRUE(s.has_value());
+  EXPECT_DOUBLE_EQ(s->sigma, 0.24);
+  EXPECT_NE(s->source.find("rbe cuda-seed"), std::string::npos);
+  for (const char* b : {"cpu-seq", "cpu-par", "cuda-resident", "cuda-bands"})
+    EXPECT_FALSE(find("rbe").backend(b).transfer_error().has_value()) << b;
+}
+
 TEST(Registry, FindsEveryWorkloadAndNamesTheKnownOnes) {
   ASSERT_GE(all().size(), 2u);
   for (const Workload* w : all()) EXPECT_EQ(&find(w->name()), w);

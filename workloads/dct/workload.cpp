@@ -264,6 +264,19 @@ class ContractBackend final : public wl::Backend {
     }
     return std::nullopt;
   }
+  // cuda's calibrations carried between a lent H100 and a lent H200 (results/portability/
+  // h200-2026-11-28: each machine's fit on its own training set, validated on the other's held-out
+  // random:50 against that machine's quick probe): pinned frames 0.190 (H200 -> H100) and 0.340
+  // (H100 -> H200), pageable 0.216 and 0.133; the host's matching, a third to a half of a frame,
+  // runs at a step cost the two hosts share with no probe (docs/model.md 2.6). Far above RBE's GPU
+  // backends (kTransferSigma), so declared. The CPU backends: one measurement each with today's
+  // code (the 2-vCPU VM's fits carried to the H200's host, 0.106 and 0.254), left to kTransferSigma.
+  std::optional<BasisError> transfer_error() const override {
+    if (name() != "cuda") return std::nullopt;
+    return BasisError{.sigma = 0.34,
+                      .source = "measured error of dct cuda's calibrations carried between a lent H100 and a lent H200 "
+                                "(docs/PERFORMANCE.md, \"H200 lend (2026-11-28)\")"};
+  }
 
  private:
   const BackendKind& kind_;
