@@ -6,7 +6,10 @@
 //   K_CW  float32, 64 outputs in flight, AVX2+FMA where the CPU has it: paced by one unaligned
 //         vector load per FMA (the vectorized loops, cpu-par's x-pass);
 //   K_CA  float32, two rows of 32 outputs, each row loaded once for two FMAs (cpu-par's y-pass);
-//   V_CS  one chain of dependent float64 additions over a row (the workloads' host sums);
+//   V_CS  one chain of dependent float64 additions over a row (the workloads' host sums), paced by
+//         the adder's latency and so by the clock of the core it runs on: timed on several
+//         placements of its thread, the median (probes/placements.hpp), like the other one-thread
+//         latency probes;
 //   K_CW_all, K_CA_all  the two float32 windows and the FMA loop rerun on every usable CPU at once
 //         (cpu-par's threads): hyperthreads share a core's FMA units but hide each other's loads.
 // A row of 2048 outputs and 33 taps stays in the first-level cache, so memory plays no part: the
@@ -21,8 +24,10 @@
 
 #include <fmt/format.h>
 
+#include "model/stats.hpp"
 #include "probes/cpu_kernels.hpp"
 #include "probes/measure.hpp"
+#include "probes/placements.hpp"
 #include "probes/probe.hpp"
 #include "probes/team.hpp"
 
@@ -227,8 +232,11 @@ Measurement aligned(const Plan& p, int threads = 1) {
                                       rows, B, p.taps, cpu::window_wide_isa(), p.reps));
 }
 
-// The serial chain: a float64 sum of the row (small integers: exact), `calls` times.
-Measurement serial(const Plan& p) {
+// The serial chain: a float64 sum of the row (small integers: exact), `calls` times, on several
+// placements of the thread (the count of calls found once, here): the median over the placements
+// of each one's median. One placement read 0.77 to 1.41 GFLOP/s on the lent H100s' and H200s'
+// hosts from lend to lend, where cuda-seed's host sum ran at 1.1-1.26 on both (docs/PERFORMANCE.md).
+Measurement serial(const Plan& p, Effort effort) {
   const std::int64_t n = 4096;  // 32 KiB: in the first-level cache, so the chain and not memory sets the pace
   std::vector<double> in(static_cast<std::size_t>(n));
   for (std::size_t i = 0; i < in.size(); ++i) in[i] = static_cast<double>((i * 7 + 3) % 11);
@@ -244,11 +252,18 @@ Measurement serial(const Plan& p) {
     in[0] = 3;
     return flops;
   };
-  const Timed t = time_calls(once, p);
-  return rate_measurement("serial_fp64", "CPU serial chain of float64 additions, 1 thread", "FLOP/s", t.flops,
-                          t.seconds, Param::V_CS,
-                          fmt::format("a plain sum of {} values, each addition waiting for the last, median of {}", n,
-                                      p.reps));
+  const std::int64_t count = calibrate(once, p);
+  double flops = 0;
+  const Placed placed = on_placements(latency_placements(effort), [&] {
+    const Timed t = time_count(once, count, p);
+    flops = t.flops;
+    return summarize(t.seconds).median;
+  });
+  return rate_measurement("serial_fp64", "CPU serial chain of float64 additions, 1 thread", "FLOP/s", flops,
+                          placed.values, Param::V_CS,
+                          fmt::format("a plain sum of {} values, each addition waiting for the last: the median over "
+                                      "{} of the median of {} each",
+                                      n, describe_placements(placed.cpus), p.reps));
 }
 
 // `rate`: the profile's parameter of the reference rate (V_C1_fp64, V_C1_fp32 or V_C_fp32).
@@ -328,7 +343,7 @@ ProbeReport run(const ProbeOptions& o) {
   } else {
     all = stand_in("only one CPU is available to this process");
   }
-  const Measurement chain = serial(p);
+  const Measurement chain = serial(p, o.effort);
   o.say(fmt::format("  CPU serial chain (fp64 sum): {:.2f} GFLOP/s", chain.value / 1e9));
   for (const Measurement* m : {&fp64, &chained, &k_cd, &fp32, &wide, &k_cw, &al, &k_ca, &chain})
     r.measurements.push_back(*m);

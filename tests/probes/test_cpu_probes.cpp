@@ -126,6 +126,9 @@ TEST(CpuProbes, WindowGivesBothCostRatios) {
   ASSERT_NE(chain, nullptr);
   EXPECT_GT(chain->value, 1e7);  // an addition every few cycles: 10^8 .. 10^10 per second
   EXPECT_LT(chain->value, 1e11);
+  // Timed on each placement of its thread, the figure their median (the note names the CPUs).
+  EXPECT_EQ(chain->stats.n, 2u);  // the smoke plan's placements
+  EXPECT_NE(chain->note.find("placements"), std::string::npos) << chain->note;
 }
 
 TEST(CpuProbes, PixelGivesOneStepOfScalarPixelWork) {
