@@ -1,5 +1,5 @@
 // Google Benchmark suite for the probes' kernels. CPU: STREAM triad and FMA chains, one
-// thread and all threads. GPU (skipped with the reason when no device is usable): pinned and
+// thread and all threads; k-d tree steps, fresh trees against one tree repeated. GPU (skipped with the reason when no device is usable): pinned and
 // pageable transfers by size, device-to-device copies, FMA kernels with 4/8/16 chains,
 // launch overhead.
 //
@@ -9,6 +9,7 @@
 // reports. Example (what docs/PERFORMANCE.md records):
 //   bench_probes --benchmark_filter='Transfer|D2D|CopyKernel|GpuFma|Launch'
 //                --benchmark_out_format=json --benchmark_out=bench.json
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -16,7 +17,11 @@
 
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
+#include <nanoflann.hpp>
 
+#include <random>
+
+#include "model/cost_counts.hpp"
 #include "probes/cpu_kernels.hpp"
 #include "probes/gpu.hpp"
 #include "model/stats.hpp"
@@ -70,6 +75,55 @@ BENCHMARK(BM_CpuFma<float>)->Name("BM_CpuFma/fp32")->Threads(1)->UseRealTime();
 BENCHMARK(BM_CpuFma<float>)->Name("BM_CpuFma/fp32")->Threads(usable_cpus())->UseRealTime();
 BENCHMARK(BM_CpuFma<double>)->Name("BM_CpuFma/fp64")->Threads(1)->UseRealTime();
 BENCHMARK(BM_CpuFma<double>)->Name("BM_CpuFma/fp64")->Threads(usable_cpus())->UseRealTime();
+
+// k-d tree steps (the cpu-tree probe's work, L_tree): a nanoflann tree over range(0) random points
+// and a 2-nearest search around each, `trees` = range(1) different point sets built and searched in
+// turn. One set (trees = 1) is the same tree over and over, whose searches the branch predictor
+// learns; 64 sets are fresh trees each time. Counter per_step: the time over the steps the
+// workloads count (tree_build_steps + n tree_search_steps). docs/model.md 2.6 quotes it:
+//   bench_probes --benchmark_filter=TreeSteps
+struct TreeCloud {
+  const std::vector<double>* xy = nullptr;
+  std::size_t kdtree_get_point_count() const { return xy->size() / 2; }
+  double kdtree_get_pt(std::size_t i, std::size_t dim) const { return (*xy)[2 * i + dim]; }
+  template <class BBox>
+  bool kdtree_get_bbox(BBox&) const { return false; }
+};
+void BM_TreeSteps(benchmark::State& st) {
+  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, TreeCloud>, TreeCloud, 2,
+                                                   std::uint32_t>;
+  const std::int64_t n = st.range(0), trees = st.range(1);
+  std::mt19937_64 rng(20261128);
+  std::uniform_real_distribution<double> u(0, 90.0 * std::sqrt(static_cast<double>(n))), jitter(-0.5, 0.5);
+  std::vector<std::vector<double>> pts(static_cast<std::size_t>(trees)), queries(pts.size());
+  for (std::size_t k = 0; k < pts.size(); ++k) {
+    pts[k].resize(static_cast<std::size_t>(2 * n));
+    queries[k].resize(pts[k].size());
+    for (auto& v : pts[k]) v = u(rng);
+    for (std::size_t i = 0; i < pts[k].size(); ++i) queries[k][i] = pts[k][i] + jitter(rng);
+  }
+  std::int64_t uses = 0, found = 0;
+  for (auto _ : st) {
+    const auto k = static_cast<std::size_t>(uses++ % trees);
+    TreeCloud cloud{&pts[k]};
+    Tree tree(2, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(kKdTreeLeaf));
+    std::uint32_t idx[2];
+    double d2[2];
+    for (std::int64_t i = 0; i < n; ++i) {
+      const double at[2] = {queries[k][static_cast<std::size_t>(2 * i)], queries[k][static_cast<std::size_t>(2 * i + 1)]};
+      found += static_cast<std::int64_t>(tree.knnSearch(at, 2, idx, d2));
+    }
+  }
+  if (found != 2 * n * uses) st.SkipWithError("a search found fewer than 2 points");
+  const double steps = static_cast<double>(tree_build_steps(n) + n * tree_search_steps(n, 2));
+  // Steps an iteration as a rate, inverted: seconds a step.
+  st.counters["per_step"] =
+      benchmark::Counter(steps, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_TreeSteps)
+    ->ArgsProduct({{128, 512, 1024, 1536, 2048, 4096}, {1, 64}})
+    ->ArgNames({"points", "trees"})
+    ->MinTime(0.2);
 
 // ---- GPU -------------------------------------------------------------------------------
 
