@@ -147,14 +147,42 @@ std::string fmt_value(double v, Param p) { return fmt::format("{:.4g} {}", v, in
 // where its size is known, graph launches, all-thread pixel steps, MLS fields at their own rate on
 // the CPU and on the GPU, pixel steps by kind). A frame's fixed cost on many threads (L_pass_all)
 // only where the probe found one: where it read none (zero within the noise), a fit has nothing to
-// tell it from the steps and would push it to a bound.
+// tell it from the steps and would push it to a bound. Along-row GPU taps (K_GW) likewise only
+// where the probe measured them: against the GPU's rate, a factor from a start of 1 is the rate.
 std::vector<Param> exercised_params(const CostCounts& c, Variant v, const MachineProfile& start) {
   return required_params(c, v,
                          Pricing{.llc_bytes = model_llc_bytes(start.identity), .staging = true, .all_threads = true,
                                  .serial = true, .gpu_l2_bytes = start.identity.gpu_l2_bytes, .graph = true,
                                  .pixel_all = true, .mls = true, .mls_all = true, .gpu_mls = true,
                                  .gpu_pixel = true, .pixel_kinds = true, .pixel_kinds_all = true,
-                                 .pixel_pass_all = start.has(Param::L_pass_all)});
+                                 .pixel_pass_all = start.has(Param::L_pass_all), .along_row = start.has(Param::K_GW)});
+}
+
+// Parameters the samples exercise that the fit keeps at their probed values, because the samples
+// cannot tell them from a factor beside them and the probe measures them as the machine has them
+// (docs/calibration.md, "Kept at the probe"):
+// - L_wait where it prices host-timed laps alone (no sample has host_waits): each lap shares its
+//   component with the copies' or kernels' own latencies, as many in every sample;
+// - the GPU's rate where the samples' FLOPs are window taps priced by K_GR and K_GW: scaling the
+//   rate and both factors together moves only the few FLOPs beside the taps.
+// The backend's part is in the latencies and factors the fit finds beside them.
+std::vector<Param> kept_at_probe(const std::vector<Sample>& samples, const MachineProfile& start) {
+  auto any = [&samples](auto pred) {
+    return std::any_of(samples.begin(), samples.end(), [&pred](const Sample& s) { return pred(s.counts); });
+  };
+  std::vector<Param> out;
+  const auto probed = [&start](Param p) {
+    const Parameter* x = start.find(p);
+    return x && x->provenance == Provenance::probed;
+  };
+  if (probed(Param::L_wait) && any([](const CostCounts& c) { return c.laps_CG + c.laps_GC + c.laps_G > 0; }) &&
+      !any([](const CostCounts& c) { return c.host_waits > 0; }))
+    out.push_back(Param::L_wait);
+  if (start.has(Param::K_GW) && any([](const CostCounts& c) { return c.N_GW > 0; }))
+    for (auto [p, precision] : {std::pair{Param::V_G_fp32, Precision::fp32}, std::pair{Param::V_G_fp64, Precision::fp64}})
+      if (probed(p) && any([precision](const CostCounts& c) { return c.N_G > 0 && c.precision == precision; }))
+        out.push_back(p);
+  return out;
 }
 
 }  // namespace
@@ -165,9 +193,11 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
 
   // The parameters the samples' counts exercise, in Param order.
   std::vector<Param> ids;
+  const std::vector<Param> kept = kept_at_probe(samples, start);
   for (const auto& s : samples)
     for (Param p : exercised_params(s.counts, o.variant, start))
-      if (std::find(ids.begin(), ids.end(), p) == ids.end()) ids.push_back(p);
+      if (std::find(ids.begin(), ids.end(), p) == ids.end() && std::find(kept.begin(), kept.end(), p) == kept.end())
+        ids.push_back(p);
   std::sort(ids.begin(), ids.end());
   // Start values: the latency variant's fit for extended (see FitOptions::warm_start), else
   // the start profile's values.
@@ -196,7 +226,8 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
   std::vector<Residual> residuals;
   for (const auto& s : samples) {
     std::vector<int> params;
-    for (Param p : exercised_params(s.counts, o.variant, start)) params.push_back(index_of(p));
+    for (Param p : exercised_params(s.counts, o.variant, start))
+      if (std::find(kept.begin(), kept.end(), p) == kept.end()) params.push_back(index_of(p));
     for (Component c : all_components()) {
       if (c != Component::total &&
           std::find(o.components.begin(), o.components.end(), c) == o.components.end())
@@ -444,6 +475,19 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
     }
     out.params.push_back(std::move(f));
   }
+  for (Param p : kept) {
+    FittedParameter f;
+    f.id = p;
+    f.probed = f.value = start.get(p).value;
+    f.kept_at_probe = true;
+    f.note = p == Param::L_wait ? "kept at the probe: a host-timed lap's round trip, which these samples cannot tell "
+                                  "from the copies' and kernels' latencies beside it"
+                                : "kept at the probe: these samples' FLOPs are window taps, whose factors (K_GR, K_GW) "
+                                  "the fit finds against it";
+    out.params.push_back(std::move(f));
+  }
+  std::sort(out.params.begin(), out.params.end(),
+            [](const FittedParameter& a, const FittedParameter& b) { return a.id < b.id; });
   return out;
 }
 

@@ -48,7 +48,8 @@ struct FitOptions {
 
 struct FittedParameter {
   Param id{};
-  bool fitted = false;           // false: kept at its start value (not identifiable)
+  bool fitted = false;           // false: kept at its start value (not identifiable, or kept_at_probe)
+  bool kept_at_probe = false;    // exercised, but kept at the probe by rule (kept_at_probe() in fit.cpp)
   double value = 0;              // fitted value (or the kept one)
   std::optional<double> probed;  // the start profile's value, when it had one
   bool has_interval = false;

@@ -333,10 +333,14 @@ void run(const CalibrateOptions& o) {
   if (fo.prior_log_sigma > 0) out.metadata["fit_prior_log_sigma"] = fmt::format("{:.4g}", fo.prior_log_sigma);
   out.metadata["fit_from"] = fs::path(o.machine).lexically_normal().string();
   out.metadata["fitted_at"] = utc_now();
-  std::string kept;
+  std::string kept, at_probe;
   for (const auto& f : r.params)
-    if (!f.fitted) kept += (kept.empty() ? "" : ", ") + std::string(info(f.id).name);
+    if (!f.fitted) {
+      std::string& list = f.kept_at_probe ? at_probe : kept;
+      list += (list.empty() ? "" : ", ") + std::string(info(f.id).name);
+    }
   if (!kept.empty()) out.metadata["fit_not_identifiable"] = kept;
+  if (!at_probe.empty()) out.metadata["fit_kept_at_probe"] = at_probe;
   save_profile(out, o.output);
   print(fmt::format("\nWrote {} (model variant {}).\n", o.output, to_string(r.variant)));
   if (!o.calibration.empty()) {

@@ -41,6 +41,7 @@ const std::vector<CountField>& count_fields() {
       {"N_GG", &C::N_GG, "values", "through device memory (reads + writes)"},
       {"N_G", &C::N_G, "FLOPs", "on the GPU"},
       {"N_GR", &C::N_GR, "FLOPs", "of N_G, whose taps each read another row of device memory", A::sum, &C::N_G},
+      {"N_GW", &C::N_GW, "FLOPs", "of N_G, whose taps each read device memory along a row (a load per FMA)", A::sum, &C::N_G},
       {"N_GM", &C::N_GM, "FLOPs", "of one GPU thread's moving-least-squares field (a point's chain; its points side by side)"},
       {"N_GS", &C::N_GS, "values", "copied into shared-memory tiles (per busiest-SM round x SMs)"},
       {"gpu_pixel_steps", &C::gpu_pixel_steps, "steps", "of per-dot pixel classification on the device (a window pixel each)"},
@@ -50,6 +51,9 @@ const std::vector<CountField>& count_fields() {
       {"waves", &C::waves, "rounds", "of thread blocks on the busiest GPU multiprocessor"},
       {"atomics", &C::atomics, "updates", "of one device address, one after another"},
       {"host_waits", &C::host_waits, "waits", "of the host for device work it submitted"},
+      {"laps_CG", &C::laps_CG, "laps", "host-timed, of host->device copies and the host's wait for them"},
+      {"laps_GC", &C::laps_GC, "laps", "host-timed, of device->host copies and the host's wait for them"},
+      {"laps_G", &C::laps_G, "laps", "host-timed, of kernels and the host's wait for them"},
       {"N_C", &C::N_C, "FLOPs", "on the CPU"},
       {"N_CW", &C::N_CW, "FLOPs", "of N_C, of sliding-window loops (one unaligned load per FMA)", A::sum, &C::N_C},
       {"N_CD", &C::N_CD, "FLOPs", "of N_C, of chained sliding-window loops (each tap's addition waits for the last)",
@@ -112,6 +116,10 @@ void check_consistent(const CostCounts& c) {
                                  "pixel_steps = {} (a pixel step is of one of these kinds at most): the workload's "
                                  "counts are inconsistent",
                                  c.label_steps, c.hist_steps, c.pixel_steps));
+  if (c.N_GR + c.N_GW > c.N_G)
+    throw InputError(fmt::format("the counts give N_GR = {} and N_GW = {}, together more than N_G = {} (a GPU FLOP's "
+                                 "tap reads across rows or along one, not both): the workload's counts are inconsistent",
+                                 c.N_GR, c.N_GW, c.N_G));
   // The two kinds of sliding-window FLOPs are priced apart, so none is in both.
   if (c.N_CW + c.N_CD + c.N_CA + c.N_CS + c.N_CM > c.N_C)
     throw InputError(fmt::format("the counts give N_CW = {}, N_CD = {}, N_CA = {}, N_CS = {} and N_CM = {}, together "

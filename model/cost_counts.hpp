@@ -41,6 +41,10 @@ struct CostCounts {
                                 // tap's (a new cache line for each warp at every tap), where a
                                 // window along a row re-reads the lines of the taps before it.
                                 // Priced K_GR times a FLOP at V_G (latency+); 0 = none
+  std::int64_t N_GW = 0;        // of N_G, the FLOPs of windows along a row read from device memory:
+                                // a load (and its bounds test) per FMA, the warp's line re-read by
+                                // the next tap. Priced K_GW times a FLOP at V_G (latency+, where the
+                                // profile has K_GW); 0 = none
   std::int64_t N_CC = 0;        // values moved through host memory by CPU work (extended model)
   std::int64_t N_CC_pixel = 0;  // of N_CC, those of the passes priced as pixel steps (a frame's histogram,
                                 // threshold, labelling and windows): where the profile prices the steps by
@@ -98,7 +102,13 @@ struct CostCounts {
                                   // kernel updates (a reduction's total): they serialize where the
                                   // address lives, one after another (latency+)
   std::int64_t host_waits = 0;    // times the host submits work to the device and waits for it
-                                  // to finish (a graph launch and a synchronize)
+                                  // to finish (a graph launch and a synchronize), outside the
+                                  // measured components: priced in the total only
+  std::int64_t laps_CG = 0;       // host-timed laps of host->device copies: the host submits them
+  std::int64_t laps_GC = 0;       // (device->host copies, kernels) and waits for them, and the
+  std::int64_t laps_G = 0;        // measured component holds the wait (cuda-seed's phases):
+                                  // each a submit-and-wake round trip the copies' and kernels'
+                                  // device-side figures leave out (latency+, L_wait each)
   std::int64_t tree_steps = 0;    // steps of the CPU's k-d tree work (a point placed at one level of a build,
                                   // a level descended or a leaf point examined by a search): irregular
                                   // host work that no FLOP rate prices (latency+, L_tree each)

@@ -57,6 +57,9 @@ struct Prediction {
   double lat_GM = 0;     // N_GM / V_GM: one GPU thread's MLS chain (latency+, where the profile has V_GM; device)
   double lat_GP = 0;     // gpu_pixel_steps x L_GP: per-dot pixel classification (latency+, where the profile has L_GP; device)
   double lat_wait = 0;   // host_waits x host round trip to the device (in the total only)
+  double lat_lap_CG = 0; // laps_CG x L_wait: host-timed laps' round trips, in dt_CG's component (latency+)
+  double lat_lap_GC = 0; // laps_GC x L_wait: likewise, device->host copies
+  double lat_lap_G = 0;  // laps_G x L_wait: likewise, kernels (device component)
   double lat_tree = 0;   // tree_steps x one step of host k-d tree work (CPU component, latency+)
   double lat_pixel = 0;  // pixel_steps x one step of host scalar pixel work (CPU component, latency+)
   double dt_GS = 0;      // shared-memory tile fills, P N_GS / B_GS (latency+; device component)

@@ -82,6 +82,7 @@ const std::vector<ParamInfo>& all_params() {
       {Param::L_scan, "L_scan", "s", "one step of host scalar pixel work other than a labelling's or a histogram's: a window pixel classified, or a label of its neighbourhood read, one thread"},
       {Param::L_scan_all, "L_scan_all", "s", "L_scan with every hardware thread at work: the wall time of such a step the threads share"},
       {Param::L_pass_all, "L_pass_all", "s", "the fixed cost of a frame's pixel passes with every hardware thread at work, beside their steps at L_label_all, L_hist_all and L_scan_all: threads started, stripes merged, the parallel labelling's set-up"},
+      {Param::K_GW, "K_GW", "x", "cost of a GPU FLOP whose tap reads device memory along a row (the line the tap before read, or the next) relative to one at V_G"},
       {Param::L_GP, "L_GP", "s", "one step of the device's per-dot pixel classification: a window pixel of a dot classified (its own, ring, or ignored, from its neighbourhood's labels), the dots' blocks side by side"},
   };
   return table;

@@ -55,7 +55,7 @@ Pricing Pricing::of(const MachineProfile& m) {
           m.has(Param::V_GM), m.has(Param::L_GP), 
           m.has(Param::L_label) && m.has(Param::L_hist) && m.has(Param::L_scan),
           m.has(Param::L_label_all) && m.has(Param::L_hist_all) && m.has(Param::L_scan_all),
-          m.has(Param::L_pass_all)};
+          m.has(Param::L_pass_all), m.has(Param::K_GW)};
 }
 
 namespace {
@@ -171,14 +171,22 @@ double graph_seconds(const MachineProfile& m, const CostCounts& c, Variant, cons
 }
 
 // dt_G. latency+: the FLOPs whose taps read across rows (N_GR) cost K_GR times the others (each
-// tap fetches a new line through the caches: docs/model.md 2.2).
+// tap fetches a new line through the caches), those whose taps read along a row (N_GW) K_GW times
+// where the profile has K_GW (a load and its bounds test beside every FMA): docs/model.md 2.2.
 bool across_rows(const CostCounts& c, Variant v) { return kLatencyVariants.contains(v) && c.N_GR > 0; }
-std::vector<Param> g_needs(const CostCounts& c, Variant v, const Pricing&) {
-  if (across_rows(c, v)) return {v_g(c), Param::K_GR};
-  return {v_g(c)};
+bool along_row(const CostCounts& c, Variant v, const Pricing& x) {
+  return x.along_row && kLatencyVariants.contains(v) && c.N_GW > 0;
 }
-double g_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing&) {
-  return priced_flops(c.N_G, c.N_GR, across_rows(c, v) ? m.get(Param::K_GR).value : 1.0) / m.get(v_g(c)).value;
+std::vector<Param> g_needs(const CostCounts& c, Variant v, const Pricing& x) {
+  std::vector<Param> out = {v_g(c)};
+  if (across_rows(c, v)) out.push_back(Param::K_GR);
+  if (along_row(c, v, x)) out.push_back(Param::K_GW);
+  return out;
+}
+double g_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing& x) {
+  double flops = priced_flops(c.N_G, c.N_GR, across_rows(c, v) ? m.get(Param::K_GR).value : 1.0);
+  if (along_row(c, v, x)) flops += (m.get(Param::K_GW).value - 1) * static_cast<double>(c.N_GW);
+  return flops / m.get(v_g(c)).value;
 }
 
 // dt_C_arith. Over the CPU rate of cpu_threads threads (docs/model.md 2.3); memory and extended:
@@ -408,8 +416,10 @@ const std::vector<Term>& terms() {
        "P N_GG; latency+, 0 < gpu_footprint < L2: w = gpu_footprint / L2 of it at B_GG, the rest at B_L2 (2.2)",
        "B_GG; B_L2 (latency+, 0 < gpu_footprint < L2, where the profile has it)", "device memory traffic",
        {positive<&C::N_GG>, gg_needs, gg_seconds}},
-      {"dt_G", &P::dt_G, Phase::G, kEveryVariant, overlap, "N_G + (K_GR - 1) N_GR; seed: N_G",
-       "V_G_fp32 or V_G_fp64 (precision); K_GR (latency+, N_GR > 0)", "GPU arithmetic",
+      {"dt_G", &P::dt_G, Phase::G, kEveryVariant, overlap,
+       "N_G + (K_GR - 1) N_GR + (K_GW - 1) N_GW (where the profile has K_GW); seed: N_G",
+       "V_G_fp32 or V_G_fp64 (precision); K_GR (latency+, N_GR > 0); K_GW (latency+, N_GW > 0, where the profile "
+       "has it)", "GPU arithmetic",
        {positive<&C::N_G>, g_needs, g_seconds}},
       {"lat_launch", &P::lat_launch, Phase::G, kLatencyVariants, sum,
        "launches - graph_launches (all of them where the profile has no L_graph)", "L_launch", "kernel launches",
@@ -450,6 +460,12 @@ const std::vector<Term>& terms() {
        {positive<&C::pixel_steps>, pixel_needs, pixel_seconds}},
       {"lat_wait", &P::lat_wait, Phase::wait, kLatencyVariants, sum, "host_waits", "L_wait",
        "host waits for the device", per_event<&C::host_waits, only<Param::L_wait>>()},
+      {"lat_lap_CG", &P::lat_lap_CG, Phase::CG, kLatencyVariants, sum, "laps_CG", "L_wait",
+       "host-timed laps of host->device copies", per_event<&C::laps_CG, only<Param::L_wait>>()},
+      {"lat_lap_GC", &P::lat_lap_GC, Phase::GC, kLatencyVariants, sum, "laps_GC", "L_wait",
+       "host-timed laps of device->host copies", per_event<&C::laps_GC, only<Param::L_wait>>()},
+      {"lat_lap_G", &P::lat_lap_G, Phase::G, kLatencyVariants, sum, "laps_G", "L_wait",
+       "host-timed laps of kernels", per_event<&C::laps_G, only<Param::L_wait>>()},
       {"lat_net", &P::lat_net, Phase::net, kLatencyVariants, sum, "net_messages", "L_net",
        "messages between processes: latency", per_event<&C::net_messages, only<Param::L_net>>()},
       {"dt_net", &P::dt_net, Phase::net, kEveryVariant, sum, "net_bytes (bytes)", "B_net",

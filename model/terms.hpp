@@ -95,6 +95,9 @@ struct Pricing {
                                // profiles made before the probe timed them apart
   bool pixel_kinds_all = false;  // price them on cpu_threads > 1 at L_label_all, L_hist_all and L_scan_all
   bool pixel_pass_all = false;   // and, so priced, a frame's passes (pixel_passes) at L_pass_all each
+  bool along_row = false;        // price the GPU's along-row window FLOPs (N_GW) at K_GW times the others (the
+                                 // profile has K_GW, or a fit is to find it); else at the GPU's rate, as
+                                 // profiles made before the probe measured it were fitted
   static Pricing of(const MachineProfile& profile);
 };
 

@@ -99,16 +99,22 @@ FmaTiming time_fma(bool fp64, double target_seconds, int reps, int chains = 8);
 
 struct RowsTiming {
   std::vector<double> seconds;  // per kernel
-  double flops = 0;             // per kernel: 2 x n x n x taps, every one reading across rows
+  double flops = 0;             // per kernel: 2 x n x n x taps, every one reading a tap
   int n = 0, taps = 0;
 };
+
+// Which way a window's taps read device memory: across rows (cuda-seed's row pass: another row at
+// each tap) or along a row (its column pass: the next float of the same row).
+enum class TapDirection { across_rows, along_row };
 
 // The cost of FMAs whose operands are read from other rows of device memory (K_GR): a kernel with
 // cuda-seed's row pass's shape and layout (32 x 8 threads a block, one output cell a thread,
 // acc = fma(k[b], u[(y - b + c) n + x], acc) over `taps` rows, zeros outside the grid) over an
 // n x n grid of floats; events, `reps` kernels after `warmup`. u = 1 and k = 0.5 make every
 // output exactly half its count of in-grid taps: every cell is checked (ValidationError).
-RowsTiming time_rows(int n, int taps, int reps, int warmup);
+// TapDirection::along_row runs the column pass instead (K_GW): the same with
+// u[y n + (x - a + c)] over `taps` neighbours along the row.
+RowsTiming time_rows(int n, int taps, int reps, int warmup, TapDirection direction = TapDirection::across_rows);
 
 struct LaunchTiming {
   std::vector<double> per_launch;  // seconds per launch, back to back (events around a batch)

@@ -238,9 +238,23 @@ __global__ void rows_kernel(const float* __restrict__ u, const float* __restrict
   out[std::size_t(y) * std::size_t(n) + x] = acc;
 }
 
+// cuda-seed's column pass: the same loop along the row (rbe_seed_column).
+__global__ void along_row_kernel(const float* __restrict__ u, const float* __restrict__ k, int taps, int centre, int n,
+                                 float* __restrict__ out) {
+  const int x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x >= n || y >= n) return;
+  const float* row = u + std::size_t(y) * std::size_t(n);
+  float acc = 0.f;
+  for (int a = 0; a < taps; ++a) {
+    const int j = x - (a - centre);
+    acc = fmaf(k[a], (j >= 0 && j < n) ? row[j] : 0.f, acc);
+  }
+  out[std::size_t(y) * std::size_t(n) + x] = acc;
+}
+
 }  // namespace
 
-RowsTiming time_rows(int n, int taps, int reps, int warmup) {
+RowsTiming time_rows(int n, int taps, int reps, int warmup, TapDirection direction) {
   if (n < 64 || n > 16384 || taps < 1 || taps > 1025 || reps < 1 || warmup < 0)
     throw std::invalid_argument("time_rows: n in 64..16384, taps in 1..1025, reps >= 1, warmup >= 0");
   detail::use_device();
@@ -256,9 +270,14 @@ RowsTiming time_rows(int n, int taps, int reps, int warmup) {
   }
   const int centre = taps / 2;
   const dim3 block(32, 8), grid(unsigned((n + 31) / 32), unsigned((n + 7) / 8));
+  const bool across = direction == TapDirection::across_rows;
   auto launch = [&] {
-    rows_kernel<<<grid, block, 0, s.get()>>>(u.get<const float>(), k.get<const float>(), taps, centre, n,
-                                             out.get<float>());
+    if (across)
+      rows_kernel<<<grid, block, 0, s.get()>>>(u.get<const float>(), k.get<const float>(), taps, centre, n,
+                                               out.get<float>());
+    else
+      along_row_kernel<<<grid, block, 0, s.get()>>>(u.get<const float>(), k.get<const float>(), taps, centre, n,
+                                                    out.get<float>());
     DTFLOP_CUDA_LAUNCHED();
   };
   for (int i = 0; i < warmup; ++i) launch();
@@ -277,13 +296,16 @@ RowsTiming time_rows(int n, int taps, int reps, int warmup) {
   DTFLOP_CUDA(cudaMemcpyAsync(host.data(), out.get(), out.bytes(), cudaMemcpyDeviceToHost, s.get()));
   s.sync();
   std::size_t bad = 0;
-  for (int y = 0; y < n; ++y) {
-    // In-grid taps of row y: j = y - b + centre in [0, n).
-    const int lo = std::max(0, y + centre - (n - 1)), hi = std::min(taps - 1, y + centre);
-    const float expect = 0.5f * static_cast<float>(hi - lo + 1);
-    for (int x = 0; x < n; ++x) bad += host[std::size_t(y) * std::size_t(n) + x] != expect;
-  }
-  if (bad != 0) detail::mismatch("GPU across-rows kernel: output cells", out.bytes(), bad, cells);
+  // In-grid taps of cell (x, y): j = i - b + centre in [0, n) with i = y across rows, x along one.
+  auto expect = [&](int i) {
+    const int lo = std::max(0, i + centre - (n - 1)), hi = std::min(taps - 1, i + centre);
+    return 0.5f * static_cast<float>(hi - lo + 1);
+  };
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) bad += host[std::size_t(y) * std::size_t(n) + x] != expect(across ? y : x);
+  if (bad != 0)
+    detail::mismatch(across ? "GPU across-rows kernel: output cells" : "GPU along-row kernel: output cells", out.bytes(),
+                     bad, cells);
   return r;
 }
 

@@ -26,7 +26,7 @@ std::int64_t fit_device_buffer(std::int64_t, int) { no_cuda(); }
 std::vector<double> time_d2d_memcpy(std::int64_t, int, int) { no_cuda(); }
 std::vector<double> time_copy_kernel(std::int64_t, int, int) { no_cuda(); }
 FmaTiming time_fma(bool, double, int, int) { no_cuda(); }
-RowsTiming time_rows(int, int, int, int) { no_cuda(); }
+RowsTiming time_rows(int, int, int, int, TapDirection) { no_cuda(); }
 LaunchTiming time_launches(int, int) { no_cuda(); }
 std::vector<double> time_graph_launches(int, int) { no_cuda(); }
 std::vector<double> time_l2_copy(std::int64_t, int, int, int) { no_cuda(); }

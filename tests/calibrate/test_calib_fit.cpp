@@ -10,6 +10,7 @@
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
 #include "tests/calibrate/synthetic.hpp"
+#include "workloads/rbe/backend_counts.hpp"
 
 namespace dtflop::calib {
 namespace {
@@ -121,6 +122,58 @@ TEST(CalibFit, LargeDisagreementWithTheProbedValueIsFlagged) {
       EXPECT_FALSE(f.flagged) << info(f.id).name;
     }
   }
+}
+
+TEST(CalibFit, HostTimedLapsAndTapFactorsLeaveTheRoundTripAndTheGpuRateAtTheProbe) {
+  // cuda-seed's counts: two laps in each of its three device components beside five, two and three
+  // copies and launches, and FLOPs that are all window taps but two a cell. The samples cannot
+  // tell a lap's round trip from the latencies beside it, nor the GPU's rate from the taps'
+  // factors: the fit keeps L_wait and V_G_fp32 at the probe's values (here 0.8x and 1.1x the
+  // truth) and finds the rest against them, which predicts every sample as the truth does.
+  MachineProfile truth = test::round_profile();
+  truth.set(Param::K_GW, {6.0, Provenance::probed, {}, {}, ""});
+  truth.set(Param::V_CS, {2e9, Provenance::probed, {}, {}, ""});
+  std::mt19937_64 rng(5);
+  std::vector<Sample> samples;
+  for (std::int64_t ix : {5, 41, 97})
+    for (std::int64_t iy : {3, 33, 129})
+      for (std::int64_t n : {200, 700}) {
+        const CostCounts c = rbe::cuda_seed_counts(rbe::Shape{n, n + 50, ix, iy}, HostMemory::pinned);
+        samples.push_back(test::synthetic_sample(fmt::format("{}/{}/{}", n, ix, iy), c, truth, Variant::latency, 0.0,
+                                                 rng));
+      }
+  MachineProfile start = perturbed(truth, 1.1);
+  Parameter w = start.get(Param::L_wait);
+  w.value = 0.8 * truth.get(Param::L_wait).value;
+  start.set(Param::L_wait, w);
+  FitOptions o;
+  o.variant = Variant::latency;
+  const FitResult r = fit(samples, start, o);
+  EXPECT_LT(r.rms_relative, 2e-3);
+  int kept = 0;
+  for (const auto& f : r.params) {
+    if (f.id == Param::L_wait || f.id == Param::V_G_fp32) {
+      ++kept;
+      EXPECT_TRUE(f.kept_at_probe) << info(f.id).name;
+      EXPECT_FALSE(f.fitted) << info(f.id).name;
+      EXPECT_NE(f.note.find("kept at the probe"), std::string::npos) << f.note;
+      EXPECT_DOUBLE_EQ(r.profile.get(f.id).value, start.get(f.id).value) << info(f.id).name;
+      EXPECT_EQ(r.profile.get(f.id).provenance, Provenance::probed) << info(f.id).name;
+    } else {
+      EXPECT_FALSE(f.kept_at_probe) << info(f.id).name;
+    }
+  }
+  EXPECT_EQ(kept, 2);
+  // The taps' factors against the probe's rate: their cost per FLOP is the truth's.
+  for (Param k : {Param::K_GR, Param::K_GW})
+    EXPECT_NEAR(r.profile.get(k).value / start.get(Param::V_G_fp32).value,
+                truth.get(k).value / truth.get(Param::V_G_fp32).value,
+                0.01 * truth.get(k).value / truth.get(Param::V_G_fp32).value)
+        << info(k).name;
+  // Without a lap in any sample, or with a wait outside the components, L_wait is fitted as before.
+  std::vector<Sample> waits = samples;
+  for (auto& s : waits) s.counts.host_waits = 1;
+  for (const auto& f : fit(waits, start, o).params) EXPECT_FALSE(f.kept_at_probe && f.id == Param::L_wait);
 }
 
 TEST(CalibFit, ParametersThatMoveNoPredictionAreKept) {

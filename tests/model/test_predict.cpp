@@ -546,6 +546,52 @@ TEST(Predict, AcrossRowGpuFlopsCostKGrTimesTheOthersInTheLatencyVariants) {
   EXPECT_THROW(predict(m, c, Variant::seed), InputError);
 }
 
+TEST(Predict, AlongRowGpuFlopsCostKGwTimesTheOthersWhereTheProfileHasKGw) {
+  auto m = test::round_profile();  // K_GR = 2, V_G_fp32 = 50 TFLOP/s, no K_GW
+  CostCounts c;
+  c.N_G = 100'000'000;  // 2 us
+  c.N_GR = 25'000'000;  // 0.5 us across rows: 1 us at K_GR = 2
+  c.N_GW = 50'000'000;  // 1 us along a row: 8 us at K_GW = 8
+  // A profile made before the probe measured K_GW prices them at the GPU's rate, as it was fitted.
+  EXPECT_NEAR(predict(m, c, Variant::latency).dt_G, 2.5e-6, 1e-18);
+  EXPECT_FALSE(needs(c, Variant::latency, Param::K_GW));
+  m.set(Param::K_GW, {8.0});
+  EXPECT_NEAR(predict(m, c, Variant::seed).dt_G, 2e-6, 1e-18);  // the seed's eq. 3.9 as written
+  for (Variant v : {Variant::latency, Variant::memory, Variant::extended})
+    EXPECT_NEAR(predict(m, c, v).dt_G, 9.5e-6, 1e-18) << to_string(v);
+  const auto latency = required_params(c, Variant::latency, Pricing::of(m)),
+             seed = required_params(c, Variant::seed, Pricing::of(m));
+  EXPECT_NE(std::find(latency.begin(), latency.end(), Param::K_GW), latency.end());
+  EXPECT_EQ(std::find(seed.begin(), seed.end(), Param::K_GW), seed.end());
+  // Across rows and along one together are at most N_G.
+  c.N_GW = c.N_G - c.N_GR + 1;
+  EXPECT_THROW(predict(m, c, Variant::latency), InputError);
+}
+
+TEST(Predict, HostTimedLapsPayARoundTripInTheirComponent) {
+  const auto m = test::round_profile();  // L_wait = 20 us, L_CG_pinned = 10 us, L_launch = 3 us
+  CostCounts c;
+  c.host_memory = HostMemory::pinned;
+  c.transfers_CG = 3;  // 30 us
+  c.laps_CG = 2;       // 40 us more, in the copies' component
+  c.launches = 2;      // 6 us
+  c.laps_G = 1;        // 20 us, in the kernels'
+  c.transfers_GC = 1;  // 12 us
+  c.laps_GC = 1;       // 20 us
+  for (Variant v : {Variant::latency, Variant::memory, Variant::extended}) {
+    const Prediction p = predict(m, c, v);
+    EXPECT_NEAR(p.lat_lap_CG, 40e-6, 1e-18);
+    EXPECT_NEAR(phase_seconds(p, Phase::CG), 70e-6, 1e-18) << to_string(v);
+    EXPECT_NEAR(phase_seconds(p, Phase::G), 26e-6, 1e-18) << to_string(v);
+    EXPECT_NEAR(phase_seconds(p, Phase::GC), 32e-6, 1e-18) << to_string(v);
+    EXPECT_NEAR(p.lat_wait, 0, 0);  // none outside the components
+    EXPECT_NEAR(p.total, 128e-6, 1e-18) << to_string(v);
+  }
+  EXPECT_NEAR(predict(m, c, Variant::seed).total, 0, 0);  // the seed's model has no latencies
+  EXPECT_TRUE(needs(c, Variant::latency, Param::L_wait));
+  EXPECT_FALSE(needs(c, Variant::seed, Param::L_wait));
+}
+
 TEST(Predict, TheGpuL2ServesTheShareOfKernelTrafficItsWorkingSetLeavesIn) {
   auto m = test::round_profile();
   m.set(Param::B_GG, {2e12});

@@ -138,6 +138,19 @@ TEST(GpuProbes, AcrossRowFmasAreCheckedAndCostMoreThanThePeakRate) {
   EXPECT_THROW(gpu::time_rows(32, 17, 3, 1), std::invalid_argument);
 }
 
+TEST(GpuProbes, AlongRowFmasAreCheckedAndCostMoreThanThePeakRateButLessThanAcrossRows) {
+  DTFLOP_REQUIRE_GPU();
+  // The column pass: every cell checked inside (ValidationError), against its own in-grid taps.
+  const auto along = gpu::time_rows(1024, 33, 5, 1, gpu::TapDirection::along_row);
+  ASSERT_EQ(along.seconds.size(), 5u);
+  EXPECT_DOUBLE_EQ(along.flops, 2.0 * 1024 * 1024 * 33);
+  const auto across = gpu::time_rows(1024, 33, 5, 1, gpu::TapDirection::across_rows);
+  const auto f = gpu::time_fma(false, 0.002, 3);
+  const double rate = along.flops / summarize(along.seconds).median;
+  EXPECT_LT(rate, f.flops / summarize(f.seconds).median);  // K_GW > 1: a load beside every FMA
+  EXPECT_GT(rate, across.flops / summarize(across.seconds).median);  // the warp's line re-read: K_GW < K_GR
+}
+
 TEST(GpuProbes, LaunchOverheadIsMicroseconds) {
   DTFLOP_REQUIRE_GPU();
   const auto t = gpu::time_launches(200, 3);

@@ -82,8 +82,16 @@ CostCounts cuda_seed_counts(const Shape& s, HostMemory memory) {
   CostCounts c = seed_gpu_counts(s, memory);
   c.N_C += 1;  // A_c x sum, which the seed counts inside its n_g summations
   c.N_CS = s.cells();  // the host's sum of q: one chain of n_g dependent additions
-  // The row kernel's taps: each reads u one row further on (rbe_seed_row_multiply).
+  // The row kernel's taps: each reads u one row further on (rbe_seed_row_multiply); the column
+  // kernel's, the next float of the same row of p (rbe_seed_column).
   c.N_GR = 2 * s.cells() * s.Iy;
+  c.N_GW = 2 * s.cells() * s.Ix;
+  // The host times each phase up to a synchronize (CudaSeed::advance): two laps of copies to the
+  // device (the belief, the kernels and the likelihood; then A_c x sum), two of kernels (the
+  // prediction; the division), two of copies back (q; the belief).
+  c.laps_CG = 2;
+  c.laps_GC = 2;
+  c.laps_G = 2;
   // The kernels' working set: the belief, u, the likelihood and q, and the two kernels.
   c.gpu_footprint = c.P * (4 * s.cells() + s.Ix + s.Iy);
   return c;

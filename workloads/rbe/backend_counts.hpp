@@ -54,8 +54,10 @@ CostCounts cpu_par_counts(const Shape& s, Convolution prediction, int threads);
 // cuda-seed: eqs. 5.10-5.16 (seed_gpu_counts) plus the one multiplication A_c x sum on the CPU
 // that the seed folds into its n_g summations: N_C = n_g + 1. Of N_G, the row kernel's taps
 // read u one row further on each (a new cache line per warp, where the column kernel's taps
-// re-read the lines of the taps before): N_GR = 2 n_g I_y. The host's sum is one chain of
-// dependent additions: N_CS = n_g.
+// re-read the lines of the taps before): N_GR = 2 n_g I_y; the column kernel's taps, N_GW = 2 n_g I_x
+// (a load and its bounds test beside every FMA, priced K_GW times). The host's sum is one chain of
+// dependent additions: N_CS = n_g. Its phases are timed by the host up to a synchronize, two laps
+// of each (laps_CG = laps_GC = laps_G = 2), and each lap's round trip is in its component.
 CostCounts cuda_seed_counts(const Shape& s, HostMemory memory);
 
 // How cuda-resident covers the grid for a shape and a layout.

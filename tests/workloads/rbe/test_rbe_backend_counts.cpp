@@ -126,6 +126,11 @@ TEST(RbeBackendCounts, CudaSeedIsEquations5_10To5_16) {
     EXPECT_EQ(c.N_C, ng + 1);                       // 5.15, plus A_c x sum
     EXPECT_EQ(c.N_G, 2 * ng * (33 + 21 + 1));       // 5.16
     EXPECT_EQ(c.N_GR, 2 * ng * 21);                 // the row kernel's taps, one row apart
+    EXPECT_EQ(c.N_GW, 2 * ng * 33);                 // the column kernel's, along the row
+    EXPECT_EQ(c.laps_CG, 2);                        // the phases the host times up to a synchronize
+    EXPECT_EQ(c.laps_G, 2);
+    EXPECT_EQ(c.laps_GC, 2);
+    EXPECT_EQ(c.host_waits, 0);                     // every wait is inside a component
     EXPECT_EQ(c.N_CS, ng);                          // the host sum: one chain of dependent additions
     EXPECT_EQ(c.transfers_CG, 5);
     EXPECT_EQ(c.transfers_GC, 2);
