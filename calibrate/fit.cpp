@@ -179,9 +179,12 @@ std::vector<Param> kept_at_probe(const std::vector<Sample>& samples, const Machi
       !any([](const CostCounts& c) { return c.host_waits > 0; }))
     out.push_back(Param::L_wait);
   if (start.has(Param::K_GW) && any([](const CostCounts& c) { return c.N_GW > 0; }))
-    for (auto [p, precision] : {std::pair{Param::V_G_fp32, Precision::fp32}, std::pair{Param::V_G_fp64, Precision::fp64}})
-      if (probed(p) && any([precision](const CostCounts& c) { return c.N_G > 0 && c.precision == precision; }))
+    for (const auto& [p, precision] :
+         {std::pair{Param::V_G_fp32, Precision::fp32}, std::pair{Param::V_G_fp64, Precision::fp64}}) {
+      const Precision wanted = precision;  // a structured binding cannot be captured before C++20's clang 16
+      if (probed(p) && any([wanted](const CostCounts& c) { return c.N_G > 0 && c.precision == wanted; }))
         out.push_back(p);
+    }
   return out;
 }
 
