@@ -52,8 +52,16 @@ Applied apply_calibration(const Calibration& c, const MachineProfile& target) {
                                  c.workload, c.backend));
   Applied out;
   out.profile = target;
-  out.basis = same_machine(c.fitted_on, target.identity) ? Basis::calibrated : Basis::transferred;
+  const bool same_probe = c.fitted_on.measured_at.empty() || c.fitted_on.measured_at == target.identity.measured_at;
+  const bool here = same_machine(c.fitted_on, target.identity);
+  out.basis = here && same_probe ? Basis::calibrated : Basis::transferred;
   const std::string from = hardware_class(c.fitted_on, gpu);
+  if (here && !same_probe)
+    out.notes.push_back(fmt::format(
+        "the calibration was fitted against another probe of this kind of machine ({}, this one {}): predicted as "
+        "carried, with a carried calibration's interval; for a calibrated prediction fit it here (`dtflop calibrate "
+        "--machine` this probe)",
+        c.fitted_on.measured_at, target.identity.measured_at.empty() ? "undated" : target.identity.measured_at));
   for (const auto& f : c.factors) {
     Parameter par;
     par.provenance = Provenance::fitted;

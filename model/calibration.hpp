@@ -74,8 +74,9 @@ bool uses_gpu(const Calibration& c);
 // Where a prediction's parameters came from.
 enum class Basis {
   probe_only,   // the target machine's probes alone: no run of the workload anywhere
-  calibrated,   // a calibration fitted on this very machine (or a fitted profile of it)
-  transferred,  // a calibration fitted on another machine, applied to this one's probes
+  calibrated,   // a calibration fitted on this very machine and probe (or a fitted profile of it)
+  transferred,  // a calibration fitted on another machine, or against another probe of this kind of
+                // machine (another lend, another day), applied to this one's probes
 };
 std::string_view to_string(Basis b);
 
@@ -84,7 +85,13 @@ struct Applied {
   Basis basis = Basis::calibrated;
   std::vector<std::string> notes;   // one line each: what was carried as it is, and why
 };
-// Applies `c` to `target`, a probe profile (dtflop probe). Throws InputError when the target is
+// Applies `c` to `target`, a probe profile (dtflop probe). The basis is `calibrated` only where the
+// calibration was fitted against this very probe (same machine, same measured_at; a calibration that
+// records no probe time, against any probe of the same machine): the factors of one probe applied to
+// another carry the two probes' noise and whatever changed between them (on two lends of one H200 an
+// hour apart, a cuda-seed calibration carried from one to the other was 11.6% off where each lend's
+// own was within 3.3-5.1%: docs/PERFORMANCE.md), so such a prediction is a transferred one and gets
+// a transferred one's interval. Throws InputError when the target is
 // itself a fitted profile (contradictory provenance: give its probe profile) or lacks the GPU a
 // GPU backend's calibration needs.
 Applied apply_calibration(const Calibration& c, const MachineProfile& target);

@@ -71,6 +71,26 @@ TEST(Calibration, OnItsOwnMachineItIsCalibratedAndAProbeItLacksIsCarried) {
   EXPECT_NE(a.notes[0].find("no probe of B_CG_pinned"), std::string::npos) << a.notes[0];
 }
 
+// Another probe of the same kind of machine (another lend of it, another day) is a transfer: the
+// calibration's factors were fitted against one probe's figures, and the interval must allow for
+// what differs between the two. A calibration that records no probe time stays calibrated there.
+TEST(Calibration, AnotherProbeOfTheSameMachineIsATransfer) {
+  Calibration c = pinned_copy_calibration();
+  c.fitted_on.measured_at = "2026-11-28T21:22:04Z";
+  MachineProfile target = probed(test::round_profile());
+  target.identity.measured_at = c.fitted_on.measured_at;
+  EXPECT_EQ(apply_calibration(c, target).basis, Basis::calibrated);
+  target.identity.measured_at = "2026-11-28T21:29:21Z";
+  const Applied a = apply_calibration(c, target);
+  EXPECT_EQ(a.basis, Basis::transferred);
+  ASSERT_FALSE(a.notes.empty());
+  EXPECT_NE(a.notes[0].find("another probe of this kind of machine (2026-11-28T21:22:04Z"), std::string::npos)
+      << a.notes[0];
+  EXPECT_DOUBLE_EQ(a.profile.get(Param::B_CG_pinned).value, 0.8 * target.get(Param::B_CG_pinned).value);
+  c.fitted_on.measured_at.clear();
+  EXPECT_EQ(apply_calibration(c, target).basis, Basis::calibrated);
+}
+
 // A calibration fitted before gpu-mls (no V_GM factor) priced the MLS fields inside the kernels'
 // FLOPs: applied to a probe that has V_GM, it leaves V_GM out, as it was fitted; one fitted with
 // it carries it as any other factor (and so for gpu-centroid's L_GP).
