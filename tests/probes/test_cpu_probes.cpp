@@ -116,9 +116,15 @@ TEST(CpuProbes, WindowGivesBothCostRatios) {
   for (Param p : {Param::K_CD, Param::K_CW, Param::K_CA, Param::K_CW_all, Param::K_CA_all}) {
     const auto* m = find(r, p);
     ASSERT_NE(m, nullptr) << info(p).name;
-    // A loop of FMAs cannot beat the FMA units by more than timing noise, and no CPU of this
-    // century runs one at a thousandth of their rate.
+    // No CPU of this century runs a window loop at a thousandth of its FMA rate. In an optimized
+    // build a loop of FMAs cannot beat the FMA units by more than timing noise either; unoptimized
+    // (the sanitized Debug build) neither loop runs at its speed and the FMA reference loses more
+    // (K_CD 0.39 seen on the 2-core VM), so there only a unit slip, orders of magnitude, is caught.
+#ifdef NDEBUG
     EXPECT_GT(m->value, 0.5) << info(p).name;
+#else
+    EXPECT_GT(m->value, 0.02) << info(p).name;
+#endif
     EXPECT_LT(m->value, 1000) << info(p).name;
     EXPECT_EQ(m->stats.n, 3u);  // the smoke plan's repetitions of the loop
   }
