@@ -1,6 +1,7 @@
 #include "calibrate/rounds.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <utility>
 
@@ -111,6 +112,8 @@ MergedRounds merge_rounds(std::vector<Sample> samples, RoundCombine combine) {
 
   int counts_differ = 0;
   std::string counts_first;
+  double drift_squares = 0;  // over every configuration of 2+ rounds: sum of (log t - mean log t)^2
+  int drift_dof = 0;         // and of its rounds less one
   for (auto& cfg : configs) {
     std::stable_sort(cfg.rounds.begin(), cfg.rounds.end(),
                      [](const Sample& a, const Sample& b) { return a.round < b.round; });
@@ -150,7 +153,17 @@ MergedRounds merge_rounds(std::vector<Sample> samples, RoundCombine combine) {
         if (const Stats* st = r.find(c)) medians.push_back(st->median);
       if (medians.empty()) continue;
       Stats st = summarize(std::move(medians));
-      if (c == Component::total) round_spread = st.median > 0 ? (st.max - st.min) / st.median : 0.0;
+      if (c == Component::total) {
+        round_spread = st.median > 0 ? (st.max - st.min) / st.median : 0.0;
+        if (st.min > 0) {
+          double mean = 0;
+          for (double t : st.values) mean += std::log(t);
+          mean /= static_cast<double>(st.values.size());
+          for (double t : st.values) drift_squares += (std::log(t) - mean) * (std::log(t) - mean);
+          drift_dof += static_cast<int>(st.values.size()) - 1;
+          ++out.round_configs;
+        }
+      }
       // The value the model is compared with.
       if (combine == RoundCombine::fastest) st.median = st.min;
       if (combine == RoundCombine::p25) st.median = st.p25;
@@ -163,6 +176,7 @@ MergedRounds merge_rounds(std::vector<Sample> samples, RoundCombine combine) {
     merged.detail["repetitions_per_round"] = reps;
     out.samples.push_back(std::move(merged));
   }
+  if (drift_dof > 0) out.round_log_sd = std::sqrt(drift_squares / drift_dof);
   if (counts_differ > 0)
     out.warnings.push_back(fmt::format(
         "{} configuration{} (first: '{}') {} rounds with different cost counts (measured by different dtflop "

@@ -56,6 +56,13 @@ struct MergedRounds {
   int min_rounds = 0;                 // fewest and most rounds of a configuration (0 when none)
   int max_rounds = 0;
   RoundCombine combine = kDefaultRoundCombine;
+  // The machine's drift between rounds: the standard deviation of log(a round's total) about its
+  // configuration's mean, pooled over the configurations of two or more rounds (the squares summed
+  // over all of them, over the rounds less one each); round_configs counts them (0: none, and
+  // round_log_sd 0). Rounds are minutes apart, so this is how far one measurement of a
+  // configuration moves with the machine's state, which a fit's cross-validation cannot see.
+  double round_log_sd = 0;
+  int round_configs = 0;
 
   // "82 configurations from 246 samples (3 rounds)"; "(1-3 rounds)" when they differ.
   std::string summary() const;

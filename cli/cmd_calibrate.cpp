@@ -207,6 +207,12 @@ void run(const CalibrateOptions& o) {
       error = plan_error_figure(*by_plan, static_cast<int>(samples.size()));
   }
 
+  // The machine's drift between the rounds, which no fold of one sweep sees (calibrate/rounds.hpp).
+  if (merged.round_configs > 0) {
+    error.round_log_sd = merged.round_log_sd;
+    error.round_configs = merged.round_configs;
+  }
+
   // Report: tables, or with --json the same as one object.
   std::FILE* tables = o.json ? nullptr : stdout;
   auto print = [tables](const std::string& text) {
@@ -268,9 +274,20 @@ void run(const CalibrateOptions& o) {
                             by_plan->folds, to_string(r.variant), 100 * by_plan->mean_rel, 100 * by_plan->max_rel,
                             by_plan->rms_log));
   }
-  result["error_for_intervals"] = {{"rms_log", error.rms_log}, {"how", error.how}};
-  print(fmt::format("Predictions of this fit carry an rms log error of {:.3f} in their intervals ({}).\n",
-                    error.rms_log, error.how));
+  result["error_for_intervals"] = {{"rms_log", error.rms_log},
+                                   {"how", error.how},
+                                   {"round_log_sd", error.round_log_sd},
+                                   {"round_configs", error.round_configs},
+                                   {"sigma", error.sigma()}};
+  if (error.round_configs > 0)
+    print(fmt::format("Predictions of this fit carry a log error of {:.3f} in their intervals: an rms log error of "
+                      "{:.3f} ({}) and the machine's drift between a configuration's rounds, {:.3f} (the standard "
+                      "deviation of log time over {} configurations), in quadrature.\n",
+                      error.sigma(), error.rms_log, error.how, error.round_log_sd, error.round_configs));
+  else
+    print(fmt::format("Predictions of this fit carry an rms log error of {:.3f} in their intervals ({}; one round "
+                      "each, so no drift of the machine between rounds is measured: sweep with --rounds 2 or more).\n",
+                      error.rms_log, error.how));
   print(fmt::format("{}\n\nParameters:\n", choice.reason));
   nlohmann::json params_json = nlohmann::json::array();
   Table t({"parameter", "probed", "fitted", "95% interval", "fitted/probed", "note"}, "lrrrrl");
@@ -329,6 +346,7 @@ void run(const CalibrateOptions& o) {
   out.metadata["fit_rms_relative"] = fmt::format("{:.4g}", r.rms_relative);
   out.metadata["fit_cv_rms_log"] = fmt::format("{:.4g}", error.rms_log);
   out.metadata["fit_error"] = error.how;
+  if (error.round_configs > 0) out.metadata["fit_round_log_sd"] = fmt::format("{:.4g}", error.round_log_sd);
   out.metadata["fit_loss"] = fmt::format("{} (scale {})", to_string(fo.loss), fo.loss_scale);
   if (fo.prior_log_sigma > 0) out.metadata["fit_prior_log_sigma"] = fmt::format("{:.4g}", fo.prior_log_sigma);
   out.metadata["fit_from"] = fs::path(o.machine).lexically_normal().string();

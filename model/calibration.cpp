@@ -127,9 +127,16 @@ double number(const json& v, const std::string& field, double lo, double hi) {
 
 }  // namespace
 
+double ErrorFigure::sigma() const { return std::hypot(rms_log, round_log_sd); }
+
 json to_json(const ErrorFigure& e) {
-  return {{"samples", e.samples}, {"mean_rel", e.mean_rel}, {"max_rel", e.max_rel}, {"rms_log", e.rms_log},
-          {"how", e.how}};
+  json j = {{"samples", e.samples}, {"mean_rel", e.mean_rel}, {"max_rel", e.max_rel}, {"rms_log", e.rms_log},
+            {"how", e.how}};
+  if (e.round_log_sd > 0) {
+    j["round_log_sd"] = e.round_log_sd;
+    j["round_configs"] = e.round_configs;
+  }
+  return j;
 }
 
 ErrorFigure error_figure_from_json(const json& j, const std::string& field) {
@@ -140,6 +147,10 @@ ErrorFigure error_figure_from_json(const json& j, const std::string& field) {
   e.max_rel = number(need(j, "max_rel", field + "."), field + ".max_rel", 0, 1e6);
   e.rms_log = number(need(j, "rms_log", field + "."), field + ".rms_log", 0, 100);
   e.how = str(j, "how", field + ".", false);
+  if (j.contains("round_log_sd")) {
+    e.round_log_sd = number(j.at("round_log_sd"), field + ".round_log_sd", 0, 100);
+    e.round_configs = static_cast<int>(number(need(j, "round_configs", field + "."), field + ".round_configs", 1, 1e9));
+  }
   return e;
 }
 

@@ -44,8 +44,17 @@ struct ErrorFigure {
   int samples = 0;
   double mean_rel = 0;  // mean |predicted - measured| / measured
   double max_rel = 0;
-  double rms_log = 0;   // root mean square of log(predicted / measured): the interval's sigma
+  double rms_log = 0;   // root mean square of log(predicted / measured)
   std::string how;      // e.g. "5-fold cross-validation of 106 samples"
+  // The machine's own drift, where the figure is a fit's own error: the standard deviation of log(one
+  // round's time) about its configuration's mean, pooled over the fit's configurations of two or
+  // more rounds (rounds run minutes apart; calib::MergedRounds::round_log_sd). Cross-validation
+  // scores folds of one sweep, measured in the same minutes, and cannot see it; a run measured
+  // later does. 0: unknown or one round (a transfer's measured error already holds it).
+  double round_log_sd = 0;
+  int round_configs = 0;  // the configurations it was pooled over
+  // The interval's sigma: rms_log and round_log_sd in quadrature.
+  double sigma() const;
 };
 
 struct Calibration {

@@ -64,8 +64,11 @@ BasisError basis_of(const MachineProfile& profile, const CostCounts& counts, Var
   }
   b.basis = Basis::calibrated;
   if (const double cv = metadata_number(profile, "fit_cv_rms_log"); cv >= 0) {
-    b.sigma = cv;
-    b.source = "the calibration's cross-validated error on this machine";
+    const double drift = std::max(0.0, metadata_number(profile, "fit_round_log_sd"));
+    b.sigma = std::hypot(cv, drift);
+    b.source = drift > 0 ? "the calibration's cross-validated error on this machine and its drift between the fit's "
+                           "rounds"
+                         : "the calibration's cross-validated error on this machine";
   } else if (const double rms = metadata_number(profile, "fit_rms_relative"); rms >= 0) {
     b.sigma = std::log1p(rms);
     b.source = "the fit's rms residual (the profile records no cross-validated error: refit it with `dtflop "
@@ -81,7 +84,7 @@ BasisError basis_of(const Calibration& c, Basis applied, const std::optional<Bas
   BasisError b;
   b.basis = applied;
   b.from = hardware_class(c.fitted_on, uses_gpu(c));
-  const double own = c.fit_error.rms_log;
+  const double own = c.fit_error.sigma();
   if (applied == Basis::calibrated) {
     b.sigma = own;
     b.source = fmt::format("the calibration's own error ({})", c.fit_error.how);

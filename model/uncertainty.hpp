@@ -8,7 +8,9 @@
 //                  prediction uses, s_i the standard deviation of log p_i (a fitted parameter's
 //                  95% interval, a probed one's spread), elasticities by central differences;
 //   sigma_basis  = the root mean square of log(predicted / measured) of predictions made the
-//                  same way on runs they were not fitted to (ErrorFigure::rms_log).
+//                  same way on runs they were not fitted to (ErrorFigure::rms_log); for a
+//                  calibrated prediction with it, in quadrature, the machine's drift between the
+//                  fit's rounds (ErrorFigure::round_log_sd, metadata fit_round_log_sd).
 #pragma once
 
 #include <optional>

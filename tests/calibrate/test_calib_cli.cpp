@@ -1,5 +1,6 @@
 // The real `dtflop` executable: a sweep killed with SIGKILL loses at most the sample in flight
 // and resumes without measuring anything twice; calibrate and validate on good and bad input.
+#include <cmath>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -237,6 +238,7 @@ TEST_F(CalibCli, CalibrateThenValidate) {
   EXPECT_NE(r.out.find("95% interval"), std::string::npos) << r.out;
   // One plan: the intervals carry the random folds' error, and the report says which.
   EXPECT_NE(r.out.find("carry an rms log error of"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("no drift of the machine between rounds is measured"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("plans predicted by a fit to the others"), std::string::npos) << r.out;
   const MachineProfile fitted = load_profile(path("fitted.json"));
   EXPECT_EQ(fitted.metadata.at("model_variant"), "latency") << r.out;
@@ -302,6 +304,10 @@ TEST_F(CalibCli, CalibrateAndValidateMergeRounds) {
   EXPECT_TRUE(r.err.empty()) << r.err;
   const MachineProfile fitted = load_profile(path("fitted.json"));
   EXPECT_EQ(fitted.metadata.at("fit_samples"), std::to_string(configs));
+  // The machine's drift between rounds joins the intervals: every configuration's logs are about
+  // {0, log 1.3, 0} (sd 0.151) and 1% noise.
+  EXPECT_NE(r.out.find("drift between a configuration's rounds"), std::string::npos) << r.out;
+  EXPECT_NEAR(std::stod(fitted.metadata.at("fit_round_log_sd")), 0.151, 0.01);
   // --json: the same fit as one object (the output file is replaced, being a regular file).
   auto rj = test::run_dtflop(fmt::format("calibrate --store {} --machine {} -o {} --variant latency --rounds-combine median --json",
                                          path("rounds.jsonl"), path("probed.json"), path("fitted.json")));
@@ -311,6 +317,10 @@ TEST_F(CalibCli, CalibrateAndValidateMergeRounds) {
   EXPECT_EQ(fit_json["stored_samples"], 3 * configs);
   EXPECT_EQ(fit_json["variant"], "latency");
   EXPECT_FALSE(fit_json["parameters"].empty());
+  const auto& interval_error = fit_json["error_for_intervals"];
+  EXPECT_EQ(interval_error["round_configs"], configs);
+  EXPECT_NEAR(interval_error["sigma"].get<double>(),
+              std::hypot(interval_error["rms_log"].get<double>(), interval_error["round_log_sd"].get<double>()), 1e-12);
   // The slow round is left out by the median of the rounds: the fit recovers the truth.
   EXPECT_NEAR(fitted.get(Param::B_CG_pageable).value / truth.get(Param::B_CG_pageable).value, 1, 0.04);
 

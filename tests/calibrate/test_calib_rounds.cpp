@@ -1,6 +1,7 @@
 // Rounds: `run_sweep` walking a plan R times (keys, round fields, resume, progress) and
 // `merge_rounds` turning the rounds of a configuration into one sample (fastest, median or lower
 // quartile of the rounds' medians).
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -203,6 +204,25 @@ TEST(CalibRounds, DefaultIsTheFastestRound) {
   EXPECT_DOUBLE_EQ(m.samples.at(0).find(Component::total)->median, 1.0);
   EXPECT_EQ(m.samples.at(0).detail["rounds_combined_by"], "fastest");
   EXPECT_EQ(MergedRounds{}.combine, RoundCombine::fastest);
+}
+
+TEST(CalibRounds, DriftIsThePooledDeviationOfLogTimeBetweenRounds) {
+  // a: rounds 1.0 and 1.2; b: 2.0, 2.0 and 2.6; c: one round (no drift to see); each round's
+  // median is its total. By hand: the squares of log t about each configuration's mean log t,
+  // over the rounds less one each (1 + 2).
+  const MergedRounds m = merge_rounds({hand_sample("a", 1, {1.0}), hand_sample("a", 2, {1.2}),
+                                       hand_sample("b", 1, {2.0}), hand_sample("b", 2, {2.0}),
+                                       hand_sample("b", 3, {2.6}), hand_sample("c", 1, {5.0})});
+  const double a = std::log(1.2) / 2;  // each round's distance from a's mean
+  const double b_mean = (2 * std::log(2.0) + std::log(2.6)) / 3;
+  const double b = 2 * std::pow(std::log(2.0) - b_mean, 2) + std::pow(std::log(2.6) - b_mean, 2);
+  EXPECT_EQ(m.round_configs, 2);
+  EXPECT_NEAR(m.round_log_sd, std::sqrt((2 * a * a + b) / 3), 1e-12);
+  // Rounds that agree show no drift; one round each, none measured.
+  EXPECT_DOUBLE_EQ(merge_rounds({hand_sample("a", 1, {1.0}), hand_sample("a", 2, {1.0})}).round_log_sd, 0);
+  const MergedRounds one = merge_rounds({hand_sample("a", 1, {1.0}), hand_sample("b", 1, {2.0})});
+  EXPECT_EQ(one.round_configs, 0);
+  EXPECT_DOUBLE_EQ(one.round_log_sd, 0);
 }
 
 TEST(CalibRounds, OneRoundPassesThroughUnchanged) {

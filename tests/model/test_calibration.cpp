@@ -190,6 +190,18 @@ TEST(Calibration, JsonRoundTripsAndBadFieldsAreNamed) {
   EXPECT_DOUBLE_EQ(back.fit_error.rms_log, 0.025);
   ASSERT_TRUE(back.transfer_error.has_value());
   EXPECT_DOUBLE_EQ(back.transfer_error->rms_log, 0.05);
+  // No drift recorded: none written, none read, and the interval's sigma is the rms alone.
+  EXPECT_FALSE(to_json(c)["fit_error"].contains("round_log_sd"));
+  EXPECT_DOUBLE_EQ(back.fit_error.round_log_sd, 0);
+  EXPECT_DOUBLE_EQ(back.fit_error.sigma(), 0.025);
+  // A fit's drift between its rounds travels with it and widens the interval in quadrature.
+  Calibration drifted = c;
+  drifted.fit_error.round_log_sd = 0.04;
+  drifted.fit_error.round_configs = 88;
+  const Calibration d = calibration_from_json(to_json(drifted));
+  EXPECT_DOUBLE_EQ(d.fit_error.round_log_sd, 0.04);
+  EXPECT_EQ(d.fit_error.round_configs, 88);
+  EXPECT_DOUBLE_EQ(d.fit_error.sigma(), std::hypot(0.025, 0.04));
 
   auto message = [](nlohmann::json j) {
     try {
@@ -266,6 +278,11 @@ TEST(Uncertainty, AParametersIntervalSpreadsTheTimeByItsElasticity) {
   const Interval iv = interval_of(p, m, c, b);
   EXPECT_NEAR(iv.sigma_params, std::log(1.1) / 1.959963984540054, 1e-6);
   EXPECT_NEAR(iv.sigma, std::hypot(std::log(1.1) / 1.959963984540054, 0.03), 1e-6);
+  // The fit's drift between rounds joins the cross-validated error in quadrature.
+  m.metadata["fit_round_log_sd"] = "0.04";
+  const BasisError drifted = basis_of(m, c, Variant::seed);
+  EXPECT_NEAR(drifted.sigma, 0.05, 1e-12);
+  EXPECT_NE(drifted.source.find("drift"), std::string::npos) << drifted.source;
 }
 
 TEST(Uncertainty, TheParametersTheProfilePricesWithAreTheOnesWhoseUncertaintyCounts) {
@@ -319,6 +336,12 @@ TEST(Uncertainty, ACarriedCalibrationAddsTheTransferError) {
   c.transfer_error = ErrorFigure{50, 0.04, 0.1, 0.05, "held-out"};
   EXPECT_DOUBLE_EQ(basis_of(c, Basis::transferred).sigma, 0.05);  // measured: it replaces the default
   EXPECT_DOUBLE_EQ(basis_of(c, Basis::transferred, carried).sigma, 0.05);  // and the backend's figure
+  // The fit's drift between its rounds is part of its own error, here and carried.
+  c.transfer_error.reset();
+  c.fit_error.round_log_sd = 0.04;
+  c.fit_error.round_configs = 20;
+  EXPECT_DOUBLE_EQ(basis_of(c, Basis::calibrated).sigma, std::hypot(0.025, 0.04));
+  EXPECT_DOUBLE_EQ(basis_of(c, Basis::transferred, carried).sigma, std::hypot(std::hypot(0.025, 0.04), 0.34));
 }
 
 }  // namespace
