@@ -87,7 +87,10 @@ BasisError basis_of(const Calibration& c, Basis applied, const std::optional<Bas
   const double own = c.fit_error.sigma();
   if (applied == Basis::calibrated) {
     b.sigma = own;
-    b.source = fmt::format("the calibration's own error ({})", c.fit_error.how);
+    b.source = c.fit_error.round_log_sd > 0
+                   ? fmt::format("the calibration's own error ({}) and the machine's drift between its fit's rounds",
+                                 c.fit_error.how)
+                   : fmt::format("the calibration's own error ({})", c.fit_error.how);
     return b;
   }
   if (c.transfer_error) {

@@ -341,6 +341,7 @@ TEST(Uncertainty, ACarriedCalibrationAddsTheTransferError) {
   c.fit_error.round_log_sd = 0.04;
   c.fit_error.round_configs = 20;
   EXPECT_DOUBLE_EQ(basis_of(c, Basis::calibrated).sigma, std::hypot(0.025, 0.04));
+  EXPECT_NE(basis_of(c, Basis::calibrated).source.find("drift"), std::string::npos);
   EXPECT_DOUBLE_EQ(basis_of(c, Basis::transferred, carried).sigma, std::hypot(std::hypot(0.025, 0.04), 0.34));
 }
 
