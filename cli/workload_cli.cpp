@@ -243,10 +243,13 @@ std::string judged_text(const Predicted& p, const Judged& j, std::optional<doubl
         break;
       case Verdict::uncertain:
         out += fmt::format("Deadline dt_p = {}: UNCERTAIN (dt = {}, but the {:.0f}% interval straddles the deadline: "
-                           "met with probability {:.2f}); calibrate this backend on a machine of this class "
-                           "(docs/portability.md) to narrow it\n",
+                           "met with probability {:.2f}); {}\n",
                            format_duration(*deadline), format_duration(t), 100 * j.interval.level,
-                           j.deadline->probability_met);
+                           j.deadline->probability_met,
+                           j.basis.basis == Basis::calibrated
+                               ? "calibrated on this machine already, the interval is its own scatter between runs: "
+                                 "measure the configuration (`run --deadline`) or leave that much margin"
+                               : "calibrate this backend on a machine of this class (docs/portability.md) to narrow it");
         break;
     }
   }

@@ -92,6 +92,25 @@ TEST_F(PredictCli, DeadlineIsPrintedAndMissedDeadlineExitsThree) {
   r = test::run_dtflop(args + " --deadline 2ms");
   EXPECT_EQ(r.status, 4) << r.err;  // documented: uncertain
   EXPECT_NE(r.out.find("UNCERTAIN"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("calibrate this backend on a machine of this class"), std::string::npos) << r.out;
+}
+
+TEST_F(PredictCli, AnUncertainVerdictOfACalibratedPredictionDoesNotAskForACalibration) {
+  auto m = profile_;
+  Parameter fitted = m.get(Param::B_CG_pageable);
+  fitted.provenance = Provenance::fitted;
+  m.set(Param::B_CG_pageable, fitted);
+  m.metadata["fit_cv_rms_log"] = "0.1";
+  save_profile(m, dir_ / "fitted.json");
+  const std::string args = "predict --machine " + path("fitted.json") + " rbe -b cuda-seed --grid 1000x1000 --kernel 33x33";
+  auto r = test::run_dtflop(args + " --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const double t = nlohmann::json::parse(r.out).at("prediction").at("total").get<double>();
+  r = test::run_dtflop(args + " --deadline " + std::to_string(std::llround(1.05e6 * t)) + "us");  // within 0.1 of log time
+  EXPECT_EQ(r.status, 4) << r.out << r.err;
+  EXPECT_NE(r.out.find("calibrated on this machine"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("UNCERTAIN"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("calibrate this backend"), std::string::npos) << r.out;
 }
 
 TEST_F(PredictCli, ChosenVariantOfAFittedProfileIsUsed) {
