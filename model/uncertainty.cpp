@@ -64,11 +64,13 @@ BasisError basis_of(const MachineProfile& profile, const CostCounts& counts, Var
   }
   b.basis = Basis::calibrated;
   if (const double cv = metadata_number(profile, "fit_cv_rms_log"); cv >= 0) {
-    const double drift = std::max(0.0, metadata_number(profile, "fit_round_log_sd"));
-    b.sigma = std::hypot(cv, drift);
-    b.source = drift > 0 ? "the calibration's cross-validated error on this machine and its drift between the fit's "
-                           "rounds"
-                         : "the calibration's cross-validated error on this machine";
+    ErrorFigure own;  // as a calibration of this fit would carry it (to_calibration)
+    own.rms_log = cv;
+    own.round_log_sd = std::max(0.0, metadata_number(profile, "fit_round_log_sd"));
+    b.sigma = own.sigma();
+    b.source = own.round_log_sd > 0 ? "the calibration's cross-validated error on this machine and its drift between "
+                                      "the fit's rounds"
+                                    : "the calibration's cross-validated error on this machine";
   } else if (const double rms = metadata_number(profile, "fit_rms_relative"); rms >= 0) {
     b.sigma = std::log1p(rms);
     b.source = "the fit's rms residual (the profile records no cross-validated error: refit it with `dtflop "
