@@ -44,7 +44,7 @@ const StereoScene& scene() {
   const int gw = static_cast<int>(600 / dmin) + 2, gh = static_cast<int>(400 / dmin) + 2;
   std::vector<std::vector<int>> grid(static_cast<std::size_t>(gw * gh));
   for (int tries = 0; s->centres.size() < 1600 && tries < 400000; ++tries) {
-    const cv::Point2d p(ux(rng), uy(rng));
+    const cv::Point2d p{ux(rng), uy(rng)};  // braces: x drawn before y on every compiler
     const int cx = static_cast<int>((p.x + 300) / dmin), cy = static_cast<int>((p.y + 200) / dmin);
     bool ok = true;
     for (int j = std::max(0, cy - 1); j <= std::min(gh - 1, cy + 1) && ok; ++j)

@@ -24,11 +24,15 @@ std::vector<Pose> poses(int n) {
   std::vector<Pose> out;
   for (int i = 0; i < n; ++i) {
     Pose p;
-    p.rvec = cv::Vec3d(rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5), rng.uniform(-0.2, 0.2));
+    // One draw per statement: the order a function's arguments are evaluated in is the compiler's
+    // (gcc and clang differ), and the views must not.
+    const double rx = rng.uniform(-0.5, 0.5), ry = rng.uniform(-0.5, 0.5), rz = rng.uniform(-0.2, 0.2);
+    p.rvec = cv::Vec3d(rx, ry, rz);
     // The board's centre (4 x 2.5 squares from its origin) at the aim point.
     cv::Matx33d R;
     cv::Rodrigues(p.rvec, R);
-    const cv::Vec3d centre(100 + rng.uniform(-60.0, 60.0), rng.uniform(-50.0, 50.0), rng.uniform(850.0, 1150.0));
+    const double cx = 100 + rng.uniform(-60.0, 60.0), cy = rng.uniform(-50.0, 50.0), cz = rng.uniform(850.0, 1150.0);
+    const cv::Vec3d centre(cx, cy, cz);
     p.tvec = centre - R * cv::Vec3d(4 * kBoard.square, 2.5 * kBoard.square, 0);
     out.push_back(p);
   }
@@ -117,6 +121,30 @@ TEST(Stereo, CircleGridCalibrationRecoversFocalLengthAndBaseline) {
     EXPECT_NEAR(cam->K(1, 1), 1600, 1.6) << "fy";
   }
   EXPECT_NEAR(c.rig.baseline(), 200, 0.2);
+}
+
+// A view whose board is found but wrongly (here the left image mirrored: every corner found, in
+// an order no pose of the board gives) is left out with a note, and the rest calibrate as well
+// as without it.
+TEST(Stereo, AViewWithAMisdetectedTargetIsLeftOut) {
+  const Rig rig = truth();
+  std::vector<cv::Mat> L, R;
+  for (const Pose& p : poses(12)) {
+    L.push_back(render_board(rig.left, kBoard, p));
+    R.push_back(render_board(rig.right, kBoard, in_right(rig, p)));
+  }
+  cv::flip(L[3].clone(), L[3], 1);
+  const Calibration c = calibrate(L, R, kBoard);
+  for (const auto& n : c.notes) std::printf("%s\n", n.c_str());
+  EXPECT_EQ(c.views_used, 11);
+  bool said = false;
+  for (const auto& n : c.notes) said = said || (n.rfind("view 4: ", 0) == 0 && n.find("misdetected") != std::string::npos);
+  EXPECT_TRUE(said);
+  for (const Camera* cam : {&c.rig.left, &c.rig.right}) {
+    EXPECT_NEAR(cam->K(0, 0), 1600, 1.6) << "fx";
+    EXPECT_NEAR(cam->K(1, 1), 1600, 1.6) << "fy";
+  }
+  EXPECT_LT(c.rms_stereo, 0.1);
 }
 
 TEST(Stereo, TooFewViewsAreRefused) {

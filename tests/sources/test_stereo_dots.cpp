@@ -43,7 +43,7 @@ std::vector<cv::Point2d> random_dots(int count, double r, double gap, std::uint6
   std::uniform_real_distribution<double> ux(-150, 150), uy(-110, 110);
   std::vector<cv::Point2d> c;
   for (int tries = 0; static_cast<int>(c.size()) < count && tries < 200000; ++tries) {
-    const cv::Point2d p(ux(rng), uy(rng));
+    const cv::Point2d p{ux(rng), uy(rng)};  // braces: x drawn before y on every compiler
     bool ok = true;
     for (const auto& q : c)
       if (cv::norm(p - q) < 2 * r + gap) {
@@ -215,10 +215,13 @@ TEST(StereoDots, UzOfRenderedMotionsThroughARenderedCalibrationMatchesTheTruth) 
   std::vector<cv::Mat> Lc, Rc;
   for (int i = 0; i < 20; ++i) {
     PlatePose p;
-    p.rvec = cv::Vec3d(rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5), rng.uniform(-0.2, 0.2));
+    // One draw per declarator: the order of a call's arguments is the compiler's, and the views must not be.
+    const double rx = rng.uniform(-0.5, 0.5), ry = rng.uniform(-0.5, 0.5), rz = rng.uniform(-0.2, 0.2);
+    p.rvec = cv::Vec3d(rx, ry, rz);
     cv::Matx33d Rm;
     cv::Rodrigues(p.rvec, Rm);
-    const cv::Vec3d centre(100 + rng.uniform(-60.0, 60.0), rng.uniform(-50.0, 50.0), rng.uniform(850.0, 1150.0));
+    const double cx = 100 + rng.uniform(-60.0, 60.0), cy = rng.uniform(-50.0, 50.0), cz = rng.uniform(850.0, 1150.0);
+    const cv::Vec3d centre(cx, cy, cz);
     p.tvec = centre - Rm * cv::Vec3d(4 * board.square, 2.5 * board.square, 0);
     Lc.push_back(dct_indep::render_view(pair.left, p, cb, 110));
     Rc.push_back(dct_indep::render_view(pair.right, dct_indep::right_pose(pair, p), cb, 110));

@@ -372,10 +372,14 @@ cv::Rect deformed_box(const Deformation& def, Vec2 Xc, double r, cv::Size size) 
   const Gradient g = def.gradient(Xc);
   const double s = 1 + std::abs(g.ux_x) + std::abs(g.ux_y) + std::abs(g.uy_x) + std::abs(g.uy_y);
   const double R = r * s + 3;
-  const int x0 = std::max(0, static_cast<int>(std::floor(xc.x - R)));
-  const int y0 = std::max(0, static_cast<int>(std::floor(xc.y - R)));
-  const int x1 = std::min(size.width - 1, static_cast<int>(std::ceil(xc.x + R)));
-  const int y1 = std::min(size.height - 1, static_cast<int>(std::ceil(xc.y + R)));
+  // Clamped as doubles: near a singular field (a hole's centre under Kirsch's solution) the
+  // mapped centre can be far outside any int, and converting such a double to int is undefined.
+  if (!std::isfinite(xc.x) || !std::isfinite(xc.y) || !std::isfinite(R)) return {};
+  const double w = size.width, h = size.height;
+  const int x0 = static_cast<int>(std::clamp(std::floor(xc.x - R), 0.0, w));
+  const int y0 = static_cast<int>(std::clamp(std::floor(xc.y - R), 0.0, h));
+  const int x1 = static_cast<int>(std::clamp(std::ceil(xc.x + R), -1.0, w - 1));
+  const int y1 = static_cast<int>(std::clamp(std::ceil(xc.y + R), -1.0, h - 1));
   if (x1 < x0 || y1 < y0) return {};
   return {x0, y0, x1 - x0 + 1, y1 - y0 + 1};
 }

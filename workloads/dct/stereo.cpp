@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string_view>
+#include <type_traits>
 
 #include <fmt/format.h>
 #include <opencv2/calib3d.hpp>
@@ -178,6 +180,7 @@ Calibration calibrate(const std::vector<cv::Mat>& left, const std::vector<cv::Ma
   const cv::Size size = left.front().size();
   std::vector<std::vector<cv::Point3f>> obj;
   std::vector<std::vector<cv::Point2f>> pl, pr;
+  std::vector<std::size_t> used;  // the view each entry of obj, pl and pr came from
   Calibration c;
   for (std::size_t i = 0; i < left.size(); ++i) {
     if (left[i].size() != size || right[i].size() != size)
@@ -191,6 +194,7 @@ Calibration calibrate(const std::vector<cv::Mat>& left, const std::vector<cv::Ma
       continue;
     }
     obj.push_back(board_corners(b));
+    used.push_back(i);
     pl.push_back(std::move(a));
     pr.push_back(std::move(bb));
   }
@@ -200,14 +204,70 @@ Calibration calibrate(const std::vector<cv::Mat>& left, const std::vector<cv::Ma
                                  "at varied tilts is good)",
                                  c.views_used, b.inner.width, b.inner.height));
   const int flags = cv::CALIB_FIX_K3 | cv::CALIB_ZERO_TANGENT_DIST;
-  cv::Mat K1, D1, K2, D2, E, F;
-  std::vector<cv::Mat> rv, tv;
-  c.rms_left = cv::calibrateCamera(obj, pl, size, K1, D1, rv, tv, flags);
-  c.rms_right = cv::calibrateCamera(obj, pr, size, K2, D2, rv, tv, flags);
-  cv::Mat R, T;
-  c.rms_stereo = cv::stereoCalibrate(obj, pl, pr, K1, D1, K2, D2, size, R, T, E, F,
-                                     cv::CALIB_USE_INTRINSIC_GUESS | flags,
-                                     cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-10));
+  cv::Mat K1, D1, K2, D2, E, F, R, T;
+  // Each camera alone, then the pair, each with every view's reprojection RMS. A view whose RMS
+  // is kOutlier times the median view's, and over kOutlierFloor px, holds a misdetected target (a
+  // circle grid's blobs taken in the wrong order, a stray blob taken for a circle, a board one
+  // camera saw mirrored): it pulls the whole calibration, so it is left out, said in a note, and
+  // the calibration redone without it.
+  constexpr double kOutlier = 5, kOutlierFloor = 0.25;
+  auto cameras = [&](std::vector<double>* per_view) {
+    std::vector<cv::Mat> rv, tv;
+    cv::Mat sd_in, sd_ex, el, er;
+    c.rms_left = cv::calibrateCamera(obj, pl, size, K1, D1, rv, tv, sd_in, sd_ex, el, flags);
+    c.rms_right = cv::calibrateCamera(obj, pr, size, K2, D2, rv, tv, sd_in, sd_ex, er, flags);
+    per_view->clear();
+    for (std::size_t i = 0; i < obj.size(); ++i)
+      per_view->push_back(std::max(el.at<double>(static_cast<int>(i)), er.at<double>(static_cast<int>(i))));
+  };
+  auto pair = [&](std::vector<double>* per_view) {
+    cv::Mat errors;  // a row per view: its RMS in the left and in the right image
+    c.rms_stereo = cv::stereoCalibrate(obj, pl, pr, K1, D1, K2, D2, size, R, T, E, F, errors,
+                                       cv::CALIB_USE_INTRINSIC_GUESS | flags,
+                                       cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-10));
+    per_view->clear();
+    for (int i = 0; i < errors.rows; ++i) per_view->push_back(std::max(errors.at<double>(i, 0), errors.at<double>(i, 1)));
+  };
+  // Leaves out the views whose error is an outlier; true if there were any.
+  auto leave_out = [&](const std::vector<double>& err, std::string_view fit) {
+    std::vector<double> sorted = err;
+    std::sort(sorted.begin(), sorted.end());
+    const double median = sorted[sorted.size() / 2], limit = std::max(kOutlier * median, kOutlierFloor);
+    std::vector<std::size_t> keep;
+    for (std::size_t i = 0; i < err.size(); ++i) {
+      if (err[i] <= limit) {
+        keep.push_back(i);
+        continue;
+      }
+      c.notes.push_back(fmt::format("view {}: its target reprojects {:.2f} px off in the {} calibration (the median view "
+                                    "{:.3f} px): misdetected, left out",
+                                    used[i] + 1, err[i], fit, median));
+    }
+    if (keep.size() == err.size()) return false;
+    if (keep.size() < 3)
+      throw InputError(fmt::format("only {} view pair(s) hold a well-detected {}x{} board in both cameras; take at "
+                                   "least 3 (10-20 at varied tilts is good)",
+                                   keep.size(), b.inner.width, b.inner.height));
+    auto pick = [&keep](auto& v) {
+      std::remove_reference_t<decltype(v)> kept;
+      for (std::size_t i : keep) kept.push_back(std::move(v[i]));
+      v = std::move(kept);
+    };
+    pick(obj);
+    pick(pl);
+    pick(pr);
+    pick(used);
+    c.views_used = static_cast<int>(obj.size());
+    return true;
+  };
+  std::vector<double> err;
+  cameras(&err);
+  if (leave_out(err, "one-camera")) cameras(&err);
+  pair(&err);
+  if (leave_out(err, "stereo")) {
+    cameras(&err);
+    pair(&err);
+  }
   c.rig.left = {cv::Matx33d(K1), D1.clone(), size};
   c.rig.right = {cv::Matx33d(K2), D2.clone(), size};
   c.rig.R = cv::Matx33d(R);

@@ -70,8 +70,11 @@ struct Calibration {
   std::vector<std::string> notes;      // views where the board was not found, and verdicts
 };
 
-// Calibrates both cameras and the pair from image pairs of `b`. Throws InputError when fewer
-// than 3 pairs show the whole board in both images, or the images differ in size.
+// Calibrates both cameras and the pair from image pairs of `b`. A pair is left out, with a note,
+// where either image does not show the whole board, or where its board reprojects an outlier
+// (5x the median view and over 0.25 px) in either camera's calibration or the pair's: a
+// misdetected target. Throws InputError when fewer than 3 pairs are left, or the images differ
+// in size.
 Calibration calibrate(const std::vector<cv::Mat>& left, const std::vector<cv::Mat>& right, const Board& b);
 
 // What the errors mean, one line each: a reprojection RMS under 0.1 px is good, up to 0.5 px
