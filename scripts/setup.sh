@@ -62,7 +62,7 @@ done
 # Host code only in these: the CUDA backends are left out of the sanitized builds.
 if [ "$sanitize" = 1 ] && [ "$fuzz" = 1 ]; then
   # One clang build for the unit tests and the fuzz targets, at -O2 with debug information: on the
-  # 2-core CI machine it builds in 9 minutes and runs the unit tests in 7.5 where gcc's Debug build
+  # 2-core CI machine it builds in 9 to 11 minutes and runs the unit tests in 7.5 where gcc's Debug build
   # (12 + 8) and a second, clang build of the fuzz targets (3) took 23 (docs/design.md, "The test
   # suite and CI").
   # A build-asan/ configured with another compiler is started afresh (CMake cannot switch).
