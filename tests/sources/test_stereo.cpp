@@ -39,6 +39,19 @@ std::vector<Pose> poses(int n) {
   return out;
 }
 
+// The board `b` seen by both cameras of `rig` at the first `n` of poses(): left and right images.
+struct Views {
+  std::vector<cv::Mat> left, right;
+};
+Views views(const Rig& rig, const Board& b, int n) {
+  Views v;
+  for (const Pose& p : poses(n)) {
+    v.left.push_back(render_board(rig.left, b, p));
+    v.right.push_back(render_board(rig.right, b, in_right(rig, p)));
+  }
+  return v;
+}
+
 // A plate of dots facing the pair at ~1 m; its points in the left frame.
 std::vector<cv::Point3d> plate() {
   std::vector<cv::Point3d> p;
@@ -58,11 +71,7 @@ std::vector<cv::Point2d> project(const Camera& c, const std::vector<cv::Point3d>
 
 TEST(Stereo, CalibrationRecoversFocalLengthAndBaselineWithinATenthOfAPercent) {
   const Rig rig = truth();
-  std::vector<cv::Mat> L, R;
-  for (const Pose& p : poses(20)) {
-    L.push_back(render_board(rig.left, kBoard, p));
-    R.push_back(render_board(rig.right, kBoard, in_right(rig, p)));
-  }
+  auto [L, R] = views(rig, kBoard, 20);
   const Calibration c = calibrate(L, R, kBoard);
   EXPECT_GE(c.views_used, 12);
   for (const auto& n : c.notes) std::printf("%s\n", n.c_str());
@@ -108,11 +117,7 @@ TEST(Stereo, CalibrationRecoversFocalLengthAndBaselineWithinATenthOfAPercent) {
 TEST(Stereo, CircleGridCalibrationRecoversFocalLengthAndBaseline) {
   const Rig rig = truth();
   const Board circles{{4, 11}, 30.0, Board::Target::circles};  // 4 x 11 asymmetric: 105 x 150 mm
-  std::vector<cv::Mat> L, R;
-  for (const Pose& p : poses(20)) {
-    L.push_back(render_board(rig.left, circles, p));
-    R.push_back(render_board(rig.right, circles, in_right(rig, p)));
-  }
+  auto [L, R] = views(rig, circles, 20);
   const Calibration c = calibrate(L, R, circles);
   for (const auto& n : c.notes) std::printf("%s\n", n.c_str());
   EXPECT_GE(c.views_used, 12);
@@ -128,11 +133,7 @@ TEST(Stereo, CircleGridCalibrationRecoversFocalLengthAndBaseline) {
 // as without it.
 TEST(Stereo, AViewWithAMisdetectedTargetIsLeftOut) {
   const Rig rig = truth();
-  std::vector<cv::Mat> L, R;
-  for (const Pose& p : poses(12)) {
-    L.push_back(render_board(rig.left, kBoard, p));
-    R.push_back(render_board(rig.right, kBoard, in_right(rig, p)));
-  }
+  auto [L, R] = views(rig, kBoard, 12);
   cv::flip(L[3].clone(), L[3], 1);
   const Calibration c = calibrate(L, R, kBoard);
   for (const auto& n : c.notes) std::printf("%s\n", n.c_str());
@@ -149,11 +150,7 @@ TEST(Stereo, AViewWithAMisdetectedTargetIsLeftOut) {
 
 TEST(Stereo, TooFewViewsAreRefused) {
   const Rig rig = truth();
-  std::vector<cv::Mat> L, R;
-  for (const Pose& p : poses(2)) {
-    L.push_back(render_board(rig.left, kBoard, p));
-    R.push_back(render_board(rig.right, kBoard, in_right(rig, p)));
-  }
+  auto [L, R] = views(rig, kBoard, 2);
   EXPECT_THROW(calibrate(L, R, kBoard), InputError);
 }
 
