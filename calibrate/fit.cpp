@@ -36,6 +36,7 @@ const double kLogBound = std::log(1e6);      // how far from its start a fitted 
 double default_start(Param p) {
   const auto unit = info(p).unit;
   if (p == Param::L_tree) return 30e-9;  // a step of a k-d tree: a few dependent loads
+  if (p == Param::L_match) return 10e-9;  // a point binned or a query answered: a few loads
   if (p == Param::L_pixel || p == Param::L_pixel_all || p == Param::L_scan || p == Param::L_scan_all)
     return 1e-9;  // a step of a scalar pixel loop: a few cycles
   if (p == Param::L_hist || p == Param::L_hist_all) return 0.5e-9;  // a histogram's count: a load and an increment
@@ -155,7 +156,8 @@ std::vector<Param> exercised_params(const CostCounts& c, Variant v, const Machin
                                  .serial = true, .gpu_l2_bytes = start.identity.gpu_l2_bytes, .graph = true,
                                  .pixel_all = true, .mls = true, .mls_all = true, .gpu_mls = true,
                                  .gpu_pixel = true, .pixel_kinds = true, .pixel_kinds_all = true,
-                                 .pixel_pass_all = start.has(Param::L_pass_all), .along_row = start.has(Param::K_GW)});
+                                 .pixel_pass_all = start.has(Param::L_pass_all), .along_row = start.has(Param::K_GW),
+                                 .grid_match = true});
 }
 
 // Parameters the samples exercise that the fit keeps at their probed values, because the samples

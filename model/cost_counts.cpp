@@ -66,6 +66,7 @@ const std::vector<CountField>& count_fields() {
       {"N_CC_pixel", &C::N_CC_pixel, "values", "of N_CC, of the passes priced as pixel steps (histogram, threshold, labelling, windows)",
        A::sum, &C::N_CC},
       {"tree_steps", &C::tree_steps, "steps", "of host k-d tree builds and searches"},
+      {"match_steps", &C::match_steps, "steps", "of the host's grid matching: points binned, queries answered"},
       {"pixel_steps", &C::pixel_steps, "steps", "of host scalar pixel loops: pixels visited, neighbourhood labels read"},
       {"label_steps", &C::label_steps, "steps", "of pixel_steps, pixels labelled (threshold and connected components)",
        A::sum, &C::pixel_steps},

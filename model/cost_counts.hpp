@@ -112,6 +112,9 @@ struct CostCounts {
   std::int64_t tree_steps = 0;    // steps of the CPU's k-d tree work (a point placed at one level of a build,
                                   // a level descended or a leaf point examined by a search): irregular
                                   // host work that no FLOP rate prices (latency+, L_tree each)
+  std::int64_t match_steps = 0;   // steps of the CPU's grid matching (kernels/point_grid.hpp): one per point
+                                  // binned into the grid and one per query answered from it (latency+,
+                                  // L_match each)
   std::int64_t pixel_steps = 0;   // steps of the CPU's scalar pixel work, one per pixel a scalar loop
                                   // visits (a histogram's count, a label decided, a window pixel
                                   // classified) and per label a neighbourhood scan reads: branchy

@@ -79,6 +79,7 @@ enum class Param {
   L_scan_all,      // L_scan with every hardware thread at work (cpu_threads > 1)           [s]
   L_pass_all,      // a frame's pixel passes' fixed cost on every hardware thread (pixel_passes) [s]
   K_GW,            // cost of an along-row GPU window FLOP (N_GW) relative to one at V_G     [x]
+  L_match,         // one step of the host's grid matching (match_steps)                    [s]
 };
 
 struct ParamInfo {

@@ -55,7 +55,7 @@ Pricing Pricing::of(const MachineProfile& m) {
           m.has(Param::V_GM), m.has(Param::L_GP), 
           m.has(Param::L_label) && m.has(Param::L_hist) && m.has(Param::L_scan),
           m.has(Param::L_label_all) && m.has(Param::L_hist_all) && m.has(Param::L_scan_all),
-          m.has(Param::L_pass_all), m.has(Param::K_GW)};
+          m.has(Param::L_pass_all), m.has(Param::K_GW), m.has(Param::L_match)};
 }
 
 namespace {
@@ -378,6 +378,14 @@ std::vector<Param> gpu_pixel_needs(const CostCounts&, Variant v, const Pricing& 
   if (x.gpu_pixel && kLatencyVariants.contains(v)) return {Param::L_GP};
   return {};
 }
+// lat_match: the grid matching's steps at L_match; on a profile made before the cpu-match probe, at
+// L_tree (the matching was a k-d tree's then, and a step of either is a few loads: 8.8 and 10.2 ns
+// on the 2-vCPU VM, docs/model.md 2.6).
+Param match_price(const CostCounts&, const Pricing& x) { return x.grid_match ? Param::L_match : Param::L_tree; }
+std::vector<Param> match_needs(const CostCounts& c, Variant, const Pricing& x) { return {match_price(c, x)}; }
+double match_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing& x) {
+  return static_cast<double>(c.match_steps) * m.get(match_price(c, x)).value;
+}
 double gpu_pixel_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing& x) {
   if (!x.gpu_pixel || !kLatencyVariants.contains(v)) return 0;
   return static_cast<double>(c.gpu_pixel_steps) * m.get(Param::L_GP).value;
@@ -451,6 +459,9 @@ const std::vector<Term>& terms() {
        per_event<&C::cpu_syncs, only<Param::L_sync>>()},
       {"lat_tree", &P::lat_tree, Phase::C, kLatencyVariants, sum, "tree_steps", "L_tree", "host k-d tree steps",
        per_event<&C::tree_steps, only<Param::L_tree>>()},
+      {"lat_match", &P::lat_match, Phase::C, kLatencyVariants, sum, "match_steps",
+       "L_match; L_tree where the profile lacks it (made before the cpu-match probe)", "host grid matching steps",
+       {positive<&C::match_steps>, match_needs, match_seconds}},
       {"lat_pixel", &P::lat_pixel, Phase::C, kLatencyVariants, sum,
        "pixel_steps; where the profile has L_label, L_hist and L_scan: label_steps, hist_steps and the rest apart, "
        "and for cpu_threads > 1 pixel_passes",

@@ -98,6 +98,9 @@ struct Pricing {
   bool along_row = false;        // price the GPU's along-row window FLOPs (N_GW) at K_GW times the others (the
                                  // profile has K_GW, or a fit is to find it); else at the GPU's rate, as
                                  // profiles made before the probe measured it were fitted
+  bool grid_match = false;       // price the grid matching's steps (match_steps) at L_match (the profile has
+                                 // it, or a fit is to find it); else at L_tree, as profiles made before the
+                                 // cpu-match probe priced the matching (then a k-d tree's)
   static Pricing of(const MachineProfile& profile);
 };
 

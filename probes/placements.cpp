@@ -1,5 +1,6 @@
 #include "probes/placements.hpp"
 
+#include <chrono>
 #include <exception>
 #include <stdexcept>
 #include <thread>
@@ -10,6 +11,8 @@
 #if defined(__linux__)
 #include <pthread.h>
 #include <sched.h>
+
+#include "model/stats.hpp"
 #endif
 
 namespace dtflop::probes {
@@ -67,6 +70,18 @@ bool run_on_cpu(int cpu, const std::function<void()>& fn) {
   t.join();
   if (error) std::rethrow_exception(error);
   return bound;
+}
+
+double median_seconds_per_step(int reps, std::int64_t steps, const std::function<void(bool warm_up)>& pass) {
+  pass(true);
+  std::vector<double> per_step;
+  for (int k = 0; k < reps; ++k) {
+    const auto t0 = std::chrono::steady_clock::now();
+    pass(false);
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    per_step.push_back(s / static_cast<double>(steps));
+  }
+  return summarize(per_step).median;
 }
 
 Placed on_placements(int count, const std::function<double()>& fn) {

@@ -46,6 +46,10 @@ struct Placed {
 // fn() once on each of `count` placements (placement_cpus(count)), one after another.
 Placed on_placements(int count, const std::function<double()>& fn);
 
+// One placement of a one-thread step probe: pass(true) once untimed (a warm-up, where the probe
+// checks its result), then pass(false) `reps` times, each timed; the median time over `steps`.
+double median_seconds_per_step(int reps, std::int64_t steps, const std::function<void(bool warm_up)>& pass);
+
 // "8 placements (one thread bound to CPUs 0, 2, 4, 6, 8, 10, 12, 14 in turn)", for notes.
 std::string describe_placements(const std::vector<int>& cpus);
 

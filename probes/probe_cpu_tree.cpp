@@ -6,7 +6,6 @@
 // convention the workloads count them with (tree_build_steps, tree_search_steps in
 // model/cost_counts.hpp), gives L_tree: the median over several placements of the thread
 // (probes/placements.hpp), whose spread is the parameter's.
-#include <chrono>
 #include <cstdint>
 #include <random>
 #include <vector>
@@ -49,11 +48,9 @@ ProbeReport run(const ProbeOptions& o) {
 
   // One placement: a warm-up pass, then the median of `reps` timed passes, a step each.
   auto one_placement = [&] {
-    std::vector<double> per_step;
-    std::uint32_t idx[2];
-    double d2[2];
-    for (int k = -1; k < reps; ++k) {  // k = -1: warm-up, untimed
-      const auto t0 = std::chrono::steady_clock::now();
+    return median_seconds_per_step(reps, steps, [&](bool warm_up) {
+      std::uint32_t idx[2];
+      double d2[2];
       Cloud cloud{&pts};
       Tree tree(2, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(kKdTreeLeaf));
       std::int64_t own = 0;
@@ -61,13 +58,10 @@ ProbeReport run(const ProbeOptions& o) {
         const double q[2] = {queries[2 * i], queries[2 * i + 1]};
         if (tree.knnSearch(q, 2, idx, d2) == 2 && idx[0] == static_cast<std::uint32_t>(i)) ++own;
       }
-      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       // Every search must find the point it was moved from: the tree was built and searched.
-      if (own != n && k < 0)
+      if (own != n && warm_up)
         throw ValidationError(fmt::format("{} of {} k-d tree searches found the point they started from", own, n));
-      if (k >= 0) per_step.push_back(s / static_cast<double>(steps));
-    }
-    return summarize(per_step).median;
+    });
   };
   const Placed placed = on_placements(latency_placements(o.effort), one_placement);
   r.measurements.push_back(time_measurement(

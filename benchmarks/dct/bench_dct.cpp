@@ -9,19 +9,23 @@
 // After the runs a summary prints medians, the 5 ms target, the ratio to OpenCV, and the
 // floors from the declared counts at the H200 reference ceilings of docs/design.md.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <random>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <benchmark/benchmark.h>
+#include <nanoflann.hpp>
 #include <fmt/format.h>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "workloads/dct/backend.hpp"
+#include "workloads/dct/tracking.hpp"
 #include "workloads/dct/specimen.hpp"
 
 namespace dtflop::dct {
@@ -119,6 +123,84 @@ void BM_OpenCvThresholdCC24MP(benchmark::State& state) {
   state.counters["components"] = n - 1;
   state.counters["threads"] = cv::getNumThreads();
 }
+
+// The matching of a frame's dots to the reference (workloads/dct/tracking.hpp), as a frame does it:
+// a side x side pattern (20 px pitch, jittered by 1.5 px rms, in raster order) against the same
+// dots moved by 0.3 px and jittered by 0.1 px, the search radius given. Grid: the workload's
+// Matcher (kernels/point_grid.hpp), kept from frame to frame as a pipeline keeps it. Tree: its peer and predecessor, the same first pass through
+// a nanoflann k-d tree over the frame's dots (each reference dot's 2 nearest), which the workload
+// ran until 2026-11-29. docs/PERFORMANCE.md ("The matching on a grid"):
+//   bench_dct --benchmark_filter=Matching
+struct MatchingSpecimen {
+  std::vector<dtflop::dct::Vec2> ref, def;
+  double radius = 0;
+  explicit MatchingSpecimen(int side) {
+    std::mt19937_64 rng(20261129);
+    std::normal_distribution<double> jitter(0, 1.5), small(0, 0.1);
+    for (int y = 0; y < side; ++y)
+      for (int x = 0; x < side; ++x) ref.push_back({20.0 * x + 10 + jitter(rng), 20.0 * y + 10 + jitter(rng)});
+    for (const auto& p : ref) def.push_back({p.x + 0.3 + small(rng), p.y - 0.2 + small(rng)});
+    radius = 0.4 * dtflop::dct::median_spacing(ref);
+  }
+};
+void BM_MatchingGrid(benchmark::State& state) {
+  const MatchingSpecimen sp(static_cast<int>(state.range(0)));
+  dtflop::dct::MatchOptions o;
+  o.search_radius = sp.radius;
+  dtflop::dct::Matcher matcher;  // as a pipeline keeps one
+  int matched = 0;
+  for (auto _ : state) matched = matcher.match(sp.ref, sp.def, o).matched;
+  if (matched != static_cast<int>(sp.ref.size())) state.SkipWithError("not every dot matched");
+  state.counters["dots"] = static_cast<double>(sp.ref.size());
+  state.counters["per_dot"] = benchmark::Counter(static_cast<double>(sp.ref.size()),
+                                                 benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+struct TreeCloud {
+  const std::vector<dtflop::dct::Vec2>* pts = nullptr;
+  std::size_t kdtree_get_point_count() const { return pts->size(); }
+  double kdtree_get_pt(std::size_t i, std::size_t dim) const { return dim == 0 ? (*pts)[i].x : (*pts)[i].y; }
+  template <class BBox>
+  bool kdtree_get_bbox(BBox&) const { return false; }
+};
+void BM_MatchingTree(benchmark::State& state) {
+  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, TreeCloud>, TreeCloud, 2,
+                                                   std::uint32_t>;
+  const MatchingSpecimen sp(static_cast<int>(state.range(0)));
+  const dtflop::dct::MatchOptions o;
+  int matched = 0;
+  for (auto _ : state) {
+    const TreeCloud cloud{&sp.def};
+    const Tree tree(2, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+    std::vector<int> owner(sp.def.size(), -1);
+    std::vector<double> owner_d(sp.def.size(), 0);
+    std::vector<int> ref_to_def(sp.ref.size(), -1);
+    std::uint32_t idx[2];
+    double d2[2];
+    for (std::size_t j = 0; j < sp.ref.size(); ++j) {
+      const double q[2] = {sp.ref[j].x, sp.ref[j].y};
+      const std::size_t got = tree.knnSearch(q, 2, idx, d2);
+      const double d1 = std::sqrt(d2[0]);
+      if (d1 > sp.radius) continue;
+      if (got > 1 && std::sqrt(d2[1]) < o.ambiguity * d1 && std::sqrt(d2[1]) <= sp.radius) continue;
+      const auto k = idx[0];
+      if (owner[k] >= 0) {
+        if (owner_d[k] <= d1) continue;
+        ref_to_def[static_cast<std::size_t>(owner[k])] = -1;
+      }
+      owner[k] = static_cast<int>(j);
+      owner_d[k] = d1;
+      ref_to_def[j] = static_cast<int>(k);
+    }
+    matched = static_cast<int>(std::count_if(ref_to_def.begin(), ref_to_def.end(), [](int t) { return t >= 0; }));
+    benchmark::DoNotOptimize(ref_to_def.data());
+  }
+  if (matched != static_cast<int>(sp.ref.size())) state.SkipWithError("not every dot matched");
+  state.counters["dots"] = static_cast<double>(sp.ref.size());
+  state.counters["per_dot"] = benchmark::Counter(static_cast<double>(sp.ref.size()),
+                                                 benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_MatchingGrid)->Arg(10)->Arg(20)->Arg(35)->Arg(45)->Arg(64)->Unit(benchmark::kMicrosecond)->MinTime(0.3);
+BENCHMARK(BM_MatchingTree)->Arg(10)->Arg(20)->Arg(35)->Arg(45)->Arg(64)->Unit(benchmark::kMicrosecond)->MinTime(0.3);
 
 BENCHMARK_CAPTURE(BM_Frame24MP, cuda, std::string("cuda"), true)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
 BENCHMARK_CAPTURE(BM_Frame24MP, cuda_pageable, std::string("cuda"), false)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);

@@ -699,6 +699,31 @@ TEST(Predict, ThreadSyncsWavesAndHostWaitsAreFixedCostsOfTheLatencyVariants) {
   }
 }
 
+// The grid matching's steps: at L_match, or at L_tree on a profile made before the cpu-match probe
+// (which then names L_tree as what it needs, and says nothing of L_match).
+TEST(Predict, MatchStepsAreAtLMatchOrOnAnOlderProfileAtLTree) {
+  auto m = test::round_profile();
+  m.set(Param::L_tree, {40e-9, Provenance::probed, {}, {}, ""});
+  CostCounts c;
+  c.P = 8;
+  c.precision = Precision::fp64;
+  c.N_C = 1'000'000;
+  c.match_steps = 10'000;
+  const double arith = 1e6 / m.get(Param::V_C1_fp64).value;
+  EXPECT_EQ(predict(m, c, Variant::seed).lat_match, 0);
+  const auto older = predict(m, c, Variant::latency);
+  EXPECT_NEAR(older.lat_match, 10'000 * 40e-9, 1e-15);
+  EXPECT_NEAR(older.dt_C, arith + 4e-4, 1e-15);
+  auto needs = required_params(c, Variant::latency, Pricing::of(m));
+  EXPECT_EQ(std::count(needs.begin(), needs.end(), Param::L_tree), 1);
+  EXPECT_EQ(std::count(needs.begin(), needs.end(), Param::L_match), 0);
+  m.set(Param::L_match, {12e-9, Provenance::probed, {}, {}, ""});
+  EXPECT_NEAR(predict(m, c, Variant::latency).lat_match, 10'000 * 12e-9, 1e-15);
+  needs = required_params(c, Variant::latency, Pricing::of(m));
+  EXPECT_EQ(std::count(needs.begin(), needs.end(), Param::L_match), 1);
+  EXPECT_EQ(std::count(needs.begin(), needs.end(), Param::L_tree), 0);
+}
+
 TEST(Predict, PixelAndTreeStepsAreFixedCostsOfTheCpuPhaseInTheLatencyVariants) {
   auto m = test::round_profile();
   m.set(Param::L_pixel, {1.5e-9, Provenance::fitted, {}, {}, ""});

@@ -193,19 +193,29 @@ TEST(CpuProbes, PixelGivesOneStepOfScalarPixelWork) {
   }
 }
 
-TEST(CpuProbes, TreeGivesOneStepOfTreeWorkOnEachPlacement) {
+// A one-thread step probe (cpu-tree, cpu-match): one figure, the median of its placements' figures.
+// A step is a few dependent loads and branches: between a tenth of a nanosecond and a microsecond.
+void expect_one_step_on_each_placement(const char* name, Param p) {
   ProbeOptions o;
   o.effort = Effort::smoke;
-  const ProbeReport r = probe("cpu-tree").run(o);
+  const ProbeReport r = probe(name).run(o);
   expect_sane(r);
-  const auto* m = find(r, Param::L_tree);
-  ASSERT_NE(m, nullptr);
-  // A step is a few dependent loads and branches: between a tenth of a nanosecond and a microsecond.
+  const auto* m = find(r, p);
+  ASSERT_NE(m, nullptr) << name;
   EXPECT_GT(m->value, 1e-10);
   EXPECT_LT(m->value, 1e-6);
   EXPECT_EQ(m->stats.n, 2u);  // the smoke plan's placements
   EXPECT_GE(m->value, m->stats.min);
   EXPECT_LE(m->value, m->stats.max);
+}
+
+TEST(CpuProbes, TreeGivesOneStepOfTreeWorkOnEachPlacement) {
+  expect_one_step_on_each_placement("cpu-tree", Param::L_tree);
+}
+
+// cpu-match: a dot binned into the grid or a query answered from it.
+TEST(CpuProbes, MatchGivesOneStepOfGridMatchingOnEachPlacement) {
+  expect_one_step_on_each_placement("cpu-match", Param::L_match);
 }
 
 TEST(Placements, SpreadOverTheAllowedCpusAndCycle) {

@@ -27,7 +27,7 @@ std::string rejection_summary(const AnalysisStats& st) {
 }  // namespace
 
 FrameShape PipelineState::frame_shape(const cv::Mat& frame, const AnalysisStats& stats,
-                                     std::int64_t tree_steps) const {
+                                     const MatchWork& work) const {
   FrameShape s;
   s.image_pixels = static_cast<std::int64_t>(frame.total());
   s.bytes_per_pixel = frame.depth() == CV_16U ? 2 : 1;
@@ -42,7 +42,8 @@ FrameShape PipelineState::frame_shape(const cv::Mat& frame, const AnalysisStats&
   s.margin = opt_.analysis.margin;
   s.points = static_cast<std::int64_t>(points_.size());
   s.support_entries = support_entries();
-  s.tree_steps = tree_steps;
+  s.tree_steps = work.tree_steps;
+  s.match_steps = work.match_steps;
   s.interp = opt_.interp;
   s.weight = opt_.mls.weight;
   s.otsu = opt_.analysis.method == ThresholdMethod::otsu;
@@ -93,7 +94,9 @@ void PipelineState::track(const std::vector<Vec2>& found, FrameOutput& out) {
   }
   MatchOptions mo = opt_.match;
   mo.search_radius = match_radius_;
-  out.matches = match_dots(ref_pos_, found, mo, predicted);
+  const auto t0 = std::chrono::steady_clock::now();
+  out.matches = matcher_.match(ref_pos_, found, mo, predicted);
+  out.seconds["matching"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (out.matches.matched < static_cast<int>(std::min<std::size_t>(ref_pos_.size(), 3)))
     throw InputError(fmt::format("the frame's dots cannot be matched to the reference: {}. The motion may exceed "
                                  "the search radius; pass a larger search radius or frames closer in time",
@@ -150,7 +153,7 @@ class CpuBackend final : public Backend {
                      : evaluate_fe(st.fe_table(), out.displacement, out.tracked, threads_);
     out.seconds["fields"] = now() - t2;
     out.seconds["total"] = now() - t0;
-    out.shape = st.frame_shape(frame, r.stats, out.matches.tree_steps);
+    out.shape = st.frame_shape(frame, r.stats, {out.matches.tree_steps, out.matches.match_steps});
     out.counts = cpu_counts(out.shape, threads_);
     return out;
   }

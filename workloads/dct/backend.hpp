@@ -78,9 +78,9 @@ class PipelineState {
   // Support entries of the table (MLS: support dots; FE: recovery triangles), summed over the
   // points: what the field stage reads per frame.
   std::int64_t support_entries() const { return opt_.interp == Interp::mls ? mls_.entries() : fe_.entries(); }
-  // The shape of a frame analysed into `stats` and matched with `tree_steps` of k-d tree work,
-  // against this reference: what the frame's counts are computed from (counts.hpp).
-  FrameShape frame_shape(const cv::Mat& frame, const AnalysisStats& stats, std::int64_t tree_steps) const;
+  // The shape of a frame analysed into `stats` and matched with `work`, against this reference:
+  // what the frame's counts are computed from (counts.hpp).
+  FrameShape frame_shape(const cv::Mat& frame, const AnalysisStats& stats, const MatchWork& work) const;
 
  private:
   PipelineOptions opt_;
@@ -92,6 +92,7 @@ class PipelineState {
   MlsTable mls_;
   FeTable fe_;
   double match_radius_ = 0;
+  Matcher matcher_;  // its buffers kept from frame to frame
   std::vector<Vec2> last_disp_;
   std::vector<std::uint8_t> last_tracked_;
 };
@@ -115,8 +116,8 @@ class Backend {
   const PipelineOptions& options() const { return state_.options(); }
   const MlsTable& mls_table() const { return state_.mls_table(); }
   const FeTable& fe_table() const { return state_.fe_table(); }
-  FrameShape frame_shape(const cv::Mat& frame, const AnalysisStats& stats, std::int64_t tree_steps) const {
-    return state_.frame_shape(frame, stats, tree_steps);
+  FrameShape frame_shape(const cv::Mat& frame, const AnalysisStats& stats, const MatchWork& work) const {
+    return state_.frame_shape(frame, stats, work);
   }
 
  protected:

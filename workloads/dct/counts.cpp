@@ -43,7 +43,9 @@ FrameShape estimate_shape(std::int64_t width, std::int64_t height, int bytes_per
   s.support_entries = interp == Interp::fe ? 2 * fe_inner_points(n_points) * dots_per_support
                                            : n_points * dots_per_support;
   s.interp = interp;
-  s.tree_steps = match_tree_steps(n_dots, n_dots);  // every dot found and matched at once
+  const MatchWork work = match_work(n_dots, n_dots);  // every dot found and matched at once
+  s.tree_steps = work.tree_steps;
+  s.match_steps = work.match_steps;
   return s;
 }
 
@@ -177,6 +179,7 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
   c.cpu_footprint = s.roi_pixels * (b + 1 + 4 + extra) + 8 * cpu_field_values(s);
   c.cpu_threads = threads < 1 ? 1 : threads;
   c.tree_steps = s.tree_steps;  // the matching, on one thread
+  c.match_steps = s.match_steps;
   return c;
 }
 
@@ -244,8 +247,9 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
   // The host waits for the device three times a frame: for the component count, for the
   // component records, and for the fields.
   c.host_waits = nc > 0 ? 3 : 2;
-  // The host matches the frame's dots to the reference (a k-d tree): its only counted CPU work.
+  // The host matches the frame's dots to the reference: its only counted CPU work.
   c.tree_steps = s.tree_steps;
+  c.match_steps = s.match_steps;
   return c;
 }
 

@@ -30,7 +30,8 @@ struct FrameShape {
   int margin = 2;                      // centroid margin: a scan reads (2 margin + 1)^2 labels
   std::int64_t points = 0;             // interpolation points n_m
   std::int64_t support_entries = 0;    // sum over points of their support dots (MLS) or recovery triangles (FE)
-  std::int64_t tree_steps = 0;         // the matching's k-d tree work (tracking.hpp, match_tree_steps)
+  std::int64_t tree_steps = 0;         // the matching's k-d tree work (tracking.hpp, match_work)
+  std::int64_t match_steps = 0;        // the matching's grid work (tracking.hpp, match_work)
   Interp interp = Interp::mls;
   Weight weight = Weight::cubic_spline;  // MLS weight function (its FLOPs per support dot)
   bool otsu = true;                    // the threshold is computed from the frame's histogram

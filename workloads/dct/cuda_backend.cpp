@@ -286,6 +286,9 @@ class CudaBackend final : public Backend {
     // matching, the match table and the fields' conversion. The model counts none of it
     // (N_C = 0: comparisons and copies of records, not FLOPs).
     out.seconds["host"] = f.host_seconds + (t2 - t1) + t_host_match + (t4 - t3);
+    out.seconds["host_records"] = f.host_seconds;
+    out.seconds["host_match_table"] = t_host_match;
+    out.seconds["host_fields"] = t4 - t3;
     // Device-side durations between events (copies and kernels apart).
     out.seconds["device_upload"] = ev_.between(0, 1) + ev_.between(6, 7);
     out.seconds["device_download"] = ev_.between(2, 3) + ev_.between(4, 5) + ev_.between(8, 9);
@@ -297,7 +300,7 @@ class CudaBackend final : public Backend {
     AnalysisStats stats = f.stats;
     stats.foreground_pixels = f.foreground;
     stats.scanned_pixels = 0;
-    out.shape = state().frame_shape(frame, stats, out.matches.tree_steps);
+    out.shape = state().frame_shape(frame, stats, {out.matches.tree_steps, out.matches.match_steps});
     out.counts = cuda_counts(out.shape, f.pinned ? HostMemory::pinned : HostMemory::pageable);
     return out;
   }
@@ -397,7 +400,9 @@ class CudaBackend final : public Backend {
     DTFLOP_CUDA(cudaStreamSynchronize(stream_));
     const double th = host_now();
     const Records hr = Records::over(h_records_.data(), nc);
-    std::vector<int> kept;
+    std::vector<int>& kept = kept_;
+    kept.clear();
+    kept.reserve(nc);
     for (std::size_t k = 0; k < nc; ++k) {
       f.foreground += hr.area[k];
       switch (hr.status[k]) {
@@ -411,7 +416,9 @@ class CudaBackend final : public Backend {
       f.stats.ring_pixels += hr.pixels[3 * k + 1];
       f.stats.weighted_pixels += hr.pixels[3 * k + 2];
     }
-    std::sort(kept.begin(), kept.end(), [&](int x, int y) { return hr.root[x] < hr.root[y]; });
+    sort_by_key(kept, hr.root, sort_scratch_);  // raster order of the roots, as OpenCV labels
+    f.dots.reserve(kept.size());
+    f.comp_of_dot.reserve(kept.size());
     for (int k : kept) {
       DotObservation d;
       d.x = hr.x[k];
@@ -450,6 +457,7 @@ class CudaBackend final : public Backend {
   HostArray<double> h_records_{pinned_host_};  // Records::over it
   HostArray<int> match_{pinned_host_}, h_scalars_{pinned_host_};
   HostArray<FieldValue<float>> host_fields_{pinned_host_};
+  std::vector<int> kept_, sort_scratch_;  // the records' loop: its buffers kept from frame to frame
 };
 
 }  // namespace

@@ -6,13 +6,14 @@
 #include <fmt/format.h>
 #include <nanoflann.hpp>
 
+#include "kernels/point_grid.hpp"
 #include "model/errors.hpp"
 
 namespace dtflop::dct {
 
 // nanoflann 1.4 and later (Debian 12 ships 1.4.2) build the index in the tree's constructor; a
 // buildIndex() after it built the whole tree a second time (the matching's trees were built twice
-// until 2026-11-27, against the one build match_tree_steps counts and the cpu-tree probe times).
+// until 2026-11-27, against the one build tree_build_steps counts and the cpu-tree probe times).
 static_assert(NANOFLANN_VERSION >= 0x140, "nanoflann 1.4 or later: its constructor builds the index");
 
 // The cloud and the tree are the Impl's own types (not in an anonymous namespace: tracking.hpp
@@ -85,23 +86,32 @@ std::string Matches::summary() const {
   return s;
 }
 
-std::int64_t match_tree_steps(std::int64_t reference, std::int64_t deformed, std::int64_t refined,
-                              std::int64_t retried, int refine_neighbours, bool radius_given) {
-  std::int64_t s = 0;
-  if (!radius_given && reference >= 2) s += tree_build_steps(reference) + reference * tree_search_steps(reference, 2);
-  if (deformed == 0 || reference == 0) return s;
-  s += tree_build_steps(deformed) + reference * tree_search_steps(deformed, 2);
-  if (refined > 0)
-    s += tree_build_steps(reference) + refined * tree_search_steps(reference, 2 * refine_neighbours + 1) +
-         retried * tree_search_steps(deformed, 2);
-  return s;
+MatchWork match_work(std::int64_t reference, std::int64_t deformed, std::int64_t refined, std::int64_t retried,
+                     int refine_neighbours, bool radius_given) {
+  MatchWork w;
+  if (!radius_given && reference >= 2) w.tree_steps += tree_build_steps(reference) + reference * tree_search_steps(reference, 2);
+  if (deformed == 0 || reference == 0) return w;
+  w.match_steps = deformed + reference + retried;
+  if (refined > 0) w.tree_steps += tree_build_steps(reference) + refined * tree_search_steps(reference, 2 * refine_neighbours + 1);
+  return w;
 }
 
 Matches match_dots(const std::vector<Vec2>& reference, const std::vector<Vec2>& deformed, const MatchOptions& o,
                    const std::vector<Vec2>& predicted) {
+  Matcher matcher;
+  return matcher.match(reference, deformed, o, predicted);
+}
+
+Matches Matcher::match(const std::vector<Vec2>& reference, const std::vector<Vec2>& deformed, const MatchOptions& o,
+                       const std::vector<Vec2>& predicted) {
   if (!predicted.empty() && predicted.size() != reference.size())
     throw InputError("predicted positions must be given for every reference dot");
   if (!(o.ambiguity >= 1)) throw InputError("the ambiguity ratio must be >= 1");
+  for (std::size_t k = 0; k < deformed.size(); ++k)
+    if (!std::isfinite(deformed[k].x) || !std::isfinite(deformed[k].y))
+      throw InputError(fmt::format("dot {} of the frame is at a position that is not finite ({}, {}); the frame's "
+                                   "analysis gave it: check the image",
+                                   k, deformed[k].x, deformed[k].y));
   const std::size_t n = reference.size();
   Matches m;
   m.ref_to_def.assign(n, -1);
@@ -116,28 +126,31 @@ Matches match_dots(const std::vector<Vec2>& reference, const std::vector<Vec2>& 
     for (std::size_t k = 0; k < deformed.size(); ++k) m.appeared.push_back(static_cast<int>(k));
     return m;
   }
-  PointIndex def_index(deformed);
-  const auto nd = static_cast<std::int64_t>(deformed.size());
-  m.tree_steps += tree_build_steps(nd);
-  std::vector<int> owner(deformed.size(), -1);
-  std::vector<double> owner_d(deformed.size(), 0);
-  std::vector<std::uint32_t> idx;
-  std::vector<double> d2;
+  // Only dots within the search radius decide a match (the nearest must be inside it, and a
+  // second-nearest makes it ambiguous only if inside it too), so a grid of cells as wide as the
+  // radius answers what a k-d tree would, in a few contiguous reads (kernels/point_grid.hpp).
+  grid_.build(deformed.data(), deformed.size(), m.search_radius);
+  m.match_steps = static_cast<std::int64_t>(deformed.size());
+  std::vector<int>& owner = owner_;
+  std::vector<double>& owner_d = owner_d_;
+  owner.assign(deformed.size(), -1);
+  owner_d.assign(deformed.size(), 0);
 
   // One pass: each listed reference dot proposes its nearest deformed dot; conflicts go to
   // the nearer proposer and the other is lost (claimed).
   auto pass = [&](const std::vector<int>& which, const std::vector<Vec2>& where) {
+    kernels::GridHit hit[2];
     for (std::size_t q = 0; q < which.size(); ++q) {
       const int j = which[q];
-      def_index.knn(where[q], 2, idx, d2);
-      m.tree_steps += tree_search_steps(nd, 2);
-      const double d1 = std::sqrt(d2[0]);
-      if (d1 > m.search_radius) { m.lost_reason[j] = LostReason::nothing_near; continue; }
-      if (idx.size() > 1 && std::sqrt(d2[1]) < o.ambiguity * d1 && std::sqrt(d2[1]) <= m.search_radius) {
+      const int found = grid_.nearest_two(where[q].x, where[q].y, hit);
+      ++m.match_steps;
+      if (found == 0) { m.lost_reason[j] = LostReason::nothing_near; continue; }
+      const double d1 = std::sqrt(hit[0].d2);
+      if (found > 1 && std::sqrt(hit[1].d2) < o.ambiguity * d1) {
         m.lost_reason[j] = LostReason::ambiguous;
         continue;
       }
-      const int k = static_cast<int>(idx[0]);
+      const int k = static_cast<int>(hit[0].index);
       if (owner[k] >= 0) {
         if (owner_d[k] <= d1) { m.lost_reason[j] = LostReason::claimed_by_other; continue; }
         m.ref_to_def[owner[k]] = -1;
@@ -149,21 +162,24 @@ Matches match_dots(const std::vector<Vec2>& reference, const std::vector<Vec2>& 
       m.lost_reason[j] = LostReason::none;
     }
   };
-  std::vector<int> all(n);
-  std::vector<Vec2> where(n);
+  which_.resize(n);
+  where_.resize(n);
   for (std::size_t j = 0; j < n; ++j) {
-    all[j] = static_cast<int>(j);
-    where[j] = predicted.empty() ? reference[j] : predicted[j];
+    which_[j] = static_cast<int>(j);
+    where_[j] = predicted.empty() ? reference[j] : predicted[j];
   }
-  pass(all, where);
+  pass(which_, where_);
 
-  // Second pass for the lost: predict from the mean displacement of matched neighbours.
+  // Second pass for the lost: predict from the mean displacement of matched neighbours (their
+  // k nearest in the reference: a k-d tree, built only when a dot was lost).
   std::vector<int> lost;
   for (std::size_t j = 0; j < n; ++j)
     if (m.ref_to_def[j] < 0) lost.push_back(static_cast<int>(j));
   if (!lost.empty() && o.refine_neighbours > 0 && lost.size() < n) {
     PointIndex ref_index(reference);
     m.tree_steps += tree_build_steps(static_cast<std::int64_t>(n));
+    std::vector<std::uint32_t> idx;
+    std::vector<double> d2;
     std::vector<Vec2> guess;
     std::vector<int> retry;
     for (int j : lost) {

@@ -152,7 +152,7 @@ class Run final : public wl::Run {
       // Copies and kernels are not bracketed from the host (they interleave on the stream): the
       // protocol takes CG, GC and G from CUPTI; G_events is the kernels' time between events.
       // C is the host's own work (matching, the component records, the fields' conversion), of
-      // which the counts price the matching's k-d tree steps (tree_steps; N_C = 0).
+      // which the counts price the matching's steps (match_steps, tree_steps; N_C = 0).
       t.C = host;
       t.G_events = kernels;
     } else {
@@ -184,7 +184,8 @@ class Run final : public wl::Run {
                          {"ring_pixels", shape_.ring_pixels},
                          {"weighted_pixels", shape_.weighted_pixels},
                          {"scanned_pixels", shape_.scanned_pixels},
-                         {"tree_steps", shape_.tree_steps}}}};
+                         {"tree_steps", shape_.tree_steps},
+                         {"match_steps", shape_.match_steps}}}};
     if (ran_) {
       std::int64_t valid = 0;
       for (const auto& f : last_.fields) valid += f.status == PointStatus::ok;
@@ -708,12 +709,12 @@ FrameShape declared_shape(const Backend& pipeline, const cv::Mat& frame) {
   if (pipeline.name() == "cuda") stats.scanned_pixels = 0;
   // Every dot of the frame matched in the first pass (the specimen's deformation is small).
   return pipeline.frame_shape(frame, stats,
-                              match_tree_steps(static_cast<std::int64_t>(pipeline.reference_positions().size()),
-                                               static_cast<std::int64_t>(a.dots.size())));
+                              match_work(static_cast<std::int64_t>(pipeline.reference_positions().size()),
+                                         static_cast<std::int64_t>(a.dots.size())));
 }
 
 namespace {
-void differ(std::string& out, const char* what, std::int64_t declared, std::int64_t measured) {
+void differ(std::string& out, std::string_view what, std::int64_t declared, std::int64_t measured) {
   if (declared == measured) return;
   out += fmt::format("{}{} {} (declared {})", out.empty() ? "" : ", ", what, measured, declared);
 }
@@ -736,6 +737,7 @@ std::string shape_difference(const FrameShape& d, const FrameShape& m) {
   differ(out, "points", d.points, m.points);
   differ(out, "support entries", d.support_entries, m.support_entries);
   differ(out, "k-d tree steps", d.tree_steps, m.tree_steps);
+  differ(out, "grid matching steps", d.match_steps, m.match_steps);
   if (d.interp != m.interp) out += fmt::format("{}interp {} (declared {})", out.empty() ? "" : ", ", to_string(m.interp), to_string(d.interp));
   if (d.otsu != m.otsu) out += fmt::format("{}otsu {} (declared {})", out.empty() ? "" : ", ", m.otsu, d.otsu);
   if (d.adaptive != m.adaptive)
@@ -748,24 +750,7 @@ std::string shape_difference(const FrameShape& d, const FrameShape& m) {
 std::string counts_difference(const CostCounts& d, const CostCounts& m) {
   std::string out;
   differ(out, "P", d.P, m.P);
-  differ(out, "N_CG", d.N_CG, m.N_CG);
-  differ(out, "N_GC", d.N_GC, m.N_GC);
-  differ(out, "N_GG", d.N_GG, m.N_GG);
-  differ(out, "N_C", d.N_C, m.N_C);
-  differ(out, "N_G", d.N_G, m.N_G);
-  differ(out, "N_CC", d.N_CC, m.N_CC);
-  differ(out, "N_CC_pixel", d.N_CC_pixel, m.N_CC_pixel);
-  differ(out, "cpu_footprint", d.cpu_footprint, m.cpu_footprint);
-  differ(out, "pixel_steps", d.pixel_steps, m.pixel_steps);
-  differ(out, "label_steps", d.label_steps, m.label_steps);
-  differ(out, "hist_steps", d.hist_steps, m.hist_steps);
-  differ(out, "pixel_passes", d.pixel_passes, m.pixel_passes);
-  differ(out, "tree_steps", d.tree_steps, m.tree_steps);
-  differ(out, "transfers_CG", d.transfers_CG, m.transfers_CG);
-  differ(out, "transfers_GC", d.transfers_GC, m.transfers_GC);
-  differ(out, "launches", d.launches, m.launches);
-  differ(out, "host_waits", d.host_waits, m.host_waits);
-  differ(out, "cpu_threads", d.cpu_threads, m.cpu_threads);
+  for (const CountField& f : count_fields()) differ(out, f.name, d.*f.member, m.*f.member);
   if (d.host_memory != m.host_memory)
     out += fmt::format("{}host memory {} (declared {})", out.empty() ? "" : ", ", to_string(m.host_memory),
                        to_string(d.host_memory));

@@ -2,7 +2,9 @@
 // 0.05 px targets), polarity, bit depth, lighting, region of interest and the filters.
 #include <cmath>
 #include <cstdio>
+#include <algorithm>
 #include <random>
+#include <stdexcept>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -285,6 +287,30 @@ TEST(DctCentroids, EveryMarginAndBothLabelReadsAgree) {
       EXPECT_EQ(fast.weighted, slow.weighted);
     }
   }
+}
+
+// The cuda backend's order of a frame's dots: sort_by_key gives what a stable comparison sort
+// gives, for keys of one to four bytes, repeated keys, and a subset of the records.
+TEST(DctRecords, SortByKeyIsAStableSortOfTheKeys) {
+  std::mt19937 rng(5);
+  for (int largest : {0, 1, 200, 70'000, 24'000'000, 2'147'483'647}) {
+    std::uniform_int_distribution<int> u(0, largest);
+    std::vector<int> key(3000);
+    for (int& k : key) k = u(rng);
+    for (int i = 0; i + 10 < 3000; i += 10) key[i + 5] = key[i];  // equal keys keep their order
+    std::vector<int> items, scratch;
+    for (int i = 0; i < 3000; ++i)
+      if (rng() % 4 != 0) items.push_back(i);  // the kept records only
+    std::vector<int> want = items;
+    std::stable_sort(want.begin(), want.end(), [&](int a, int b) { return key[a] < key[b]; });
+    sort_by_key(items, key.data(), scratch);
+    EXPECT_EQ(items, want) << "largest key " << largest;
+  }
+  std::vector<int> none, scratch;
+  sort_by_key(none, nullptr, scratch);
+  EXPECT_TRUE(none.empty());
+  std::vector<int> key = {3, -1}, items = {0, 1};
+  EXPECT_THROW(sort_by_key(items, key.data(), scratch), std::logic_error);
 }
 
 }  // namespace

@@ -298,10 +298,12 @@ TEST(DctCounts, EstimateIsCloseToAMeasuredRun) {
 namespace dtflop::dct {
 namespace {
 
-// The matching's k-d tree steps, written out by hand for 25 reference dots on a 5 x 5 grid: a tree
-// of 25 points has 1 + ceil(log2(25 / 10)) = 3 levels, so a build is 25 x 3 = 75 steps and a search
-// for the 2 nearest 3 + 10 + 2 = 15.
-TEST(DctTreeSteps, MatchDotsReportsWhatTheFormulaCounts) {
+// The matching's steps, written out by hand for 25 reference dots on a 5 x 5 grid: the grid
+// matching bins the 25 frame dots and answers 25 queries (50 steps); a k-d tree of 25 points (the
+// reference's, for a radius not given or for dots lost) has 1 + ceil(log2(25 / 10)) = 3 levels,
+// so a build is 25 x 3 = 75 steps, a search for the 2 nearest 3 + 10 + 2 = 15 and for the
+// 2 x 6 + 1 = 13 nearest 3 + 10 + 13 = 26.
+TEST(DctMatchSteps, MatchDotsReportsWhatTheFormulaCounts) {
   EXPECT_EQ(tree_build_steps(25), 75);
   EXPECT_EQ(tree_search_steps(25, 2), 15);
   EXPECT_EQ(tree_build_steps(10), 10);   // one leaf: one level
@@ -313,24 +315,29 @@ TEST(DctTreeSteps, MatchDotsReportsWhatTheFormulaCounts) {
       def.push_back({20.0 * x + 0.5, 20.0 * y - 0.25});
     }
   MatchOptions o;
-  o.search_radius = 8;  // given, as the pipeline gives it: no tree over the reference
+  o.search_radius = 8;  // given, as the pipeline gives it: no tree at all
   Matches m = match_dots(ref, def, o);
   EXPECT_EQ(m.matched, 25);
-  EXPECT_EQ(m.tree_steps, 75 + 25 * 15);
-  EXPECT_EQ(m.tree_steps, match_tree_steps(25, 25));
+  EXPECT_EQ(m.tree_steps, 0);
+  EXPECT_EQ(m.match_steps, 25 + 25);
+  EXPECT_EQ((MatchWork{m.tree_steps, m.match_steps}), match_work(25, 25));
   // Without a radius, the reference's own tree and searches come first.
   o.search_radius = 0;
   m = match_dots(ref, def, o);
-  EXPECT_EQ(m.tree_steps, 2 * (75 + 25 * 15));
-  EXPECT_EQ(m.tree_steps, match_tree_steps(25, 25, 0, 0, o.refine_neighbours, false));
-  // Three dots lost (moved away): the refining pass builds the reference tree and searches again.
+  EXPECT_EQ(m.tree_steps, 75 + 25 * 15);
+  EXPECT_EQ(m.match_steps, 50);
+  EXPECT_EQ((MatchWork{m.tree_steps, m.match_steps}), match_work(25, 25, 0, 0, o.refine_neighbours, false));
+  // Three dots lost (moved away): the refining pass builds the reference tree, searches it for each
+  // lost dot's neighbours and asks the grid again for the three.
   def[3] = {500, 500};
   def[7] = {600, 600};
   def[11] = {700, 700};
   o.search_radius = 8;
   m = match_dots(ref, def, o);
   EXPECT_EQ(m.matched, 22);
-  EXPECT_EQ(m.tree_steps, match_tree_steps(25, 25, 3, 3, o.refine_neighbours));
+  EXPECT_EQ(m.tree_steps, 75 + 3 * 26);
+  EXPECT_EQ(m.match_steps, 25 + 25 + 3);
+  EXPECT_EQ((MatchWork{m.tree_steps, m.match_steps}), match_work(25, 25, 3, 3, o.refine_neighbours));
 }
 
 }  // namespace

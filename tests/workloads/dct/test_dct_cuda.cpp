@@ -81,6 +81,12 @@ double compare_frames(const std::string& what, const cv::Mat& ref, const cv::Mat
   EXPECT_EQ(a.stats.ring_pixels, b.stats.ring_pixels);
   EXPECT_EQ(a.stats.weighted_pixels, b.stats.weighted_pixels);
   EXPECT_EQ(a.matches.ref_to_def, b.matches.ref_to_def);
+  std::vector<cv::Point2f> ref_points, hull;
+  for (const auto& d : cpu->reference_positions()) ref_points.emplace_back(static_cast<float>(d.x), static_cast<float>(d.y));
+  cv::convexHull(ref_points, hull);
+  auto hull_distance = [&hull](Vec2 p) {
+    return cv::pointPolygonTest(hull, cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), true);
+  };
   double worst_u = 0, worst_e = 0;
   int compared = 0;
   for (std::size_t m = 0; m < a.fields.size(); ++m) {
@@ -88,8 +94,26 @@ double compare_frames(const std::string& what, const cv::Mat& ref, const cv::Mat
     const auto& y = b.fields[m];
     EXPECT_EQ(x.support, y.support);
     if (x.status != y.status) {
-      // Only a point on the conditioning limit may differ.
-      EXPECT_EQ(x.status == PointStatus::ill_conditioned || y.status == PointStatus::ill_conditioned, true) << m;
+      // Only a point on a limit may differ: the conditioning limit, or (FE) the edge of the mesh,
+      // the reference dots' convex hull: the backends' reference centroids differ by up to 2e-4 px
+      // (above), so a point within 1e-3 px of the hull (the grid's first row and column lie on
+      // the dots' bounding box) may lie in a triangle for one and in none for the other.
+      const bool conditioning = x.status == PointStatus::ill_conditioned || y.status == PointStatus::ill_conditioned;
+      const bool hull_edge = (x.status == PointStatus::outside_mesh || y.status == PointStatus::outside_mesh) &&
+                             std::abs(hull_distance(cpu->points()[m])) < 1e-3;
+      if (conditioning || hull_edge) continue;
+      std::string why = fmt::format("point {}: cpu-seq {} ({} in its support), cuda {} ({})", m, to_string(x.status),
+                                    x.support, to_string(y.status), y.support);
+      if (opt.interp == Interp::fe) {  // FE: the share of the recovery's coefficients whose triangles were tracked
+        const FeTable& t = cpu->fe_table();
+        double kept = 0;
+        for (int e = t.offsets[m]; e < t.offsets[m + 1]; ++e) {
+          const int* v = &t.tri_dots[3 * static_cast<std::size_t>(t.support[e])];
+          if (a.tracked[v[0]] && a.tracked[v[1]] && a.tracked[v[2]]) kept += t.coef[e];
+        }
+        why += fmt::format(", coefficients kept {:.9f}", kept);
+      }
+      ADD_FAILURE() << why << fmt::format(", {:.3e} px from the reference dots' hull", hull_distance(cpu->points()[m]));
       continue;
     }
     if (x.status != PointStatus::ok) continue;

@@ -1,0 +1,84 @@
+// The host's grid matching (L_match): the cost of one step of the DCT workload's matching on one
+// thread, a point binned into a grid of cells or a query answered from it
+// (kernels/point_grid.hpp, the one source the workload runs). Measured as the matching does it:
+// the dots of a 64 x 64 pattern (a pitch of 20 px, each dot moved by up to 3 px, in raster order
+// as an analysis finds them) binned for a search radius of 0.4 pitches, then each dot of the
+// pattern moved again by up to 2 px asks for its nearest two within the radius. The time of a
+// repetition over its steps (one per dot binned, one per query) gives L_match: the median over
+// several placements of the thread (probes/placements.hpp), whose spread is the parameter's.
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "kernels/point_grid.hpp"
+#include "model/stats.hpp"
+#include "probes/measure.hpp"
+#include "probes/placements.hpp"
+#include "probes/probe.hpp"
+
+namespace dtflop::probes {
+namespace {
+
+struct Point {
+  double x = 0, y = 0;
+};
+
+ProbeReport run(const ProbeOptions& o) {
+  ProbeReport r;
+  // About the dots of a 24 MP still (1600) and more, as cpu-tree.
+  constexpr int kSide = 64;
+  constexpr double kPitch = 20;
+  const std::int64_t n = kSide * kSide;
+  const int reps = o.effort == Effort::full ? 31 : o.effort == Effort::quick ? 11 : 3;
+  std::mt19937_64 rng(20261129);
+  std::uniform_real_distribution<double> placed(-3, 3), moved(-2, 2);
+  std::vector<Point> dots, queries;
+  dots.reserve(static_cast<std::size_t>(n));
+  queries.reserve(static_cast<std::size_t>(n));
+  for (int y = 0; y < kSide; ++y)
+    for (int x = 0; x < kSide; ++x) {
+      const Point d{kPitch * (x + 1) + placed(rng), kPitch * (y + 1) + placed(rng)};
+      dots.push_back(d);
+      queries.push_back({d.x + moved(rng), d.y + moved(rng)});
+    }
+  // Neighbours are at least 20 - 2 x 3 = 14 px apart; a query is within sqrt(8) < 3 px of its own
+  // dot and so more than 11 px from any other: it finds its own dot alone within 8 px.
+  const double radius = 0.4 * kPitch;
+  const std::int64_t steps = 2 * n;
+
+  // One placement: a warm-up pass, then the median of `reps` timed passes, a step each. The grid
+  // is built afresh in each, as the matching builds one per frame.
+  kernels::PointGrid grid;  // kept between passes, as the workload's Matcher keeps its own
+  auto one_placement = [&] {
+    return median_seconds_per_step(reps, steps, [&](bool warm_up) {
+      kernels::GridHit hit[2];
+      grid.build(dots.data(), dots.size(), radius);
+      std::int64_t own = 0;
+      for (std::size_t i = 0; i < dots.size(); ++i)
+        own += grid.nearest_two(queries[i].x, queries[i].y, hit) == 1 && hit[0].index == static_cast<std::uint32_t>(i);
+      // Every query must find its own dot and no other: the grid was built and searched.
+      if (own != n && warm_up)
+        throw ValidationError(fmt::format("{} of {} grid searches found the dot they started from alone", own, n));
+    });
+  };
+  const Placed at = on_placements(latency_placements(o.effort), one_placement);
+  r.measurements.push_back(time_measurement(
+      "match", "one step of the grid matching (a dot binned or a query answered, one thread)", at.values, Param::L_match,
+      fmt::format("kernels/point_grid.hpp: {} dots of a {}x{} pattern binned and each queried for its nearest two "
+                  "within {} px, {} steps; time / steps, the median over {} of the median of {} each",
+                  n, kSide, kSide, radius, steps, describe_placements(at.cpus), reps)));
+  const Stats& st = r.measurements[0].stats;
+  o.say(fmt::format("  grid matching step: {:.2f} ns (placements {:.2f} .. {:.2f} ns)", r.measurements[0].value * 1e9,
+                    st.min * 1e9, st.max * 1e9));
+  return r;
+}
+
+}  // namespace
+}  // namespace dtflop::probes
+
+DTFLOP_PROBE_UNIT(probe_cpu_match) {
+  registry.add({"cpu-match", "the host's grid matching: one step, a dot binned or a query answered (one thread)", false,
+                27, dtflop::probes::run});
+}
