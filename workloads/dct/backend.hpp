@@ -109,6 +109,11 @@ class Backend {
   // A frame-sized buffer the backend uploads from fastest (pinned host memory for cuda), for
   // a camera or a renderer to write frames into. Valid until the next call.
   virtual cv::Mat frame_buffer(cv::Size size, int type) { return cv::Mat(size, type); }
+  // Whether the next frames time their device stages (a GPU backend: events between its copies and
+  // kernels, FrameOutput::seconds "device_*"). Off by default: ten event records cost a frame about
+  // 16 us of host time on a lent H200's host, 5% of a frame of a thousand dots
+  // (docs/PERFORMANCE.md, "Device stage times on request").
+  virtual void time_device_stages(bool) {}
 
   const std::vector<DotObservation>& reference_dots() const { return state_.reference_dots(); }
   const std::vector<Vec2>& reference_positions() const { return state_.reference_positions(); }

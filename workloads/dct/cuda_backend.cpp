@@ -147,12 +147,16 @@ class Events {
   }
   Events(const Events&) = delete;
   Events& operator=(const Events&) = delete;
-  void record(int k, cudaStream_t s) { DTFLOP_CUDA(cudaEventRecord(e_[k], s)); }
+  void record(int k, cudaStream_t s) {
+    if (on) DTFLOP_CUDA(cudaEventRecord(e_[k], s));
+  }
   double between(int a, int b) const {
     float ms = 0;
     DTFLOP_CUDA(cudaEventElapsedTime(&ms, e_[a], e_[b]));
     return ms * 1e-3;
   }
+
+  bool on = false;  // record only when the device stages are timed (Backend::time_device_stages)
 
  private:
   cudaEvent_t e_[10]{};
@@ -184,6 +188,8 @@ class CudaBackend final : public Backend {
   ~CudaBackend() override { if (stream_) cudaStreamDestroy(stream_); }
 
   std::string name() const override { return "cuda"; }
+
+  void time_device_stages(bool on) override { ev_.on = on; }
 
   cv::Mat frame_buffer(cv::Size size, int type) override {
     void* p = pinned_.ensure(size.area() * CV_ELEM_SIZE(type));
@@ -290,12 +296,14 @@ class CudaBackend final : public Backend {
     out.seconds["host_match_table"] = t_host_match;
     out.seconds["host_fields"] = t4 - t3;
     // Device-side durations between events (copies and kernels apart).
-    out.seconds["device_upload"] = ev_.between(0, 1) + ev_.between(6, 7);
-    out.seconds["device_download"] = ev_.between(2, 3) + ev_.between(4, 5) + ev_.between(8, 9);
-    out.seconds["device_labelling"] = ev_.between(1, 2);
-    out.seconds["device_centroids"] = ev_.between(3, 4);
-    out.seconds["device_fields"] = ev_.between(7, 8);
-    out.seconds["device_kernels"] = ev_.between(1, 2) + ev_.between(3, 4) + ev_.between(7, 8);
+    if (ev_.on) {
+      out.seconds["device_upload"] = ev_.between(0, 1) + ev_.between(6, 7);
+      out.seconds["device_download"] = ev_.between(2, 3) + ev_.between(4, 5) + ev_.between(8, 9);
+      out.seconds["device_labelling"] = ev_.between(1, 2);
+      out.seconds["device_centroids"] = ev_.between(3, 4);
+      out.seconds["device_fields"] = ev_.between(7, 8);
+      out.seconds["device_kernels"] = ev_.between(1, 2) + ev_.between(3, 4) + ev_.between(7, 8);
+    }
     // The device classifies without scanning (no scanned pixels); the foreground is its components' areas.
     AnalysisStats stats = f.stats;
     stats.foreground_pixels = f.foreground;
