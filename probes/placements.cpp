@@ -11,9 +11,9 @@
 #if defined(__linux__)
 #include <pthread.h>
 #include <sched.h>
+#endif
 
 #include "model/stats.hpp"
-#endif
 
 namespace dtflop::probes {
 

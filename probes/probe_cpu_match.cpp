@@ -50,8 +50,8 @@ ProbeReport run(const ProbeOptions& o) {
 
   // One placement: a warm-up pass, then the median of `reps` timed passes, a step each. The grid
   // is built afresh in each, as the matching builds one per frame.
-  kernels::PointGrid grid;  // kept between passes, as the workload's Matcher keeps its own
   auto one_placement = [&] {
+    kernels::PointGrid grid;  // kept between one placement's passes, as the workload's Matcher keeps its own
     return median_seconds_per_step(reps, steps, [&](bool warm_up) {
       kernels::GridHit hit[2];
       grid.build(dots.data(), dots.size(), radius);

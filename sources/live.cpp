@@ -279,6 +279,9 @@ LiveReport run_live(const LiveConfig& config, sources::FrameSource& source, dct:
     rep.reference_sequence = frame.sequence;
   }
   rep.reference_dots = static_cast<int>(backend.reference_dots().size());
+  // A live run reports every frame's stages, the device's too: their events cost a GPU frame about
+  // 16 us of host time (docs/PERFORMANCE.md), against tens of milliseconds between camera frames.
+  backend.time_device_stages(true);
   // frames.csv: one row per measured frame, flushed as it is written (kept if the run stops).
   std::ofstream log;
   if (!dir.empty()) {
@@ -434,6 +437,8 @@ LiveReport run_live_stereo(const LiveConfig& config, sources::FrameSource& left,
                                      : " (" + rep.source.last_error + rep.source2.last_error + ")"));
   }
   pipeline.set_reference(fl.image, fr.image);
+  pipeline.left().time_device_stages(true);  // every frame's stages, as run_live's
+  pipeline.right().time_device_stages(true);
   rep.reference_sequence = fl.sequence;
   rep.reference_dots = static_cast<int>(pipeline.left().reference_dots().size());
   rep.stereo_reference = pipeline.reference_matches().summary();

@@ -178,8 +178,8 @@ CostCounts cpu_counts(const FrameShape& s, int threads) {
   const std::int64_t extra = s.adaptive ? 1 + (b == 2 ? 1 : 0) : 0;
   c.cpu_footprint = s.roi_pixels * (b + 1 + 4 + extra) + 8 * cpu_field_values(s);
   c.cpu_threads = threads < 1 ? 1 : threads;
-  c.tree_steps = s.tree_steps;  // the matching, on one thread
-  c.match_steps = s.match_steps;
+  c.match_steps = s.match_steps;  // the matching, on one thread
+  c.tree_steps = s.tree_steps;    // and its k-d tree work (a radius to find, lost dots)
   return c;
 }
 

@@ -288,9 +288,9 @@ class CudaBackend final : public Backend {
     out.seconds["tracking"] = t2 - t1;
     out.seconds["fields"] = t3 - t2;
     out.seconds["total"] = t4 - t0;
-    // The host's own work (no device wait inside): sorting the components' records into dots,
-    // matching, the match table and the fields' conversion. The model counts none of it
-    // (N_C = 0: comparisons and copies of records, not FLOPs).
+    // The host's own work (no device wait inside): ordering the components' records into dots,
+    // matching, the match table and the fields' conversion. The counts price the matching
+    // (match_steps; N_C = 0: comparisons and copies of records, not FLOPs).
     out.seconds["host"] = f.host_seconds + (t2 - t1) + t_host_match + (t4 - t3);
     out.seconds["host_records"] = f.host_seconds;
     out.seconds["host_match_table"] = t_host_match;

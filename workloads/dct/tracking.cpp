@@ -127,8 +127,8 @@ Matches Matcher::match(const std::vector<Vec2>& reference, const std::vector<Vec
     return m;
   }
   // Only dots within the search radius decide a match (the nearest must be inside it, and a
-  // second-nearest makes it ambiguous only if inside it too), so a grid of cells as wide as the
-  // radius answers what a k-d tree would, in a few contiguous reads (kernels/point_grid.hpp).
+  // second-nearest makes it ambiguous only if inside it too), so a grid of cells of about one dot
+  // each answers what a k-d tree would, in a few contiguous reads (kernels/point_grid.hpp).
   grid_.build(deformed.data(), deformed.size(), m.search_radius);
   m.match_steps = static_cast<std::int64_t>(deformed.size());
   std::vector<int>& owner = owner_;

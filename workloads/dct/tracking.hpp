@@ -75,7 +75,8 @@ MatchWork match_work(std::int64_t reference, std::int64_t deformed, std::int64_t
                      int refine_neighbours = 6, bool radius_given = true);
 
 // Matches frames' dots to a reference, keeping its grid and working buffers from one frame to the
-// next: a frame's matching then allocates only its result. (Allocated afresh, the buffers of a
+// next: a frame's matching then allocates only its result (and, when a dot was lost, what the
+// second pass needs). (Allocated afresh, the buffers of a
 // few thousand dots went back to the system and faulted in again on every call, which tripled
 // the matching's time from 3000 dots on the 2-vCPU VM.)
 class Matcher {

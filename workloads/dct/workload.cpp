@@ -753,6 +753,9 @@ std::string counts_difference(const CostCounts& d, const CostCounts& m) {
   std::string out;
   differ(out, "P", d.P, m.P);
   for (const CountField& f : count_fields()) differ(out, f.name, d.*f.member, m.*f.member);
+  differ(out, "cpu_threads", d.cpu_threads, m.cpu_threads);
+  if (d.precision != m.precision)
+    out += fmt::format("{}precision {} (declared {})", out.empty() ? "" : ", ", to_string(m.precision), to_string(d.precision));
   if (d.host_memory != m.host_memory)
     out += fmt::format("{}host memory {} (declared {})", out.empty() ? "" : ", ", to_string(m.host_memory),
                        to_string(d.host_memory));
