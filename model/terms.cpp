@@ -381,10 +381,10 @@ std::vector<Param> gpu_pixel_needs(const CostCounts&, Variant v, const Pricing& 
 // lat_match: the grid matching's steps at L_match; on a profile made before the cpu-match probe, at
 // L_tree (the matching was a k-d tree's then, and a step of either is a few loads: 8.8 and 10.2 ns
 // on the 2-vCPU VM, docs/model.md 2.6).
-Param match_price(const CostCounts&, const Pricing& x) { return x.grid_match ? Param::L_match : Param::L_tree; }
-std::vector<Param> match_needs(const CostCounts& c, Variant, const Pricing& x) { return {match_price(c, x)}; }
+Param match_price(const Pricing& x) { return x.grid_match ? Param::L_match : Param::L_tree; }
+std::vector<Param> match_needs(const CostCounts&, Variant, const Pricing& x) { return {match_price(x)}; }
 double match_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing& x) {
-  return static_cast<double>(c.match_steps) * m.get(match_price(c, x)).value;
+  return static_cast<double>(c.match_steps) * m.get(match_price(x)).value;
 }
 double gpu_pixel_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing& x) {
   if (!x.gpu_pixel || !kLatencyVariants.contains(v)) return 0;

@@ -14,6 +14,7 @@
 #endif
 
 #include "model/stats.hpp"
+#include "probes/measure.hpp"
 
 namespace dtflop::probes {
 
@@ -82,6 +83,16 @@ double median_seconds_per_step(int reps, std::int64_t steps, const std::function
     per_step.push_back(s / static_cast<double>(steps));
   }
   return summarize(per_step).median;
+}
+
+Measurement step_measurement(const ProbeOptions& o, const Placed& placed, int reps, std::string key, std::string label,
+                             Param p, const std::string& what, const std::string& say) {
+  Measurement m = time_measurement(std::move(key), std::move(label), placed.values, p,
+                                   fmt::format("{}; time / steps, the median over {} of the median of {} each", what,
+                                               describe_placements(placed.cpus), reps));
+  o.say(fmt::format("  {}: {:.1f} ns (placements {:.1f} .. {:.1f} ns)", say, m.value * 1e9, m.stats.min * 1e9,
+                    m.stats.max * 1e9));
+  return m;
 }
 
 Placed on_placements(int count, const std::function<double()>& fn) {

@@ -50,6 +50,12 @@ Placed on_placements(int count, const std::function<double()>& fn);
 // checks its result), then pass(false) `reps` times, each timed; the median time over `steps`.
 double median_seconds_per_step(int reps, std::int64_t steps, const std::function<void(bool warm_up)>& pass);
 
+// A one-thread step probe's measurement from its placements (each the median of `reps` passes):
+// the median over them, whose spread is the parameter's; its note `what` was timed, then how; and
+// the progress line "  <say>: X ns (placements A .. B ns)".
+Measurement step_measurement(const ProbeOptions& o, const Placed& placed, int reps, std::string key, std::string label,
+                             Param p, const std::string& what, const std::string& say);
+
 // "8 placements (one thread bound to CPUs 0, 2, 4, 6, 8, 10, 12, 14 in turn)", for notes.
 std::string describe_placements(const std::vector<int>& cpus);
 

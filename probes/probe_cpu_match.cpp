@@ -13,8 +13,6 @@
 #include <fmt/format.h>
 
 #include "kernels/point_grid.hpp"
-#include "model/stats.hpp"
-#include "probes/measure.hpp"
 #include "probes/placements.hpp"
 #include "probes/probe.hpp"
 
@@ -48,8 +46,8 @@ ProbeReport run(const ProbeOptions& o) {
   const double radius = 0.4 * kPitch;
   const std::int64_t steps = 2 * n;
 
-  // One placement: a warm-up pass, then the median of `reps` timed passes, a step each. The grid
-  // is built afresh in each, as the matching builds one per frame.
+  // One placement: a warm-up pass, then the median of `reps` timed passes, a step each. Each pass
+  // builds the grid afresh, as the matching does every frame.
   auto one_placement = [&] {
     kernels::PointGrid grid;  // kept between one placement's passes, as the workload's Matcher keeps its own
     return median_seconds_per_step(reps, steps, [&](bool warm_up) {
@@ -64,14 +62,12 @@ ProbeReport run(const ProbeOptions& o) {
     });
   };
   const Placed at = on_placements(latency_placements(o.effort), one_placement);
-  r.measurements.push_back(time_measurement(
-      "match", "one step of the grid matching (a dot binned or a query answered, one thread)", at.values, Param::L_match,
+  r.measurements.push_back(step_measurement(
+      o, at, reps, "match", "one step of the grid matching (a dot binned or a query answered, one thread)",
+      Param::L_match,
       fmt::format("kernels/point_grid.hpp: {} dots of a {}x{} pattern binned and each queried for its nearest two "
-                  "within {} px, {} steps; time / steps, the median over {} of the median of {} each",
-                  n, kSide, kSide, radius, steps, describe_placements(at.cpus), reps)));
-  const Stats& st = r.measurements[0].stats;
-  o.say(fmt::format("  grid matching step: {:.2f} ns (placements {:.2f} .. {:.2f} ns)", r.measurements[0].value * 1e9,
-                    st.min * 1e9, st.max * 1e9));
+                  "within {} px, {} steps", n, kSide, kSide, radius, steps),
+      "grid matching step"));
   return r;
 }
 

@@ -14,8 +14,6 @@
 #include <nanoflann.hpp>
 
 #include "model/cost_counts.hpp"
-#include "model/stats.hpp"
-#include "probes/measure.hpp"
 #include "probes/placements.hpp"
 #include "probes/probe.hpp"
 
@@ -64,14 +62,11 @@ ProbeReport run(const ProbeOptions& o) {
     });
   };
   const Placed placed = on_placements(latency_placements(o.effort), one_placement);
-  r.measurements.push_back(time_measurement(
-      "tree", "one step of k-d tree work (build or search, one thread)", placed.values, Param::L_tree,
+  r.measurements.push_back(step_measurement(
+      o, placed, reps, "tree", "one step of k-d tree work (build or search, one thread)", Param::L_tree,
       fmt::format("nanoflann: a tree over {} random points and a 2-nearest search around each, {} steps "
-                  "(model/cost_counts.hpp); time / steps, the median over {} of the median of {} each",
-                  n, steps, describe_placements(placed.cpus), reps)));
-  const Stats& st = r.measurements[0].stats;
-  o.say(fmt::format("  k-d tree step: {:.1f} ns (placements {:.1f} .. {:.1f} ns)", r.measurements[0].value * 1e9,
-                    st.min * 1e9, st.max * 1e9));
+                  "(model/cost_counts.hpp)", n, steps),
+      "k-d tree step"));
   return r;
 }
 
