@@ -37,6 +37,7 @@ double default_start(Param p) {
   const auto unit = info(p).unit;
   if (p == Param::L_tree) return 30e-9;  // a step of a k-d tree: a few dependent loads
   if (p == Param::L_match) return 10e-9;  // a point binned or a query answered: a few loads
+  if (p == Param::L_record) return 5e-9;  // a record tallied, placed or handed on: a few loads
   if (p == Param::L_pixel || p == Param::L_pixel_all || p == Param::L_scan || p == Param::L_scan_all)
     return 1e-9;  // a step of a scalar pixel loop: a few cycles
   if (p == Param::L_hist || p == Param::L_hist_all) return 0.5e-9;  // a histogram's count: a load and an increment
@@ -157,7 +158,7 @@ std::vector<Param> exercised_params(const CostCounts& c, Variant v, const Machin
                                  .pixel_all = true, .mls = true, .mls_all = true, .gpu_mls = true,
                                  .gpu_pixel = true, .pixel_kinds = true, .pixel_kinds_all = true,
                                  .pixel_pass_all = start.has(Param::L_pass_all), .along_row = start.has(Param::K_GW),
-                                 .grid_match = true});
+                                 .grid_match = true, .records = true});
 }
 
 // Parameters the samples exercise that the fit keeps at their probed values, because the samples

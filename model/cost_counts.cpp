@@ -67,6 +67,7 @@ const std::vector<CountField>& count_fields() {
        A::sum, &C::N_CC},
       {"tree_steps", &C::tree_steps, "steps", "of host k-d tree builds and searches"},
       {"match_steps", &C::match_steps, "steps", "of the host's grid matching: points binned, queries answered"},
+      {"record_steps", &C::record_steps, "steps", "of the host's pass over component records: tallied, ordered by radix passes, handed on"},
       {"pixel_steps", &C::pixel_steps, "steps", "of host scalar pixel loops: pixels visited, neighbourhood labels read"},
       {"label_steps", &C::label_steps, "steps", "of pixel_steps, pixels labelled (threshold and connected components)",
        A::sum, &C::pixel_steps},

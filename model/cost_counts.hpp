@@ -115,6 +115,9 @@ struct CostCounts {
   std::int64_t match_steps = 0;   // steps of the CPU's grid matching (kernels/point_grid.hpp): one per point
                                   // binned into the grid and one per query answered from it (latency+,
                                   // L_match each)
+  std::int64_t record_steps = 0;  // steps of the host's pass over a GPU labelling's component records
+                                  // (kernels/component_records.hpp): a record tallied, placed by one
+                                  // radix pass of its key, handed on (latency+, L_record each)
   std::int64_t pixel_steps = 0;   // steps of the CPU's scalar pixel work, one per pixel a scalar loop
                                   // visits (a histogram's count, a label decided, a window pixel
                                   // classified) and per label a neighbourhood scan reads: branchy

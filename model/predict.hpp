@@ -62,6 +62,7 @@ struct Prediction {
   double lat_lap_G = 0;  // laps_G x L_wait: likewise, kernels (device component)
   double lat_tree = 0;   // tree_steps x one step of host k-d tree work (CPU component, latency+)
   double lat_match = 0;  // match_steps x one step of the host's grid matching (CPU component, latency+)
+  double lat_record = 0; // record_steps x one step of the host's pass over component records (CPU component, latency+)
   double lat_pixel = 0;  // pixel_steps x one step of host scalar pixel work (CPU component, latency+)
   double dt_GS = 0;      // shared-memory tile fills, P N_GS / B_GS (latency+; device component)
   double lat_net = 0;    // net_messages x L_net: messages between processes (latency+; total only)

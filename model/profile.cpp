@@ -84,6 +84,7 @@ const std::vector<ParamInfo>& all_params() {
       {Param::L_pass_all, "L_pass_all", "s", "the fixed cost of a frame's pixel passes with every hardware thread at work, beside their steps at L_label_all, L_hist_all and L_scan_all: threads started, stripes merged, the parallel labelling's set-up"},
       {Param::K_GW, "K_GW", "x", "cost of a GPU FLOP whose tap reads device memory along a row (the line the tap before read, or the next) relative to one at V_G"},
       {Param::L_match, "L_match", "s", "one step of the host's grid matching: a point binned into the grid or a query answered from it"},
+      {Param::L_record, "L_record", "s", "one step of the host's pass over a GPU labelling's component records: a record tallied, placed by one radix pass of its root, or handed on"},
       {Param::L_GP, "L_GP", "s", "one step of the device's per-dot pixel classification: a window pixel of a dot classified (its own, ring, or ignored, from its neighbourhood's labels), the dots' blocks side by side"},
   };
   return table;
@@ -136,6 +137,7 @@ bool device_param(Param p) {
     case Param::K_CA_all:
     case Param::L_tree:
     case Param::L_match:
+    case Param::L_record:
     case Param::L_pixel:
     case Param::L_pixel_all:
     case Param::L_label:

@@ -80,6 +80,7 @@ enum class Param {
   L_pass_all,      // a frame's pixel passes' fixed cost on every hardware thread (pixel_passes) [s]
   K_GW,            // cost of an along-row GPU window FLOP (N_GW) relative to one at V_G     [x]
   L_match,         // one step of the host's grid matching (match_steps)                    [s]
+  L_record,        // one step of the host's pass over component records (record_steps)     [s]
 };
 
 struct ParamInfo {

@@ -55,7 +55,7 @@ Pricing Pricing::of(const MachineProfile& m) {
           m.has(Param::V_GM), m.has(Param::L_GP), 
           m.has(Param::L_label) && m.has(Param::L_hist) && m.has(Param::L_scan),
           m.has(Param::L_label_all) && m.has(Param::L_hist_all) && m.has(Param::L_scan_all),
-          m.has(Param::L_pass_all), m.has(Param::K_GW), m.has(Param::L_match)};
+          m.has(Param::L_pass_all), m.has(Param::K_GW), m.has(Param::L_match), m.has(Param::L_record)};
 }
 
 namespace {
@@ -386,6 +386,16 @@ std::vector<Param> match_needs(const CostCounts&, Variant, const Pricing& x) { r
 double match_seconds(const MachineProfile& m, const CostCounts& c, Variant, const Pricing& x) {
   return static_cast<double>(c.match_steps) * m.get(match_price(x)).value;
 }
+// lat_record: the host's pass over component records at L_record; not priced on a profile made
+// before the cpu-records probe (those fits took the pass into the matching's steps).
+std::vector<Param> record_needs(const CostCounts&, Variant v, const Pricing& x) {
+  if (x.records && kLatencyVariants.contains(v)) return {Param::L_record};
+  return {};
+}
+double record_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing& x) {
+  if (!x.records || !kLatencyVariants.contains(v)) return 0;
+  return static_cast<double>(c.record_steps) * m.get(Param::L_record).value;
+}
 double gpu_pixel_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing& x) {
   if (!x.gpu_pixel || !kLatencyVariants.contains(v)) return 0;
   return static_cast<double>(c.gpu_pixel_steps) * m.get(Param::L_GP).value;
@@ -462,6 +472,9 @@ const std::vector<Term>& terms() {
       {"lat_match", &P::lat_match, Phase::C, kLatencyVariants, sum, "match_steps",
        "L_match; L_tree where the profile lacks it (made before the cpu-match probe)", "host grid matching steps",
        {positive<&C::match_steps>, match_needs, match_seconds}},
+      {"lat_record", &P::lat_record, Phase::C, kLatencyVariants, sum, "record_steps",
+       "L_record; nothing where the profile lacks it (made before the cpu-records probe)",
+       "host pass over component records", {positive<&C::record_steps>, record_needs, record_seconds}},
       {"lat_pixel", &P::lat_pixel, Phase::C, kLatencyVariants, sum,
        "pixel_steps; where the profile has L_label, L_hist and L_scan: label_steps, hist_steps and the rest apart, "
        "and for cpu_threads > 1 pixel_passes",

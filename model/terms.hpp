@@ -101,6 +101,9 @@ struct Pricing {
   bool grid_match = false;       // price the grid matching's steps (match_steps) at L_match (the profile has
                                  // it, or a fit is to find it); else at L_tree, as profiles made before the
                                  // cpu-match probe priced the matching (then a k-d tree's)
+  bool records = false;          // price the host's pass over component records (record_steps) at L_record
+                                 // (the profile has it, or a fit is to find it); else not at all, as
+                                 // profiles made before the cpu-records probe were fitted
   static Pricing of(const MachineProfile& profile);
 };
 

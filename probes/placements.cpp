@@ -1,6 +1,7 @@
 #include "probes/placements.hpp"
 
 #include <chrono>
+#include <cstddef>
 #include <exception>
 #include <stdexcept>
 #include <thread>
@@ -8,6 +9,9 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 #if defined(__linux__)
 #include <pthread.h>
 #include <sched.h>
@@ -74,9 +78,16 @@ bool run_on_cpu(int cpu, const std::function<void()>& fn) {
 }
 
 double median_seconds_per_step(int reps, std::int64_t steps, const std::function<void(bool warm_up)>& pass) {
+  return median_seconds_per_step(reps, steps, pass, [] {});
+}
+
+double median_seconds_per_step(int reps, std::int64_t steps, const std::function<void(bool warm_up)>& pass,
+                               const std::function<void()>& before) {
+  before();
   pass(true);
   std::vector<double> per_step;
   for (int k = 0; k < reps; ++k) {
+    before();
     const auto t0 = std::chrono::steady_clock::now();
     pass(false);
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -93,6 +104,26 @@ Measurement step_measurement(const ProbeOptions& o, const Placed& placed, int re
   o.say(fmt::format("  {}: {:.1f} ns (placements {:.1f} .. {:.1f} ns)", say, m.value * 1e9, m.stats.min * 1e9,
                     m.stats.max * 1e9));
   return m;
+}
+
+bool evict_from_caches(const void* p, std::size_t bytes) {
+  constexpr std::size_t kLine = 64;  // the smallest line of either architecture: no line is missed
+  const auto* c = static_cast<const char*>(p);
+#if defined(__x86_64__)
+  for (std::size_t i = 0; i < bytes; i += kLine) _mm_clflush(c + i);
+  if (bytes > 0) _mm_clflush(c + bytes - 1);
+  _mm_mfence();
+  return true;
+#elif defined(__aarch64__)
+  for (std::size_t i = 0; i < bytes; i += kLine) asm volatile("dc civac, %0" : : "r"(c + i) : "memory");
+  if (bytes > 0) asm volatile("dc civac, %0" : : "r"(c + bytes - 1) : "memory");
+  asm volatile("dsb ish" : : : "memory");
+  return true;
+#else
+  (void)c;
+  (void)bytes;
+  return false;
+#endif
 }
 
 Placed on_placements(int count, const std::function<double()>& fn) {

@@ -49,6 +49,14 @@ Placed on_placements(int count, const std::function<double()>& fn);
 // One placement of a one-thread step probe: pass(true) once untimed (a warm-up, where the probe
 // checks its result), then pass(false) `reps` times, each timed; the median time over `steps`.
 double median_seconds_per_step(int reps, std::int64_t steps, const std::function<void(bool warm_up)>& pass);
+// The same with before() run, untimed, ahead of every pass (the warm-up's too).
+double median_seconds_per_step(int reps, std::int64_t steps, const std::function<void(bool warm_up)>& pass,
+                               const std::function<void()>& before);
+
+// Writes back and drops the lines of [p, p + bytes) from every level of this CPU's caches, as data a
+// device has just copied into host memory is not in them. False where the architecture gives no
+// way to (then nothing is done): x86-64 (clflush) and AArch64 (dc civac) do.
+bool evict_from_caches(const void* p, std::size_t bytes);
 
 // A one-thread step probe's measurement from its placements (each the median of `reps` passes):
 // the median over them, whose spread is the parameter's; its note `what` was timed, then how; and

@@ -724,6 +724,31 @@ TEST(Predict, MatchStepsAreAtLMatchOrOnAnOlderProfileAtLTree) {
   EXPECT_EQ(std::count(needs.begin(), needs.end(), Param::L_tree), 0);
 }
 
+// The host's pass over component records: at L_record in the latency variants, in the CPU phase; not
+// priced (and not needed) on a profile made before the cpu-records probe.
+TEST(Predict, RecordStepsAreAtLRecordOrNotPricedOnAnOlderProfile) {
+  auto m = test::round_profile();
+  CostCounts c;
+  c.P = 8;
+  c.precision = Precision::fp64;
+  c.N_C = 1'000'000;
+  c.record_steps = 6'000;
+  const double arith = 1e6 / m.get(Param::V_C1_fp64).value;
+  const auto older = predict(m, c, Variant::latency);
+  EXPECT_EQ(older.lat_record, 0);
+  EXPECT_NEAR(older.dt_C, arith, 1e-15);
+  auto needs = required_params(c, Variant::latency, Pricing::of(m));
+  EXPECT_EQ(std::count(needs.begin(), needs.end(), Param::L_record), 0);
+  m.set(Param::L_record, {4e-9, Provenance::probed, {}, {}, ""});
+  EXPECT_EQ(predict(m, c, Variant::seed).lat_record, 0);
+  const auto p = predict(m, c, Variant::latency);
+  EXPECT_NEAR(p.lat_record, 6'000 * 4e-9, 1e-15);
+  EXPECT_NEAR(p.dt_C, arith + 6'000 * 4e-9, 1e-15);
+  EXPECT_NEAR(p.total, predict(m, c, Variant::latency).dt_C, 1e-15);
+  needs = required_params(c, Variant::latency, Pricing::of(m));
+  EXPECT_EQ(std::count(needs.begin(), needs.end(), Param::L_record), 1);
+}
+
 TEST(Predict, PixelAndTreeStepsAreFixedCostsOfTheCpuPhaseInTheLatencyVariants) {
   auto m = test::round_profile();
   m.set(Param::L_pixel, {1.5e-9, Provenance::fitted, {}, {}, ""});

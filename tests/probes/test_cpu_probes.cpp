@@ -193,7 +193,7 @@ TEST(CpuProbes, PixelGivesOneStepOfScalarPixelWork) {
   }
 }
 
-// A one-thread step probe (cpu-tree, cpu-match): one figure, the median of its placements' figures.
+// A one-thread step probe (cpu-tree, cpu-match, cpu-records): one figure, the median of its placements' figures.
 // A step is a few dependent loads and branches: between a tenth of a nanosecond and a microsecond.
 void expect_one_step_on_each_placement(const char* name, Param p) {
   ProbeOptions o;
@@ -216,6 +216,11 @@ TEST(CpuProbes, TreeGivesOneStepOfTreeWorkOnEachPlacement) {
 // cpu-match: a dot binned into the grid or a query answered from it.
 TEST(CpuProbes, MatchGivesOneStepOfGridMatchingOnEachPlacement) {
   expect_one_step_on_each_placement("cpu-match", Param::L_match);
+}
+
+// cpu-records: a component record tallied, placed by a radix pass or handed on.
+TEST(CpuProbes, RecordsGivesOneStepOfTheRecordPassOnEachPlacement) {
+  expect_one_step_on_each_placement("cpu-records", Param::L_record);
 }
 
 TEST(Placements, SpreadOverTheAllowedCpusAndCycle) {

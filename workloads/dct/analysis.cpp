@@ -273,20 +273,4 @@ AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threa
   return r;
 }
 
-void sort_by_key(std::vector<int>& items, const int* key, std::vector<int>& scratch) {
-  int largest = 0;
-  for (int i : items) {
-    if (key[i] < 0) throw std::logic_error("sort_by_key: a negative key");
-    largest = std::max(largest, key[i]);
-  }
-  scratch.resize(items.size());
-  for (int shift = 0; shift < 32 && (largest >> shift) > 0; shift += 8) {
-    std::array<std::size_t, 257> start{};
-    for (int i : items) ++start[((key[i] >> shift) & 0xff) + 1];
-    for (std::size_t b = 1; b < start.size(); ++b) start[b] += start[b - 1];
-    for (int i : items) scratch[start[(key[i] >> shift) & 0xff]++] = i;
-    items.swap(scratch);
-  }
-}
-
 }  // namespace dtflop::dct

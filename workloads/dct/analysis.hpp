@@ -111,11 +111,4 @@ double otsu_threshold(const std::array<std::int64_t, 256>& hist);
 std::string to_string(ThresholdMethod m);
 ThresholdMethod threshold_method_from_string(const std::string& s);
 
-// Puts `items` in the order of key[item] (keys >= 0), equal keys in the order given: a
-// least-significant-digit radix sort, a byte a pass and as many passes as the largest key needs,
-// with `scratch` as its second buffer. The cuda backend lists a frame's dots in the raster order
-// of their components' roots, as OpenCV's labelling does on the host; a comparison sort of a
-// thousand indices took tens of microseconds of mispredicted branches on a lent H200's host.
-void sort_by_key(std::vector<int>& items, const int* key, std::vector<int>& scratch);
-
 }  // namespace dtflop::dct

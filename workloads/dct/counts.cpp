@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "kernels/component_records.hpp"
 #include "model/errors.hpp"
 #include "workloads/dct/kernels.hpp"
 
@@ -234,6 +235,9 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
   }
   // The centroid kernel's classification: every window pixel of a kept dot, in its dot's block.
   c.gpu_pixel_steps = nc > 0 ? s.window_pixels : 0;
+  // The host's pass over the records (kernels/component_records.hpp): each tallied, ordered by its
+  // root (a pixel of the region) a byte a pass, and handed on.
+  c.record_steps = kernels::record_steps(nc, s.roi_pixels);
   c.N_G = analysis_flops(s) + field_flops(s) + (s.interp == Interp::fe ? kFlopsPerFeWarpCombine * s.points : 0);
   // One point's MLS field, the chain its thread runs (docs/model.md 2.6): the mean point's, rounded up.
   c.N_GM = s.points > 0 ? (mls_flops(s) + s.points - 1) / s.points : 0;

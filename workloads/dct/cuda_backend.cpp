@@ -2,8 +2,9 @@
 //   upload (pinned or pageable) -> [Otsu histogram] -> threshold + label init -> union-find
 //   over 8-neighbours -> compress -> roots to ids -> count to host -> per-component stats
 //   (warp-aggregated atomics) -> per-dot filter + centroid (one block per component, eq. 7.1
-//   with the shared kernels.hpp arithmetic) -> centroids to host -> matching on the host
-//   (k-d tree) -> match table up -> displacements -> MLS or FE, one thread per point, from the
+//   with the shared kernels.hpp arithmetic) -> records to host -> the records' pass (tallied,
+//   radix-ordered by root, kernels/component_records.hpp) -> matching on the host (a grid of
+//   cells, tracking.hpp) -> match table up -> displacements -> MLS or FE, one thread per point, from the
 //   look-up table in device memory -> fields to host.
 #include <algorithm>
 #include <chrono>
@@ -15,6 +16,7 @@
 #include <cuda_runtime.h>
 #include <fmt/format.h>
 
+#include "kernels/component_records.hpp"
 #include "model/errors.hpp"
 #include "workloads/dct/backend.hpp"
 #include "workloads/dct/cuda_kernels.hpp"
@@ -289,8 +291,8 @@ class CudaBackend final : public Backend {
     out.seconds["fields"] = t3 - t2;
     out.seconds["total"] = t4 - t0;
     // The host's own work (no device wait inside): ordering the components' records into dots,
-    // matching, the match table and the fields' conversion. The counts price the matching
-    // (match_steps; N_C = 0: comparisons and copies of records, not FLOPs).
+    // matching, the match table and the fields' conversion. The counts price the records' pass
+    // (record_steps) and the matching (match_steps); N_C = 0: comparisons and copies, not FLOPs.
     out.seconds["host"] = f.host_seconds + (t2 - t1) + t_host_match + (t4 - t3);
     out.seconds["host_records"] = f.host_seconds;
     out.seconds["host_match_table"] = t_host_match;
@@ -408,26 +410,12 @@ class CudaBackend final : public Backend {
     DTFLOP_CUDA(cudaStreamSynchronize(stream_));
     const double th = host_now();
     const Records hr = Records::over(h_records_.data(), nc);
-    std::vector<int>& kept = kept_;
-    kept.clear();
-    kept.reserve(nc);
-    for (std::size_t k = 0; k < nc; ++k) {
-      f.foreground += hr.area[k];
-      switch (hr.status[k]) {
-        case 0: kept.push_back(static_cast<int>(k)); break;
-        case 1: ++f.stats.rejected_area; break;
-        case 2: ++f.stats.rejected_shape; break;
-        case 3: ++f.stats.rejected_border; break;
-        default: ++f.stats.rejected_contrast; break;
-      }
-      f.stats.window_pixels += hr.pixels[3 * k];
-      f.stats.ring_pixels += hr.pixels[3 * k + 1];
-      f.stats.weighted_pixels += hr.pixels[3 * k + 2];
-    }
-    sort_by_key(kept, hr.root, sort_scratch_);  // raster order of the roots, as OpenCV labels
-    f.dots.reserve(kept.size());
-    f.comp_of_dot.reserve(kept.size());
-    for (int k : kept) {
+    // Tallied, in the raster order of the roots (as OpenCV labels on the host), the kept ones as dots.
+    const kernels::RecordColumns cols{hr.status, hr.area, hr.root, hr.pixels, nc};
+    kernels::RecordTally tally;
+    f.dots.reserve(nc);
+    f.comp_of_dot.reserve(nc);
+    kernels::order_records(cols, n, tally, order_, sort_scratch_, [&](int k) {
       DotObservation d;
       d.x = hr.x[k];
       d.y = hr.y[k];
@@ -435,7 +423,15 @@ class CudaBackend final : public Backend {
       d.area = hr.area[k];
       f.dots.push_back(d);
       f.comp_of_dot.push_back(k);
-    }
+    });
+    f.foreground = tally.area;
+    f.stats.rejected_area = tally.by_status[1];
+    f.stats.rejected_shape = tally.by_status[2];
+    f.stats.rejected_border = tally.by_status[3];
+    f.stats.rejected_contrast = tally.by_status[4];
+    f.stats.window_pixels = tally.window_pixels;
+    f.stats.ring_pixels = tally.ring_pixels;
+    f.stats.weighted_pixels = tally.weighted_pixels;
     f.host_seconds = host_now() - th;
     return f;
   }
@@ -465,7 +461,7 @@ class CudaBackend final : public Backend {
   HostArray<double> h_records_{pinned_host_};  // Records::over it
   HostArray<int> match_{pinned_host_}, h_scalars_{pinned_host_};
   HostArray<FieldValue<float>> host_fields_{pinned_host_};
-  std::vector<int> kept_, sort_scratch_;  // the records' loop: its buffers kept from frame to frame
+  std::vector<int> order_, sort_scratch_;  // the records' pass: its buffers kept from frame to frame
 };
 
 }  // namespace

@@ -4,12 +4,14 @@
 #include <cstdio>
 #include <algorithm>
 #include <random>
+#include <numeric>
 #include <stdexcept>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "kernels/component_records.hpp"
 #include "kernels/dot_centroid.hpp"
 #include "kernels/histogram.hpp"
 #include "model/errors.hpp"
@@ -289,8 +291,9 @@ TEST(DctCentroids, EveryMarginAndBothLabelReadsAgree) {
   }
 }
 
-// The cuda backend's order of a frame's dots: sort_by_key gives what a stable comparison sort
-// gives, for keys of one to four bytes, repeated keys, and a subset of the records.
+// The cuda backend's order of a frame's dots (kernels/component_records.hpp): sort_by_key gives what
+// a stable comparison sort gives, for keys of one to four bytes, repeated keys and a subset of the
+// records; a key beyond its passes' range is refused.
 TEST(DctRecords, SortByKeyIsAStableSortOfTheKeys) {
   std::mt19937 rng(5);
   for (int largest : {0, 1, 200, 70'000, 24'000'000, 2'147'483'647}) {
@@ -303,14 +306,75 @@ TEST(DctRecords, SortByKeyIsAStableSortOfTheKeys) {
       if (rng() % 4 != 0) items.push_back(i);  // the kept records only
     std::vector<int> want = items;
     std::stable_sort(want.begin(), want.end(), [&](int a, int b) { return key[a] < key[b]; });
-    sort_by_key(items, key.data(), scratch);
+    kernels::sort_by_key(items, key.data(), kernels::radix_passes(std::int64_t{largest} + 1), scratch);
     EXPECT_EQ(items, want) << "largest key " << largest;
   }
   std::vector<int> none, scratch;
-  sort_by_key(none, nullptr, scratch);
+  kernels::sort_by_key(none, nullptr, 2, scratch);
   EXPECT_TRUE(none.empty());
   std::vector<int> key = {3, -1}, items = {0, 1};
-  EXPECT_THROW(sort_by_key(items, key.data(), scratch), std::logic_error);
+  EXPECT_THROW(kernels::sort_by_key(items, key.data(), 1, scratch), std::logic_error);
+  key = {3, 256};
+  EXPECT_THROW(kernels::sort_by_key(items, key.data(), 1, scratch), std::logic_error);  // 256 needs 2 bytes
+  EXPECT_NO_THROW(kernels::sort_by_key(items, key.data(), 2, scratch));
+  EXPECT_EQ(items, (std::vector<int>{0, 1}));
+}
+
+TEST(DctRecords, RadixPassesAreTheKeysBytes) {
+  EXPECT_EQ(kernels::radix_passes(0), 0);
+  EXPECT_EQ(kernels::radix_passes(1), 0);
+  EXPECT_EQ(kernels::radix_passes(2), 1);
+  EXPECT_EQ(kernels::radix_passes(256), 1);
+  EXPECT_EQ(kernels::radix_passes(257), 2);
+  EXPECT_EQ(kernels::radix_passes(640 * 480), 3);
+  EXPECT_EQ(kernels::radix_passes(std::int64_t{1} << 24), 3);
+  EXPECT_EQ(kernels::radix_passes((std::int64_t{1} << 24) + 1), 4);
+  EXPECT_EQ(kernels::record_steps(1000, 640 * 480), 5000);
+}
+
+// order_records against the rule written out: every record tallied by its status and pixels, the
+// kept ones (status 0) handed on in the order of their roots, and the steps it declares.
+TEST(DctRecords, OrderRecordsTalliesEveryRecordAndHandsOnTheKeptInRootOrder) {
+  std::mt19937 rng(11);
+  for (std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{37}, std::size_t{2500}}) {
+    const std::int64_t limit = 1'000'000;  // a 1000 x 1000 region: 3 passes
+    std::vector<int> status(n), area(n), root(n), pixels(3 * n);
+    std::uniform_int_distribution<int> st(0, 9), a(1, 400), px(0, 300);
+    std::vector<int> roots(limit);
+    std::iota(roots.begin(), roots.end(), 0);
+    std::shuffle(roots.begin(), roots.end(), rng);
+    for (std::size_t k = 0; k < n; ++k) {
+      const int s = st(rng);
+      status[k] = s < 5 ? 0 : s - 4;  // half kept, the rest one of the four rejections (5: contrast too)
+      area[k] = a(rng);
+      root[k] = roots[k];  // distinct, as a labelling's roots are
+      for (int j = 0; j < 3; ++j) pixels[3 * k + j] = px(rng);
+    }
+    kernels::RecordTally want;
+    std::vector<int> kept;
+    for (std::size_t k = 0; k < n; ++k) {
+      want.area += area[k];
+      ++want.by_status[std::min(status[k], 4)];
+      want.window_pixels += pixels[3 * k];
+      want.ring_pixels += pixels[3 * k + 1];
+      want.weighted_pixels += pixels[3 * k + 2];
+      if (status[k] == 0) kept.push_back(static_cast<int>(k));
+    }
+    std::sort(kept.begin(), kept.end(), [&](int x, int y) { return root[x] < root[y]; });
+    kernels::RecordTally got;
+    std::vector<int> order, scratch, emitted;
+    const kernels::RecordColumns cols{status.data(), area.data(), root.data(), pixels.data(), n};
+    const std::int64_t steps =
+        kernels::order_records(cols, limit, got, order, scratch, [&](int k) { emitted.push_back(k); });
+    EXPECT_EQ(emitted, kept) << n << " records";
+    EXPECT_EQ(steps, static_cast<std::int64_t>(n) * 5);
+    EXPECT_EQ(got.records, static_cast<std::int64_t>(n));
+    EXPECT_EQ(got.area, want.area);
+    for (int s = 0; s < 5; ++s) EXPECT_EQ(got.by_status[s], want.by_status[s]) << "status " << s;
+    EXPECT_EQ(got.window_pixels, want.window_pixels);
+    EXPECT_EQ(got.ring_pixels, want.ring_pixels);
+    EXPECT_EQ(got.weighted_pixels, want.weighted_pixels);
+  }
 }
 
 }  // namespace

@@ -112,6 +112,10 @@ TEST(DctCounts, CudaMatchesFormulas) {
   EXPECT_EQ(c.gpu_footprint, roi * (1 + 4) + 60 * 1700 + 29 * 1600 + (16 + field) * 2048 + 4 * 2048 * 60);
   EXPECT_EQ(c.N_C, 0);
   EXPECT_EQ(c.pixel_steps, 0);  // the pixel work is the device's
+  // The host's pass over the 1700 records: each tallied, placed by 4 radix passes of its root (a
+  // pixel of 20'000'000 needs 25 bits) and handed on.
+  EXPECT_EQ(c.record_steps, 1700 * (1 + 4 + 1));
+  EXPECT_EQ(cpu_counts(s, 1).record_steps, 0);  // the CPU backends label on the host: no records
   EXPECT_EQ(c.launches, 11);
   EXPECT_EQ(c.P, 4);
   EXPECT_EQ(c.host_memory, HostMemory::pinned);
@@ -122,6 +126,7 @@ TEST(DctCounts, CudaMatchesFormulas) {
   EXPECT_EQ(z.launches, 8);
   EXPECT_EQ(z.host_waits, 2);
   EXPECT_EQ(z.gpu_pixel_steps, 0);  // no centroid kernel, no classification
+  EXPECT_EQ(z.record_steps, 0);
   EXPECT_EQ(z.copies_GC, (std::vector<CopySize>{{8, 1}, {field * 2048, 1}}));
   s.otsu = false;
   s.interp = Interp::fe;
