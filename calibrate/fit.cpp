@@ -167,7 +167,10 @@ std::vector<Param> exercised_params(const CostCounts& c, Variant v, const Machin
 // - L_wait where it prices host-timed laps alone (no sample has host_waits): each lap shares its
 //   component with the copies' or kernels' own latencies, as many in every sample;
 // - the GPU's rate where the samples' FLOPs are window taps priced by K_GR and K_GW: scaling the
-//   rate and both factors together moves only the few FLOPs beside the taps.
+//   rate and both factors together moves only the few FLOPs beside the taps;
+// - L_record where every sample with record steps has matching steps too: both scale with a frame's
+//   dots, so the fit could move the host's time from one to the other at will (on a lent H200 it put
+//   L_record on its lower bound and L_match at 1.9x its probe); the host's part lands in L_match.
 // The backend's part is in the latencies and factors the fit finds beside them.
 std::vector<Param> kept_at_probe(const std::vector<Sample>& samples, const MachineProfile& start) {
   auto any = [&samples](auto pred) {
@@ -188,6 +191,9 @@ std::vector<Param> kept_at_probe(const std::vector<Sample>& samples, const Machi
       if (probed(p) && any([wanted](const CostCounts& c) { return c.N_G > 0 && c.precision == wanted; }))
         out.push_back(p);
     }
+  if (probed(Param::L_record) && any([](const CostCounts& c) { return c.record_steps > 0; }) &&
+      !any([](const CostCounts& c) { return c.record_steps > 0 && c.match_steps == 0; }))
+    out.push_back(Param::L_record);
   return out;
 }
 
@@ -486,10 +492,12 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
     f.id = p;
     f.probed = f.value = start.get(p).value;
     f.kept_at_probe = true;
-    f.note = p == Param::L_wait ? "kept at the probe: a host-timed lap's round trip, which these samples cannot tell "
-                                  "from the copies' and kernels' latencies beside it"
-                                : "kept at the probe: these samples' FLOPs are window taps, whose factors (K_GR, K_GW) "
-                                  "the fit finds against it";
+    f.note = p == Param::L_wait     ? "kept at the probe: a host-timed lap's round trip, which these samples cannot tell "
+                                      "from the copies' and kernels' latencies beside it"
+             : p == Param::L_record ? "kept at the probe: the records' pass, which these samples cannot tell from the "
+                                      "matching's steps beside it (both scale with the dots; L_match takes the rest)"
+                                    : "kept at the probe: these samples' FLOPs are window taps, whose factors (K_GR, K_GW) "
+                                      "the fit finds against it";
     out.params.push_back(std::move(f));
   }
   std::sort(out.params.begin(), out.params.end(),

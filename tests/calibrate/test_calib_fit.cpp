@@ -176,6 +176,48 @@ TEST(CalibFit, HostTimedLapsAndTapFactorsLeaveTheRoundTripAndTheGpuRateAtTheProb
   for (const auto& f : fit(waits, start, o).params) EXPECT_FALSE(f.kept_at_probe && f.id == Param::L_wait);
 }
 
+TEST(CalibFit, TheRecordsPassBesideTheMatchingIsKeptAtTheProbe) {
+  // DCT cuda's host work: a records' pass and a matching that both scale with the frame's dots. The
+  // samples cannot tell a record step from a matching step, so the fit keeps L_record at its probe
+  // (here 0.7x the truth) and L_match takes the rest, which predicts every sample as the truth does.
+  MachineProfile truth = test::round_profile();
+  truth.set(Param::L_match, {20e-9, Provenance::probed, {}, {}, ""});
+  truth.set(Param::L_record, {5e-9, Provenance::probed, {}, {}, ""});
+  std::mt19937_64 rng(9);
+  auto frames = [&](bool matched) {
+    std::vector<Sample> out;
+    for (std::int64_t dots : {150, 400, 900, 1600}) {
+      CostCounts c;
+      c.P = 4;
+      c.precision = Precision::fp32;
+      c.record_steps = 5 * (dots + 20);
+      c.match_steps = matched ? 2 * dots : 0;
+      out.push_back(test::synthetic_sample(fmt::format("{}", dots), c, truth, Variant::latency, 0.0, rng));
+    }
+    return out;
+  };
+  MachineProfile start = truth;
+  Parameter r = start.get(Param::L_record);
+  r.value *= 0.7;
+  start.set(Param::L_record, r);
+  FitOptions o;
+  o.variant = Variant::latency;
+  const FitResult fitted = fit(frames(true), start, o);
+  EXPECT_LT(fitted.rms_relative, 2e-2);
+  bool kept = false;
+  for (const auto& f : fitted.params)
+    if (f.id == Param::L_record) {
+      kept = f.kept_at_probe;
+      EXPECT_NE(f.note.find("matching"), std::string::npos) << f.note;
+    }
+  EXPECT_TRUE(kept);
+  EXPECT_DOUBLE_EQ(fitted.profile.get(Param::L_record).value, 3.5e-9);
+  EXPECT_GT(fitted.profile.get(Param::L_match).value, 20e-9);  // the records' remaining time
+  // Frames with no matching (none of the reference's dots found): the pass alone, fitted.
+  for (const auto& f : fit(frames(false), start, o).params)
+    if (f.id == Param::L_record) EXPECT_FALSE(f.kept_at_probe);
+}
+
 TEST(CalibFit, ParametersThatMoveNoPredictionAreKept) {
   // All-thread CPU work: the one-thread rate is listed as needed but never used.
   MachineProfile truth = test::round_profile();

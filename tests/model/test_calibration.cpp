@@ -121,6 +121,18 @@ TEST(Calibration, ACalibrationFittedWithoutACodeRateLeavesTheTargetsProbeOfItOut
   const Applied b = apply_calibration(with, target);
   ASSERT_TRUE(b.profile.has(Param::L_GP));
   EXPECT_DOUBLE_EQ(b.profile.get(Param::L_GP).value, 1.25 * 6e-11);
+  // And for cpu-records' L_record: before it the records' pass rode on the matching's steps, so a
+  // calibration without it is applied without the target's probe of it (no pass priced twice).
+  target.set(Param::L_record, Parameter{4e-9, Provenance::probed, {}, {}, {}});
+  EXPECT_FALSE(apply_calibration(pinned_copy_calibration(), target).profile.has(Param::L_record));
+  CalibrationFactor r = g;
+  r.id = Param::L_record;
+  r.factor = 1.5;
+  r.value = 6e-9;
+  r.source_probed = 4e-9;
+  with.factors.push_back(r);
+  ASSERT_TRUE(apply_calibration(with, target).profile.has(Param::L_record));
+  EXPECT_DOUBLE_EQ(apply_calibration(with, target).profile.get(Param::L_record).value, 1.5 * 4e-9);
   // And for cpu-pixel's kinds of step: a calibration fitted at one L_pixel a step is applied
   // without the target's L_label, L_hist and L_scan, so its pixel steps are priced as they were fitted.
   const Param kinds[] = {Param::L_label, Param::L_label_all, Param::L_hist,
