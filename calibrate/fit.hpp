@@ -87,6 +87,8 @@ struct FitResult {
   int free_parameters = 0;
   std::vector<FittedParameter> params;  // every parameter the samples' counts exercise
   std::string termination;              // Ceres' one-line report
+  double prior_log_sigma = 0;           // the prior the fit was solved with: FitOptions', or where a fit
+                                        // without one did not converge, the fallback's (fit.cpp); 0: none
   int iterations = 0;
   double rms_relative = 0;              // sqrt(mean squared relative residual), no loss applied
   int at_physical_bounds = 0;           // parameters that ended on an end of their physical range
@@ -95,6 +97,8 @@ struct FitResult {
   MachineProfile profile;               // the start profile with the fitted values written in
 };
 
+// A fit without a prior that does not converge within its iterations is solved again with the
+// probes as a prior (sigma 0.5; FitResult::prior_log_sigma and its termination say so).
 // Throws InputError for: no samples; fewer samples than free parameters; a solve that fails or
 // does not converge; a sample whose counts need a parameter with no start value (neither in
 // the start profile nor guessable).

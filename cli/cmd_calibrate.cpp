@@ -348,7 +348,7 @@ void run(const CalibrateOptions& o) {
   out.metadata["fit_error"] = error.how;
   if (error.round_configs > 0) out.metadata["fit_round_log_sd"] = fmt::format("{:.4g}", error.round_log_sd);
   out.metadata["fit_loss"] = fmt::format("{} (scale {})", to_string(fo.loss), fo.loss_scale);
-  if (fo.prior_log_sigma > 0) out.metadata["fit_prior_log_sigma"] = fmt::format("{:.4g}", fo.prior_log_sigma);
+  if (r.prior_log_sigma > 0) out.metadata["fit_prior_log_sigma"] = fmt::format("{:.4g}", r.prior_log_sigma);
   out.metadata["fit_from"] = fs::path(o.machine).lexically_normal().string();
   out.metadata["fitted_at"] = utc_now();
   std::string kept, at_probe;

@@ -301,6 +301,16 @@ TEST(CalibFit, APriorKeepsWhatTheSamplesCannotSeparateAtItsProbe) {
   o.variant = Variant::latency;
   const FitResult plain = fit(samples, start, o);
   EXPECT_FALSE(plain.covariance_ok);  // the two steps' columns are one
+  EXPECT_EQ(plain.prior_log_sigma, 0);
+  // Given too few iterations to converge, the plain fit is solved again with the probes as a prior
+  // (sigma 0.5), which holds the two steps' shared direction still, and says so.
+  ASSERT_GE(plain.iterations, 4);
+  FitOptions few = o;
+  few.max_iterations = plain.iterations / 2;
+  const FitResult fell = fit(samples, start, few);
+  EXPECT_EQ(fell.prior_log_sigma, 0.5);
+  EXPECT_NE(fell.termination.find("solved again with the probes as a prior"), std::string::npos) << fell.termination;
+  EXPECT_TRUE(fell.covariance_ok) << fell.covariance_note;
   o.prior_log_sigma = 0.3;
   const FitResult with = fit(samples, start, o);
   ASSERT_TRUE(with.covariance_ok) << with.covariance_note;
@@ -343,6 +353,11 @@ TEST(CalibFit, RefusesWhatItCannotDo) {
   }
   samples = test::seed_pipeline_samples(truth, Variant::latency, 0.0);
   o.max_iterations = 1;
+  // Without a prior, a fit that does not converge is solved again with the probes as one (in 50
+  // iterations at least): on exact samples the prior weighs nothing and the fit converges.
+  EXPECT_EQ(fit(samples, perturbed(truth, 20), o).prior_log_sigma, 0.5);
+  // With a prior asked for, there is no second solve: one iteration from 20x off is refused.
+  o.prior_log_sigma = 0.5;
   try {
     fit(samples, perturbed(truth, 20), o);
     FAIL() << "one iteration from 20x off converged";
