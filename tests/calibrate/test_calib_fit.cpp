@@ -214,8 +214,7 @@ TEST(CalibFit, TheRecordsPassBesideTheMatchingIsKeptAtTheProbe) {
   EXPECT_DOUBLE_EQ(fitted.profile.get(Param::L_record).value, 3.5e-9);
   EXPECT_GT(fitted.profile.get(Param::L_match).value, 20e-9);  // the records' remaining time
   // Frames with no matching (none of the reference's dots found): the pass alone, fitted.
-  for (const auto& f : fit(frames(false), start, o).params)
-    if (f.id == Param::L_record) EXPECT_FALSE(f.kept_at_probe);
+  for (const auto& f : fit(frames(false), start, o).params) EXPECT_FALSE(f.id == Param::L_record && f.kept_at_probe);
 }
 
 TEST(CalibFit, ParametersThatMoveNoPredictionAreKept) {
