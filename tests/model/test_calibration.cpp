@@ -96,43 +96,30 @@ TEST(Calibration, AnotherProbeOfTheSameMachineIsATransfer) {
 // it carries it as any other factor (and so for gpu-centroid's L_GP).
 TEST(Calibration, ACalibrationFittedWithoutACodeRateLeavesTheTargetsProbeOfItOut) {
   MachineProfile target = probed(test::round_profile());
-  target.set(Param::V_GM, Parameter{3e8, Provenance::probed, {}, {}, {}});
-  EXPECT_FALSE(apply_calibration(pinned_copy_calibration(), target).profile.has(Param::V_GM));
   Calibration with = pinned_copy_calibration();
-  CalibrationFactor g;
-  g.id = Param::V_GM;
-  g.relative = true;
-  g.factor = 1.2;
-  g.value = 3.6e8;
-  g.source_probed = 3e8;
-  with.factors.push_back(g);
-  const Applied a = apply_calibration(with, target);
-  ASSERT_TRUE(a.profile.has(Param::V_GM));
-  EXPECT_DOUBLE_EQ(a.profile.get(Param::V_GM).value, 3.6e8);
+  // The target probes `id` at `probe`: a calibration without it leaves it out; one that carries it
+  // as `factor` x its source's probe applies that factor to the target's probe.
+  auto left_out_then_carried = [&](Param id, double probe, double factor) {
+    SCOPED_TRACE(info(id).name);
+    target.set(id, Parameter{probe, Provenance::probed, {}, {}, {}});
+    EXPECT_FALSE(apply_calibration(pinned_copy_calibration(), target).profile.has(id));
+    CalibrationFactor f;
+    f.id = id;
+    f.relative = true;
+    f.factor = factor;
+    f.value = factor * probe;
+    f.source_probed = probe;
+    with.factors.push_back(f);
+    const Applied a = apply_calibration(with, target);
+    ASSERT_TRUE(a.profile.has(id));
+    EXPECT_DOUBLE_EQ(a.profile.get(id).value, factor * probe);
+  };
+  left_out_then_carried(Param::V_GM, 3e8, 1.2);
   // The same for gpu-centroid's L_GP: before it the centroids' classification was bytes in N_GG.
-  target.set(Param::L_GP, Parameter{6e-11, Provenance::probed, {}, {}, {}});
-  EXPECT_FALSE(apply_calibration(pinned_copy_calibration(), target).profile.has(Param::L_GP));
-  CalibrationFactor p = g;
-  p.id = Param::L_GP;
-  p.factor = 1.25;
-  p.value = 7.5e-11;
-  p.source_probed = 6e-11;
-  with.factors.push_back(p);
-  const Applied b = apply_calibration(with, target);
-  ASSERT_TRUE(b.profile.has(Param::L_GP));
-  EXPECT_DOUBLE_EQ(b.profile.get(Param::L_GP).value, 1.25 * 6e-11);
+  left_out_then_carried(Param::L_GP, 6e-11, 1.25);
   // And for cpu-records' L_record: before it the records' pass rode on the matching's steps, so a
   // calibration without it is applied without the target's probe of it (no pass priced twice).
-  target.set(Param::L_record, Parameter{4e-9, Provenance::probed, {}, {}, {}});
-  EXPECT_FALSE(apply_calibration(pinned_copy_calibration(), target).profile.has(Param::L_record));
-  CalibrationFactor r = g;
-  r.id = Param::L_record;
-  r.factor = 1.5;
-  r.value = 6e-9;
-  r.source_probed = 4e-9;
-  with.factors.push_back(r);
-  ASSERT_TRUE(apply_calibration(with, target).profile.has(Param::L_record));
-  EXPECT_DOUBLE_EQ(apply_calibration(with, target).profile.get(Param::L_record).value, 1.5 * 4e-9);
+  left_out_then_carried(Param::L_record, 4e-9, 1.5);
   // And for cpu-pixel's kinds of step: a calibration fitted at one L_pixel a step is applied
   // without the target's L_label, L_hist and L_scan, so its pixel steps are priced as they were fitted.
   const Param kinds[] = {Param::L_label, Param::L_label_all, Param::L_hist,
