@@ -358,11 +358,11 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
     prior_sigma = kFallbackPrior;
     so.max_num_iterations = std::max(o.max_iterations, kFallbackIterations);  // a budget of its own
   }
+  int priors = 0;  // parameters the prior holds (those the start profile has as probed)
   if (prior_sigma > 0 && summary.IsSolutionUsable()) {
     // MAP with the samples' residuals as normal with the scatter the fit without the prior left:
     // a prior residual (theta - log(probed / start)) / prior_log_sigma, scaled to that scatter.
     const double weight = rms_of() / prior_sigma;
-    int priors = 0;
     for (std::size_t i = 0; i < ids.size() && weight > 0; ++i) {
       const Parameter* sp = start.find(ids[i]);
       if (!identifiable[i] || !sp || sp->provenance != Provenance::probed || !(sp->value > 0)) continue;
@@ -379,7 +379,7 @@ FitResult fit(const std::vector<Sample>& samples, const MachineProfile& start, c
   out.samples = n_samples;
   out.residuals = static_cast<int>(residuals.size());
   out.free_parameters = free;
-  out.prior_log_sigma = summary.IsSolutionUsable() ? prior_sigma : 0;
+  out.prior_log_sigma = priors > 0 ? prior_sigma : 0;
   out.termination = prior_fallback ? fmt::format("{} (without a prior it did not converge in {} iterations; solved "
                                                  "again with the probes as a prior, sigma {})",
                                                  summary.message, o.max_iterations, kFallbackPrior)
