@@ -150,6 +150,9 @@ class CuptiProfiler final : public ActivityProfiler {
     }
     DeviceActivity a = aggregate(records, t0_, t1);
     a.dropped_records = dropped;
+    a.begin_ns = t0_;
+    a.end_ns = t1;
+    a.records = std::move(records);
     return a;
   }
 

@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "calibrate/timeline.hpp"
 #include "model/errors.hpp"
 
 namespace dtflop::calib {
@@ -118,7 +119,8 @@ std::string counts_mismatch(const CostCounts& k, const DeviceActivity& a) {
 }  // namespace
 
 Sample measure(const workload::Workload& w, const workload::Backend& b, const workload::Config& config,
-               Protocol& protocol, const MachineIdentity& machine, const std::string& key, const std::string& plan) {
+               Protocol& protocol, const MachineIdentity& machine, const std::string& key, const std::string& plan,
+               nlohmann::json* timeline) {
   const MeasureSettings& st = protocol.settings;
   auto run = b.prepare(config, st.steps);
   const bool device = b.needs_gpu();
@@ -164,7 +166,12 @@ Sample measure(const workload::Workload& w, const workload::Backend& b, const wo
       api_copy.push_back(a.copy_api_seconds);
       total_traced.push_back(t.wall);
       if (cupti_mismatch.empty()) cupti_mismatch = counts_mismatch(s.counts, a);
-      if (r == st.repetitions - 1) activity = a.to_json();
+      if (r == st.repetitions - 1) {
+        activity = a.to_json();
+        if (timeline)
+          *timeline = timeline_json(a.records, a.begin_ns, a.end_ns,
+                                    fmt::format("{}: the last CUPTI-traced repetition ({} steps)", key, st.steps));
+      }
     }
   }
   // Untraced repetitions: the total, and the backend's host-clock time of each phase.

@@ -43,10 +43,12 @@ struct Protocol {
 Protocol open_protocol(const workload::Workload& w, const workload::Backend& backend, MeasureSettings settings,
                        bool no_cupti);
 
-// Measures `config` on `backend` by the protocol. `key` and `plan` are stored in the sample.
-// Throws std::runtime_error when the computation fails.
+// Measures `config` on `backend` by the protocol. `key` and `plan` are stored in the sample;
+// with `timeline`, the last CUPTI-traced repetition's timeline goes there (calibrate/timeline.hpp;
+// left empty without a profiler). Throws std::runtime_error when the computation fails.
 Sample measure(const workload::Workload& w, const workload::Backend& backend, const workload::Config& config,
-               Protocol& protocol, const MachineIdentity& machine, const std::string& key, const std::string& plan);
+               Protocol& protocol, const MachineIdentity& machine, const std::string& key, const std::string& plan,
+               nlohmann::json* timeline = nullptr);
 
 // The workload's plan `spec` for `backend` as sweep items (key, label, configuration), with the
 // parameters in `fixed` (e.g. {"threads": 2}) set in every configuration. Throws InputError when

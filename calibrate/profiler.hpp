@@ -59,6 +59,10 @@ struct DeviceActivity {
   double window_seconds = 0;             // end - begin
   double busy_seconds = 0;               // union of copy and kernel intervals
   std::uint64_t dropped_records = 0;     // records CUPTI could not deliver (buffers full)
+  // The range (ns, CUPTI's clock) and its records as CUPTI delivered them, for a timeline
+  // (calibrate/timeline.hpp): the profiler fills them, aggregate() does not.
+  std::uint64_t begin_ns = 0, end_ns = 0;
+  std::vector<ActivityRecord> records;
 
   nlohmann::json to_json() const;
 };

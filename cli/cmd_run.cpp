@@ -31,6 +31,7 @@ struct RunCommon {
   bool no_cupti = false;
   ResultArgs result;
   std::string estimate;  // --estimate FILE
+  std::string timeline;  // --timeline FILE
 };
 
 void run(const RunCommon& o, const WorkloadArgs& a) {
@@ -41,6 +42,16 @@ void run(const RunCommon& o, const WorkloadArgs& a) {
     if (!w.has_estimate())
       throw InputError(fmt::format("{}: --estimate is not available for this workload; leave it out", w.name()));
     check_output(o.estimate, {o.predict.machine, o.predict.calibration, o.result.output});
+  }
+  if (!o.timeline.empty()) {
+    if (!c.backend->needs_gpu())
+      throw InputError(fmt::format("--timeline traces a GPU backend's copies, kernels and runtime calls; {} runs on "
+                                   "the CPU: leave --timeline out",
+                                   c.backend->name()));
+    if (o.no_cupti)
+      throw InputError("--timeline is made of CUPTI's traced repetitions, which --no-cupti turns off: leave one of "
+                       "them out");
+    check_output(o.timeline, {o.predict.machine, o.predict.calibration, o.result.output, o.estimate});
   }
   const std::optional<double> deadline = deadline_of(o.predict);
   // Everything that can be wrong with the profile (and a calibration) is found before anything is measured.
@@ -54,13 +65,19 @@ void run(const RunCommon& o, const WorkloadArgs& a) {
   }
   const MachineProfile* profile = pp ? &pp->profile : nullptr;
   Protocol protocol = open_protocol(w, *c.backend, o.measure, o.no_cupti);
+  if (!o.timeline.empty() && !protocol.profiler)
+    throw InputError(fmt::format("--timeline needs CUPTI's tracing, which is not available here ({}); leave "
+                                 "--timeline out",
+                                 protocol.no_profiler));
   const MachineIdentity here = this_machine();
   const MeasureSettings& st = protocol.settings;
   fmt::print(stderr, "dtflop run {}: {} on {}: {} warm-up, {}{} repetitions of {} {}{}\n", w.name(),
              w.describe(*c.backend, c.config), describe(here), st.warmup, st.repetitions,
              protocol.profiler ? fmt::format(" CUPTI-traced and {} untraced", st.repetitions) : std::string(),
              st.steps, w.step_name(), st.steps == 1 ? "" : "s");
-  const Sample s = measure(w, *c.backend, c.config, protocol, here, w.key(*c.backend, c.config), "run");
+  nlohmann::json timeline;
+  const Sample s = measure(w, *c.backend, c.config, protocol, here, w.key(*c.backend, c.config), "run",
+                           o.timeline.empty() ? nullptr : &timeline);
   const double steps = static_cast<double>(s.steps);
 
   std::optional<Predicted> pred;
@@ -113,6 +130,16 @@ void run(const RunCommon& o, const WorkloadArgs& a) {
   // The deadline is judged on what was measured.
   if (deadline && total.median / steps > *deadline) set_exit_status(kExitMissed);
   if (!o.result.output.empty()) write_file_atomically(o.result.output, out.dump(2) + "\n");
+  if (!o.timeline.empty()) {
+    write_file_atomically(o.timeline, timeline.dump() + "\n");
+    const auto& sum = timeline["dtflop_summary"];
+    fmt::print(stderr,
+               "dtflop run {}: timeline of the last traced repetition written to {} (open it in ui.perfetto.dev or "
+               "chrome://tracing): device busy {} of {}, idle {} in {} gaps between its operations\n",
+               w.name(), o.timeline, format_duration(sum["device_busy_seconds"].get<double>()),
+               format_duration(sum["window_seconds"].get<double>()),
+               format_duration(sum["device_gap_seconds"].get<double>()), sum["device_gaps"].get<int>());
+  }
   if (!o.estimate.empty()) {
     w.write_estimate(*c.backend, c.config, st.steps, o.estimate);
     fmt::print(stderr, "dtflop run {}: estimate per step of one more run of {} {}{} written to {}\n", w.name(), st.steps,
@@ -174,6 +201,11 @@ void add_run_command(CLI::App& root) {
   app->add_option("--estimate", o->estimate,
                   "rbe: also run --steps steps once more, one at a time, and write the estimate after each (mean, "
                   "covariance, MAP cell, entropy; step 0 is the prior) to FILE: JSON if it ends in .json, else CSV")
+      ->type_name("FILE");
+  app->add_option("--timeline", o->timeline,
+                  "GPU backends: write the last CUPTI-traced repetition's copies, kernels and runtime API calls to "
+                  "FILE in the Trace Event Format (ui.perfetto.dev, chrome://tracing), with a summary of the "
+                  "device's busy and idle time (docs/cli.md)")
       ->type_name("FILE");
   add_workload_subcommands(*app, [o](const WorkloadArgs& a) { run(*o, a); });
 }

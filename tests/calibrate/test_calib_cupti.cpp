@@ -11,6 +11,7 @@
 
 #include "calibrate/measure.hpp"
 #include "calibrate/profiler.hpp"
+#include "calibrate/timeline.hpp"
 #include "workloads/workload.hpp"
 #include "tests/support/gpu.hpp"
 
@@ -61,6 +62,13 @@ TEST(CalibCupti, CopiesAreAttributedByDirectionSizeAndMemoryKind) {
   EXPECT_EQ(empty.to_host.count, 0);
   EXPECT_EQ(empty.kernels, 0);
   EXPECT_EQ(pageable[0], 3);  // the copies really happened
+  // The range's records go with it, for a timeline: the same three copies, the same device time.
+  const TimelineSummary t = summarize_timeline(a.records, a.begin_ns, a.end_ns);
+  EXPECT_EQ(t.device_operations, 3);
+  EXPECT_NEAR(t.device_busy_seconds, a.busy_seconds, 1e-9);
+  EXPECT_NEAR(t.window_seconds, a.window_seconds, 1e-9);
+  EXPECT_EQ(t.gaps, 2);  // three copies, one after another, each waited for by the host
+  EXPECT_TRUE(empty.records.empty() || summarize_timeline(empty.records, empty.begin_ns, empty.end_ns).device_operations == 0);
   cudaFree(dev);
   cudaFreeHost(pinned);
 }

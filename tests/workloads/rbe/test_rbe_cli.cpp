@@ -47,7 +47,10 @@ TEST(RbeCli, BadInputIsOneLineAndExitStatus2) {
                        Case{"run rbe -b cpu-seq --layout 32x8", "cuda-resident, cuda-bands only"},
                        Case{"run rbe -b cpu-seq --steps 0", "--steps"},
                        Case{"run rbe -b cpu-seq --reps 1", "--reps"},
-                       Case{"run rbe -b cpu-seq --machine /nonexistent/m.json", "m.json"}}) {
+                       Case{"run rbe -b cpu-seq --machine /nonexistent/m.json", "m.json"},
+                       Case{"run rbe -b cpu-seq --grid 64 --kernel 9 --timeline t.json", "runs on the CPU"},
+                       Case{"run rbe -b cuda-seed --grid 64 --kernel 9 --no-cupti --timeline t.json",
+                            "--timeline"}}) {
     SCOPED_TRACE(c.args);
     const auto r = test::run_dtflop(c.args);
     EXPECT_EQ(r.status, 2);
