@@ -48,6 +48,7 @@ double default_start(Param p) {
   if (p == Param::V_CM || p == Param::V_CM_all) return 3e9;  // MLS fields: a FLOP a cycle, about
   if (p == Param::V_GM) return 3e8;  // one GPU thread's MLS chain: a FLOP every few cycles
   if (p == Param::L_GP) return 1e-10;  // a window pixel classified, a dot's block beside the others
+  if (p == Param::L_GF) return 3e-12;  // a pixel of a whole-frame pass: every multiprocessor's threads at once
   if (p == Param::L_net) return 2e-6;    // a message between processes of one host
   if (p == Param::B_net) return 2e9;
   if (unit == "s") return 10e-6;
@@ -80,6 +81,8 @@ Bound physical_bounds(Param p, const MachineProfile& start, double start_value) 
   // The dots' blocks classify side by side on every multiprocessor: a step's share of the wall time
   // is picoseconds (about 60-80 ps on the lent H100), below any one event's 0.1 ns.
   if (p == Param::L_GP) return {1e-12, 1e-7, "a window pixel classified on the device, the dots' blocks side by side: 1 ps .. 100 ns"};
+  // Likewise a pixel of a whole-frame pass, its threads on every multiprocessor (2.8-3.9 ps on a lent H200).
+  if (p == Param::L_GF) return {1e-13, 1e-9, "a pixel of a device pass over a whole frame, every multiprocessor's threads at once: 0.1 ps .. 1 ns"};
   if (unit == "s") return {1e-10, 1e-2, "an event of the machine: 0.1 ns .. 10 ms"};
   if (unit == "B") return {1, 1024.0 * 1024 * 1024, "a copy size: 1 B .. 1 GiB"};
   return {start_value * 1e-6, start_value * 1e6, "no probe: a million-fold either side of its start"};
@@ -160,7 +163,7 @@ std::vector<Param> exercised_params(const CostCounts& c, Variant v, const Machin
                                  .pixel_all = true, .mls = true, .mls_all = true, .gpu_mls = true,
                                  .gpu_pixel = true, .pixel_kinds = true, .pixel_kinds_all = true,
                                  .pixel_pass_all = start.has(Param::L_pass_all), .along_row = start.has(Param::K_GW),
-                                 .grid_match = true, .records = true});
+                                 .grid_match = true, .gpu_frame = true, .records = true});
 }
 
 // Parameters the samples exercise that the fit keeps at their probed values, because the samples

@@ -86,7 +86,7 @@ Applied apply_calibration(const Calibration& c, const MachineProfile& target) {
     out.profile.set(f.id, par);
   }
   // The figures of code whose probes came after calibrations were first made (cpu-mls, gpu-mls,
-  // gpu-centroid, cpu-pixel's kinds of step apart, cpu-records): a fit that had none of them priced that
+  // gpu-centroid, cpu-pixel's kinds of step apart, cpu-records, gpu-frame-pass): a fit that had none of them priced that
   // code as other FLOPs, bytes or steps (or not at all) and fitted the rest around it, so a calibration without one
   // is applied without the target's probe of it, priced as it was fitted. (A fit made since finds
   // each one its backend's counts exercise, and carries it as a factor.)
@@ -94,7 +94,7 @@ Applied apply_calibration(const Calibration& c, const MachineProfile& target) {
     return std::any_of(c.factors.begin(), c.factors.end(), [p](const CalibrationFactor& f) { return f.id == p; });
   };
   for (Param p : {Param::V_CM, Param::V_CM_all, Param::V_GM, Param::L_GP, Param::L_label, Param::L_label_all,
-                  Param::L_hist, Param::L_hist_all, Param::L_scan, Param::L_scan_all, Param::L_record})
+                  Param::L_hist, Param::L_hist_all, Param::L_scan, Param::L_scan_all, Param::L_record, Param::L_GF})
     if (!carries(p)) out.profile.erase(p);
   // A frame's fixed cost on many threads (L_pass_all) is another matter: a fit exercises it only where
   // its machine's probe found one, and cpu-pixel finds none where it is under a tenth of a small

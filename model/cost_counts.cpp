@@ -45,6 +45,8 @@ const std::vector<CountField>& count_fields() {
       {"N_GM", &C::N_GM, "FLOPs", "of one GPU thread's moving-least-squares field (a point's chain; its points side by side)"},
       {"N_GS", &C::N_GS, "values", "copied into shared-memory tiles (per busiest-SM round x SMs)"},
       {"gpu_pixel_steps", &C::gpu_pixel_steps, "steps", "of per-dot pixel classification on the device (a window pixel each)"},
+      {"gpu_frame_pixels", &C::gpu_frame_pixels, "pixels", "the device's whole-frame passes visit, a thread a pixel each pass"},
+      {"N_GG_frame", &C::N_GG_frame, "values", "of N_GG, moved by those passes", A::sum, &C::N_GG},
       {"launches", &C::launches, "launches", "of kernels"},
       {"graph_launches", &C::graph_launches, "launches", "of launches, kernels of a CUDA graph (started by the device)",
        A::sum, &C::launches},

@@ -86,6 +86,14 @@ struct CostCounts {
                                 // its blocks' branches and barriers bound, not the bytes in N_GG.
                                 // Priced at L_GP (latency+, where the profile has it: the gpu-centroid
                                 // probe or a fit gives it); 0 = none
+  std::int64_t gpu_frame_pixels = 0;  // pixels the device's whole-frame passes visit, a thread a pixel
+                                // each pass (a threshold, a labelling's unions, a histogram): light
+                                // threads whose issue, not the bytes they move, bounds them. Priced
+                                // at L_GF (latency+, where the profile has it: the gpu-frame-pass
+                                // probe or a fit gives it); 0 = none
+  std::int64_t N_GG_frame = 0;  // of N_GG, the values those passes move: where gpu_frame_pixels are
+                                // priced, dt_GG leaves them out (L_GF is timed on such passes,
+                                // their traffic included)
   std::int64_t N_GS = 0;        // values kernels copy from device memory into shared-memory tiles
                                 // (halos included), counted per round of blocks on the busiest
                                 // multiprocessor times the multiprocessors, like N_G (latency+)

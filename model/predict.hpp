@@ -64,6 +64,7 @@ struct Prediction {
   double lat_match = 0;  // match_steps x one step of the host's grid matching (CPU component, latency+)
   double lat_record = 0; // record_steps x one step of the host's pass over component records (CPU component, latency+)
   double lat_pixel = 0;  // pixel_steps x one step of host scalar pixel work (CPU component, latency+)
+  double lat_GF = 0;     // gpu_frame_pixels x L_GF: the device's whole-frame passes (latency+, where the profile has L_GF; device)
   double dt_GS = 0;      // shared-memory tile fills, P N_GS / B_GS (latency+; device component)
   double lat_net = 0;    // net_messages x L_net: messages between processes (latency+; total only)
   double dt_net = 0;     // net_bytes / B_net: their bytes (total only)

@@ -85,6 +85,7 @@ const std::vector<ParamInfo>& all_params() {
       {Param::K_GW, "K_GW", "x", "cost of a GPU FLOP whose tap reads device memory along a row (the line the tap before read, or the next) relative to one at V_G"},
       {Param::L_match, "L_match", "s", "one step of the host's grid matching: a point binned into the grid or a query answered from it"},
       {Param::L_record, "L_record", "s", "one step of the host's pass over a GPU labelling's component records: a record tallied, placed by one radix pass of its root, or handed on"},
+      {Param::L_GF, "L_GF", "s", "one pixel of a device pass over a whole frame, a thread a pixel (a threshold, a labelling's union or relabelling, a histogram's count), its reads and writes included"},
       {Param::L_GP, "L_GP", "s", "one step of the device's per-dot pixel classification: a window pixel of a dot classified (its own, ring, or ignored, from its neighbourhood's labels), the dots' blocks side by side"},
   };
   return table;

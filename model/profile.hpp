@@ -81,6 +81,7 @@ enum class Param {
   K_GW,            // cost of an along-row GPU window FLOP (N_GW) relative to one at V_G     [x]
   L_match,         // one step of the host's grid matching (match_steps)                    [s]
   L_record,        // one step of the host's pass over component records (record_steps)     [s]
+  L_GF,            // one pixel of a device pass over a whole frame, a thread a pixel (gpu_frame_pixels) [s]
 };
 
 struct ParamInfo {

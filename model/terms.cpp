@@ -55,7 +55,8 @@ Pricing Pricing::of(const MachineProfile& m) {
           m.has(Param::V_GM), m.has(Param::L_GP), 
           m.has(Param::L_label) && m.has(Param::L_hist) && m.has(Param::L_scan),
           m.has(Param::L_label_all) && m.has(Param::L_hist_all) && m.has(Param::L_scan_all),
-          m.has(Param::L_pass_all), m.has(Param::K_GW), m.has(Param::L_match), m.has(Param::L_record)};
+          m.has(Param::L_pass_all), m.has(Param::K_GW), m.has(Param::L_match), m.has(Param::L_GF),
+          m.has(Param::L_record)};
 }
 
 namespace {
@@ -132,16 +133,26 @@ double gc_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const
 
 // dt_GG. latency+: the share of the kernels' traffic the GPU's L2 cache serves (0 < gpu_footprint <
 // L2, where the profile has B_L2) at B_L2, the rest at B_GG, as the CPU's last-level cache is
-// priced (docs/model.md 2.2): w = gpu_footprint / L2 of it at B_GG. Seed: P N_GG / B_GG (eq. 3.4).
+// priced (docs/model.md 2.2): w = gpu_footprint / L2 of it at B_GG; the whole-frame passes' values
+// (N_GG_frame) left out where lat_GF prices those passes. Seed: P N_GG / B_GG (eq. 3.4).
+bool frame_passes(const CostCounts& c, Variant v, const Pricing& x) {
+  return x.gpu_frame && kLatencyVariants.contains(v) && c.gpu_frame_pixels > 0;
+}
+std::int64_t gg_values(const CostCounts& c, Variant v, const Pricing& x) {
+  return c.N_GG - (frame_passes(c, v, x) ? c.N_GG_frame : 0);
+}
 bool l2_served(const CostCounts& c, Variant v, const Pricing& x) {
   return kLatencyVariants.contains(v) && c.gpu_footprint > 0 && c.gpu_footprint < x.gpu_l2_bytes;
 }
 std::vector<Param> gg_needs(const CostCounts& c, Variant v, const Pricing& x) {
+  if (gg_values(c, v, x) <= 0) return {};
   if (l2_served(c, v, x)) return {Param::B_GG, Param::B_L2};
   return {Param::B_GG};
 }
 double gg_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing& x) {
-  const double bytes = static_cast<double>(c.P) * static_cast<double>(c.N_GG);
+  const std::int64_t values = gg_values(c, v, x);
+  if (values <= 0) return 0;
+  const double bytes = static_cast<double>(c.P) * static_cast<double>(values);
   if (!l2_served(c, v, x)) return bytes / m.get(Param::B_GG).value;
   const double w = static_cast<double>(c.gpu_footprint) / static_cast<double>(x.gpu_l2_bytes);
   return bytes * (w / m.get(Param::B_GG).value + (1 - w) / m.get(Param::B_L2).value);
@@ -396,6 +407,20 @@ double record_seconds(const MachineProfile& m, const CostCounts& c, Variant v, c
   if (!x.records || !kLatencyVariants.contains(v)) return 0;
   return static_cast<double>(c.record_steps) * m.get(Param::L_record).value;
 }
+// lat_GF. latency+: the device's whole-frame passes, a thread a pixel (a threshold, a labelling's
+// unions and relabellings, a histogram's counts), at L_GF a pixel of a pass: light threads whose
+// issue bounds them, not the bytes they move (on a lent H200 1.8-3.9 ps a pixel where those bytes
+// at B_GG come to 1-1.5; docs/model.md 2.6). The gpu-frame-pass probe times such passes, traffic
+// included, so their values (N_GG_frame) leave dt_GG. A profile without L_GF prices the passes by
+// their bytes, as the fits made before the probe were.
+std::vector<Param> gpu_frame_needs(const CostCounts& c, Variant v, const Pricing& x) {
+  if (frame_passes(c, v, x)) return {Param::L_GF};
+  return {};
+}
+double gpu_frame_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing& x) {
+  if (!frame_passes(c, v, x)) return 0;
+  return static_cast<double>(c.gpu_frame_pixels) * m.get(Param::L_GF).value;
+}
 double gpu_pixel_seconds(const MachineProfile& m, const CostCounts& c, Variant v, const Pricing& x) {
   if (!x.gpu_pixel || !kLatencyVariants.contains(v)) return 0;
   return static_cast<double>(c.gpu_pixel_steps) * m.get(Param::L_GP).value;
@@ -431,7 +456,8 @@ const std::vector<Term>& terms() {
        "L_GC_pinned or L_GC_pageable (host_memory)", "device->host copies: latency",
        per_event<&C::transfers_GC, l_gc>()},
       {"dt_GG", &P::dt_GG, Phase::G, kEveryVariant, overlap,
-       "P N_GG; latency+, 0 < gpu_footprint < L2: w = gpu_footprint / L2 of it at B_GG, the rest at B_L2 (2.2)",
+       "P N_GG, less N_GG_frame where lat_GF prices the frame passes; latency+, 0 < gpu_footprint < L2: w = "
+       "gpu_footprint / L2 of it at B_GG, the rest at B_L2 (2.2)",
        "B_GG; B_L2 (latency+, 0 < gpu_footprint < L2, where the profile has it)", "device memory traffic",
        {positive<&C::N_GG>, gg_needs, gg_seconds}},
       {"dt_G", &P::dt_G, Phase::G, kEveryVariant, overlap,
@@ -452,6 +478,9 @@ const std::vector<Term>& terms() {
        "one GPU thread's MLS chain", {positive<&C::N_GM>, gpu_mls_needs, gpu_mls_seconds}},
       {"lat_GP", &P::lat_GP, Phase::G, kLatencyVariants, sum, "gpu_pixel_steps (where the profile has L_GP)", "L_GP",
        "per-dot pixel classification on the device", {positive<&C::gpu_pixel_steps>, gpu_pixel_needs, gpu_pixel_seconds}},
+      {"lat_GF", &P::lat_GF, Phase::G, kLatencyVariants, sum, "gpu_frame_pixels (where the profile has L_GF)",
+       "L_GF", "the device's whole-frame passes, a thread a pixel",
+       {positive<&C::gpu_frame_pixels>, gpu_frame_needs, gpu_frame_seconds}},
       {"dt_GS", &P::dt_GS, Phase::G, kLatencyVariants, sum, "P N_GS", "B_GS", "shared-memory tile fills",
        per_byte<&C::N_GS, only<Param::B_GS>>()},
       {"dt_C_arith", &P::dt_C_arith, Phase::C, kEveryVariant, overlap,

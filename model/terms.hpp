@@ -101,6 +101,10 @@ struct Pricing {
   bool grid_match = false;       // price the grid matching's steps (match_steps) at L_match (the profile has
                                  // it, or a fit is to find it); else at L_tree, as profiles made before the
                                  // cpu-match probe priced the matching (then a k-d tree's)
+  bool gpu_frame = false;        // price the device's whole-frame passes (gpu_frame_pixels) at L_GF and leave
+                                 // their values (N_GG_frame) out of dt_GG (the profile has L_GF, or a fit is to
+                                 // find it); else their bytes at the device's bandwidth, as profiles made before
+                                 // the gpu-frame-pass probe were fitted
   bool records = false;          // price the host's pass over component records (record_steps) at L_record
                                  // (the profile has it, or a fit is to find it); else not at all, as
                                  // profiles made before the cpu-records probe were fitted

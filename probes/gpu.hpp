@@ -232,4 +232,25 @@ struct CentroidTiming {
 // window outside the image, a size that does not match) before anything is allocated.
 CentroidTiming time_centroids(const std::vector<CentroidFrame>& frames, int margin, int block, int reps, int warmup);
 
+// The device's whole-frame passes, a thread a pixel (gpu-frame-pass, L_GF): the three shapes a
+// labelling's passes take, each reading what the one before wrote, out of place.
+enum class FramePass {
+  threshold,   // an 8-bit pixel read, compared, an int label written (its index, or -1)
+  neighbours,  // the pixel's label read; a foreground one's left and upper neighbours' too, their least written
+  relabel,     // a label read; a foreground one's followed to the label it points to, which is written
+};
+inline constexpr FramePass kFramePasses[] = {FramePass::threshold, FramePass::neighbours, FramePass::relabel};
+struct FramePassTiming {
+  std::vector<std::int64_t> pixels;            // [size]
+  std::vector<std::vector<double>> seconds[3];  // [pass][size][repetition]: one launch over the frame
+  std::int64_t mismatches = 0;                 // output pixels that differ from the host's, every pass and size
+};
+// Frames of `width` x rows[k] pixels (8-bit, bright dots of radius 5 px every 32 px on a dark
+// background, as a labelling's frames are), each pass launched as the DCT cuda backend launches its own (a thread a pixel,
+// `block` threads a block, the grid covering the frame); `reps` repetitions after `warmup`
+// launches, each the events around 5 launches queued behind an untimed one, divided by 5. Every
+// pass's output is compared with the host's over the whole frame. Throws std::invalid_argument for
+// a size or block no pass can take before anything is allocated.
+FramePassTiming time_frame_passes(int width, std::span<const int> rows, int block, int reps, int warmup);
+
 }  // namespace dtflop::probes::gpu

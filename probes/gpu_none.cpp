@@ -36,5 +36,6 @@ bool tma_available() { return false; }
 AtomicTiming time_atomics(std::span<const int>, int, int) { no_cuda(); }
 MlsTiming time_mls(const MlsDots&, const std::vector<MlsTable>&, int, int, int) { no_cuda(); }
 CentroidTiming time_centroids(const std::vector<CentroidFrame>&, int, int, int, int) { no_cuda(); }
+FramePassTiming time_frame_passes(int, std::span<const int>, int, int, int) { no_cuda(); }
 
 }  // namespace dtflop::probes::gpu

@@ -120,6 +120,8 @@ TEST(Calibration, ACalibrationFittedWithoutACodeRateLeavesTheTargetsProbeOfItOut
   // And for cpu-records' L_record: before it the records' pass rode on the matching's steps, so a
   // calibration without it is applied without the target's probe of it (no pass priced twice).
   left_out_then_carried(Param::L_record, 4e-9, 1.5);
+  // And for gpu-frame-pass's L_GF: before it the labelling's passes were their bytes in N_GG.
+  left_out_then_carried(Param::L_GF, 3e-12, 1.1);
   // And for cpu-pixel's kinds of step: a calibration fitted at one L_pixel a step is applied
   // without the target's L_label, L_hist and L_scan, so its pixel steps are priced as they were fitted.
   const Param kinds[] = {Param::L_label, Param::L_label_all, Param::L_hist,

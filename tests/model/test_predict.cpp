@@ -474,6 +474,43 @@ TEST(Predict, TheDevicesPixelClassificationAddsItsOwnTime) {
   EXPECT_FALSE(has(priced_params(probed, c, Variant::latency), Param::L_GP));
 }
 
+// lat_GF: the device's whole-frame passes (gpu_frame_pixels) at L_GF in the latency variants where
+// the profile has L_GF, their values (N_GG_frame) then out of dt_GG (the probe timed such passes,
+// traffic included); the seed, and a profile without L_GF, price all of N_GG by its bytes as before.
+TEST(Predict, TheDevicesWholeFramePassesArePricedByThePixel) {
+  auto m = test::round_profile();
+  m.erase(Param::B_L2);  // all of N_GG at B_GG
+  m.set(Param::L_GF, Parameter{3e-12, Provenance::probed, {}, {}, {}});
+  CostCounts c;
+  c.P = 4;
+  c.N_GG = 30'000'000;            // 120 MB, of which
+  c.N_GG_frame = 20'000'000;      // 80 MB move in the frame passes
+  c.gpu_frame_pixels = 60'000'000;  // 6 passes over 10 MP: 180 us at 3 ps a pixel
+  const double B = m.get(Param::B_GG).value;
+  for (Variant v : {Variant::latency, Variant::memory, Variant::extended}) {
+    const Prediction p = predict(m, c, v);
+    EXPECT_NEAR(p.lat_GF, 1.8e-4, 1e-15) << to_string(v);
+    EXPECT_NEAR(p.dt_GG, 4.0 * 10'000'000 / B, 1e-15) << to_string(v);  // the rest of the kernels' values
+    EXPECT_NEAR(phase_seconds(p, Phase::G), 1.8e-4 + 4e7 / B, 1e-15) << to_string(v);
+  }
+  const Prediction seed = predict(m, c, Variant::seed);
+  EXPECT_EQ(seed.lat_GF, 0.0);
+  EXPECT_NEAR(seed.dt_GG, 4.0 * 30'000'000 / B, 1e-15);
+  const auto has = [](const std::vector<Param>& r, Param p) { return std::find(r.begin(), r.end(), p) != r.end(); };
+  EXPECT_TRUE(has(required_params(c, Variant::latency, Pricing{.gpu_frame = true}), Param::L_GF));
+  EXPECT_FALSE(has(required_params(c, Variant::latency), Param::L_GF));
+  EXPECT_FALSE(has(required_params(c, Variant::seed, Pricing{.gpu_frame = true}), Param::L_GF));
+  auto before = m;  // a profile made before the gpu-frame-pass probe
+  before.erase(Param::L_GF);
+  EXPECT_EQ(predict(before, c, Variant::latency).lat_GF, 0.0);
+  EXPECT_NEAR(predict(before, c, Variant::latency).dt_GG, 4.0 * 30'000'000 / B, 1e-15);
+  EXPECT_FALSE(has(priced_params(before, c, Variant::latency), Param::L_GF));
+  // Every value a frame pass's: nothing else of N_GG to price, and no bandwidth needed for it.
+  c.N_GG = c.N_GG_frame;
+  EXPECT_EQ(predict(m, c, Variant::latency).dt_GG, 0.0);
+  EXPECT_FALSE(has(required_params(c, Variant::latency, Pricing{.gpu_frame = true}), Param::B_GG));
+}
+
 TEST(Predict, MlsFieldFlopsRunAtTheirOwnRateOnOneThreadOrAll) {
   auto m = test::round_profile();  // V_C1_fp64 and V_C_fp64 as the fixture sets them
   m.set(Param::V_CM, Parameter{2e9, Provenance::probed, {}, {}, {}});

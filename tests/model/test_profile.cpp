@@ -17,7 +17,7 @@ TEST(Params, EveryParameterHasUniqueNameAndKnownUnit) {
     EXPECT_EQ(info(i.id).name, i.name);
   }
   // The table covers every enumerator, first to last.
-  EXPECT_EQ(all_params().size(), static_cast<size_t>(Param::L_record) + 1);  // L_record is the last
+  EXPECT_EQ(all_params().size(), static_cast<size_t>(Param::L_GF) + 1);  // L_GF is the last
   EXPECT_FALSE(param_from_name("B_XY").has_value());
 }
 

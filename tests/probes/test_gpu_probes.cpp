@@ -326,6 +326,36 @@ TEST(GpuProbes, CentroidGivesAWindowPixelsShareOfTheBlocks) {
   EXPECT_THROW(gpu::time_centroids({f}, 2, 128, 1, 0), std::invalid_argument);
 }
 
+// gpu-frame-pass checks every pass's output against the host's itself; L_GF is a pixel's share of a
+// pass over a whole frame: above a clock cycle spread over the whole device (1e-13 s) and below one
+// thread's memory round trip (1e-9 s). A frame eight times larger takes longer, every pass.
+TEST(GpuProbes, FramePassGivesAPixelsShareOfAPassOverTheFrame) {
+  DTFLOP_REQUIRE_GPU();
+  ProbeOptions o;
+  o.effort = Effort::smoke;
+  const auto& all = all_probes();
+  const auto it = std::find_if(all.begin(), all.end(), [](const Probe& p) { return p.name == "gpu-frame-pass"; });
+  ASSERT_NE(it, all.end());
+  const ProbeReport r = it->run(o);
+  ASSERT_EQ(r.measurements.size(), 10u);  // three passes over the smoke plan's three frames, and the mean
+  const Measurement& m = r.measurements.back();
+  ASSERT_EQ(m.param, Param::L_GF);
+  EXPECT_GT(m.value, 1e-13);
+  EXPECT_LT(m.value, 1e-9);
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(r.measurements[3 * k].stats.n, 3u);  // the smoke plan's repetitions
+    // 0.25 MP against 2 MP: eight times the pixels.
+    EXPECT_GT(r.measurements[3 * k + 2].stats.median, r.measurements[3 * k].stats.median) << r.measurements[3 * k].key;
+  }
+  // The passes compute what the host does, to the pixel, on a frame whose rows wrap oddly.
+  const std::vector<int> rows = {3, 37};
+  EXPECT_EQ(gpu::time_frame_passes(1001, rows, 64, 1, 0).mismatches, 0);
+  // Sizes and blocks no pass can take are refused before the device is touched.
+  EXPECT_THROW(gpu::time_frame_passes(2048, std::vector<int>{}, 256, 1, 0), std::invalid_argument);
+  EXPECT_THROW(gpu::time_frame_passes(2048, std::vector<int>{1 << 20}, 256, 1, 0), std::invalid_argument);
+  EXPECT_THROW(gpu::time_frame_passes(2048, std::vector<int>{16}, 100, 1, 0), std::invalid_argument);
+}
+
 TEST(GpuProbes, EveryGpuProbeRunsAtSmokeEffort) {
   DTFLOP_REQUIRE_GPU();
   ProbeOptions o;

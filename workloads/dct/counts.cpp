@@ -218,21 +218,25 @@ CostCounts cuda_counts(const FrameShape& s, HostMemory frame_memory) {
     c.transfers_GC += k.count;
   }
   c.N_GC = bytes_GC / 4;
-  c.N_GG = roi_values + s.roi_pixels      // threshold + label init
-           + 5 * s.roi_pixels             // union
-           + 2 * s.foreground_pixels      // compress
-           + s.roi_pixels + nc            // roots to ids
-           + 2 * s.roi_pixels             // stats
+  // The whole-frame passes, a thread a pixel each: the threshold (labels' init), the unions, the
+  // compression, the roots' ids and, with components, the statistics; with Otsu's threshold the
+  // histogram before them. Their values, then the rest of the kernels'.
+  const int frame_passes = 4 + (nc > 0 ? 1 : 0) + (s.otsu ? 1 : 0);
+  c.gpu_frame_pixels = frame_passes * s.roi_pixels;
+  c.N_GG_frame = roi_values + s.roi_pixels      // threshold + label init
+                 + 5 * s.roi_pixels             // union
+                 + 2 * s.foreground_pixels      // compress
+                 + s.roi_pixels + nc            // roots to ids
+                 + (nc > 0 ? 2 * s.roi_pixels : 0)  // stats
+                 + (s.otsu ? roi_values : 0);   // the histogram reads the frame
+  c.N_GG = c.N_GG_frame + (s.otsu ? 256 : 0)   // Otsu's kernel reads the 256 bins once
            + cuda_centroid_stage_pixels(s) + s.ring_pixels + s.weighted_pixels  // centroids
            + 6 * s.dots                   // displacements
            + field_values(s);
   // Without components the statistics and centroid kernels (3 launches) and the records' wait
   // are left out (such a frame then fails its matching).
   c.launches = nc > 0 ? 9 : 6;
-  if (s.otsu) {
-    c.N_GG += roi_values + 256;  // the histogram reads the frame; Otsu's kernel reads the 256 bins once
-    c.launches += 2;
-  }
+  if (s.otsu) c.launches += 2;
   // The centroid kernel's classification: every window pixel of a kept dot, in its dot's block.
   c.gpu_pixel_steps = nc > 0 ? s.window_pixels : 0;
   // The host's pass over the records (kernels/component_records.hpp): each tallied, ordered by its

@@ -122,7 +122,7 @@ struct CudaLayout {
 //          copies_GC lists them by size
 //   N_GG = roi bytes / 4 + roi (threshold + label init: read pixel, write label)
 //          + 5 roi (union: own and 4 neighbour labels) + 2 fg (compress)
-//          + roi + components (roots to ids) + 2 roi (stats: label, root)
+//          + roi + components (roots to ids) + 2 roi (stats: label, root; none without components)
 //          + stage + ring + weighted (centroid: the labels of each window grown by the
 //          margin, staged once in shared memory, cuda_centroid_stage_pixels; a pixel of each
 //          ring and each weighted pixel)
@@ -133,6 +133,9 @@ struct CudaLayout {
 //          comparisons, not FLOPs). The cuda backend has no adaptive threshold (refused).
 //          The launch layout (CudaLayout) changes no count: every kernel covers its pixels,
 //          points or dots with any block size.
+//   gpu_frame_pixels = roi x the whole-frame passes, a thread a pixel each: init, union, compress,
+//          ids [+ stats with components] [+ histogram with Otsu];  N_GG_frame = their values in N_GG
+//          (all of the above up to the stats, and Otsu's histogram read)
 //   gpu_pixel_steps = window (the centroid kernel's classification: a window pixel a step, its
 //          neighbourhood read from the stage in both passes; 0 without components)
 //   launches = 9 (+2 with Otsu): init, union, compress, ids, stats-init, stats, centroid,

@@ -99,6 +99,12 @@ TEST(DctCounts, CudaMatchesFormulas) {
   EXPECT_EQ(c.N_GG, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + stage + 2'000'000 + 4'500'000 +
                         6 * 1600 + 5 * 2048 * 60 + 8 * 2048 + rv + 256);
   EXPECT_EQ(c.gpu_pixel_steps, 7'000'000);  // every window pixel classified in its dot's block
+  // Six passes over the region, a thread a pixel: histogram, init, union, compress, ids, stats; their
+  // values are the first rows of N_GG above and the histogram's read.
+  EXPECT_EQ(c.gpu_frame_pixels, 6 * roi);
+  EXPECT_EQ(c.N_GG_frame, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + rv);
+  EXPECT_EQ(cpu_counts(s, 1).gpu_frame_pixels, 0);
+  EXPECT_EQ(cpu_counts(s, 1).N_GG_frame, 0);
   EXPECT_EQ(cpu_counts(s, 1).gpu_pixel_steps, 0);
   EXPECT_EQ(c.N_G, cpu_counts(s, 1).N_C);  // the same arithmetic, in float32
   // One point's MLS chain, its thread's: 60 support dots at 341 FLOPs (the cubic spline) and the
@@ -127,6 +133,8 @@ TEST(DctCounts, CudaMatchesFormulas) {
   EXPECT_EQ(z.host_waits, 2);
   EXPECT_EQ(z.gpu_pixel_steps, 0);  // no centroid kernel, no classification
   EXPECT_EQ(z.record_steps, 0);
+  EXPECT_EQ(z.gpu_frame_pixels, 5 * roi);  // no statistics pass
+  EXPECT_EQ(c.N_GG_frame - z.N_GG_frame, 2 * roi + 1700);  // the statistics' reads, and one id fewer a component
   EXPECT_EQ(z.copies_GC, (std::vector<CopySize>{{8, 1}, {field * 2048, 1}}));
   s.otsu = false;
   s.interp = Interp::fe;
@@ -230,6 +238,8 @@ TEST(DctCounts, ThresholdMethodsArePriced) {
   const CostCounts g = cuda_counts(otsu, HostMemory::pinned), f = cuda_counts(fixed, HostMemory::pinned);
   EXPECT_EQ(g.launches - f.launches, 2);
   EXPECT_EQ(g.N_GG - f.N_GG, roi / 4 + 256);
+  EXPECT_EQ(g.gpu_frame_pixels - f.gpu_frame_pixels, roi);  // the histogram's pass
+  EXPECT_EQ(g.N_GG_frame - f.N_GG_frame, roi / 4);
   EXPECT_EQ(g.N_GC - f.N_GC, 1);
   EXPECT_EQ(g.transfers_GC, f.transfers_GC);
 }
