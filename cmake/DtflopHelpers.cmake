@@ -40,7 +40,7 @@ function(dtflop_library name)
   endif()
 endfunction()
 
-# dtflop_test(name SOURCES a.cpp ... DEPS lib... [GPU])
+# dtflop_test(name SOURCES a.cpp ... DEPS lib... [GPU] [SERIAL] [OPTIMISED | OPTIMISED_ONLY])
 # One line adds a GoogleTest executable, linked with our shared main (tests/support).
 # Tests are labelled `unit` or `gpu`; gpu tests skip themselves (GTEST_SKIP) without a device.
 # The tests' own sources are compiled at -O1 in an optimised build: what they test is compiled
@@ -55,12 +55,37 @@ endfunction()
 
 # SERIAL: the tests run with no other test beside them (ctest RUN_SERIAL), for tests that measure
 # every CPU of the machine at once (another test's load would be what they measure).
+# Which trees build a test (DTFLOP_TESTS, CMakeLists.txt; scripts/test.sh says why):
+#   a unit test                 all, sanitized
+#   OPTIMISED (a unit test)     all, sanitized, optimised: what it asserts in an optimised build
+#                               the sanitized tree does not (the calibration fits on the full
+#                               sample set: tests/calibrate/synthetic.hpp)
+#   OPTIMISED_ONLY (unit)       all, optimised: never run under the sanitizers (the main job end
+#                               to end)
+#   GPU                         all, optimised: the sanitized trees have no CUDA
+# A test a tree leaves out is still defined there, outside `all` and with no ctest tests, so that
+# a folder's add_dependencies() and target_*() lines need no condition (and it can be built by
+# name); ctest runs only what the tree builds.
 function(dtflop_test name)
-  cmake_parse_arguments(A "GPU;SERIAL" "" "SOURCES;DEPS" ${ARGN})
-  add_executable(${name} ${A_SOURCES})
+  cmake_parse_arguments(A "GPU;SERIAL;OPTIMISED;OPTIMISED_ONLY" "" "SOURCES;DEPS" ${ARGN})
+  if(A_GPU OR A_OPTIMISED_ONLY)
+    set(trees all optimised)
+  elseif(A_OPTIMISED)
+    set(trees all optimised sanitized)
+  else()
+    set(trees all sanitized)
+  endif()
+  if(DTFLOP_TESTS IN_LIST trees)
+    add_executable(${name} ${A_SOURCES})
+  else()
+    add_executable(${name} EXCLUDE_FROM_ALL ${A_SOURCES})
+  endif()
   target_link_libraries(${name} PRIVATE dtflop_test_main ${A_DEPS})
   dtflop_test_flags(${name})
   target_precompile_headers(${name} REUSE_FROM dtflop_test_pch)
+  if(NOT DTFLOP_TESTS IN_LIST trees)
+    return()
+  endif()
   if(A_GPU)
     set(label gpu)
   else()

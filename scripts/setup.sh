@@ -1,12 +1,17 @@
 #!/usr/bin/env bash
 # Installs what dtflop needs from Debian 12 packages (only what is missing) and builds it
 # (Release) into build/. Idempotent: run it again and it only rebuilds what changed.
-#   scripts/setup.sh [--sanitize] [--fuzz]
+#   scripts/setup.sh [--sanitize] [--fuzz] [--release-tests=all|optimised]
 #     --sanitize also builds build-asan/ (ASan + UBSan, host code: the unit tests) and installs
 #                what the test suite alone needs
 #     --fuzz     also builds the libFuzzer targets of fuzz/ (clang, ASan + UBSan): with
 #                --sanitize in build-asan/ itself, one clang build for both (scripts/test.sh passes
 #                both), alone in build-fuzz/
+#     --release-tests=optimised  build/ builds only the tests that need the optimised build (GPU,
+#                install, the main job end to end, the full-set calibration fits, the fuzz corpus
+#                replays: DTFLOP_TESTS=optimised, CMakeLists.txt), not the unit tests, which
+#                build-asan/ runs: scripts/test.sh on a machine without a GPU. The default, all,
+#                builds every test; either is passed each time, so the tree follows the last run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -22,9 +27,9 @@ packages=(cmake ninja-build g++ pkg-config libeigen3-dev libfmt-dev nlohmann-jso
 # every kind of report as a person would (tests/reports/); the main job does not need them.
 for arg in "$@"; do
   # The frame sources' peers (tests/sources/): Aravis's fake GigE Vision camera, GStreamer's
-  # videotestsrc and gst-inspect-1.0.
+  # videotestsrc and gst-inspect-1.0. LLVM's linker for the sanitized clang tree (below).
   if [ "$arg" = "--sanitize" ]; then
-    packages+=(chromium fonts-dejavu-core aravis-tools gstreamer1.0-plugins-base gstreamer1.0-tools)
+    packages+=(chromium fonts-dejavu-core aravis-tools gstreamer1.0-plugins-base gstreamer1.0-tools lld)
   fi
 done
 missing=()
@@ -45,21 +50,25 @@ else
   echo "setup: no nvcc at /usr/local/cuda: building CPU-only" >&2
 fi
 
-jobs=$(nproc)
-cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >&2
-cmake --build build -j "$jobs" >&2
-
 sanitize=0
 fuzz=0
+release_tests=all
 for arg in "$@"; do
   case "$arg" in
     --sanitize) sanitize=1 ;;
     --fuzz) fuzz=1 ;;
-    *) echo "setup: unknown option '$arg'; use --sanitize and/or --fuzz" >&2; exit 2 ;;
+    --release-tests=all|--release-tests=optimised) release_tests=${arg#--release-tests=} ;;
+    *) echo "setup: unknown option '$arg'; use --sanitize, --fuzz, --release-tests=all|optimised" >&2; exit 2 ;;
   esac
 done
 
-# Host code only in these: the CUDA backends are left out of the sanitized builds.
+jobs=$(nproc)
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DDTFLOP_TESTS="$release_tests" >&2
+cmake --build build -j "$jobs" >&2
+
+# Host code only in these: the CUDA backends are left out of the sanitized builds, and with them
+# the GPU tests; so is the main job end to end, which only the optimised build runs
+# (DTFLOP_TESTS=sanitized).
 if [ "$sanitize" = 1 ] && [ "$fuzz" = 1 ]; then
   # One clang build for the unit tests and the fuzz targets, at -O2 with line tables: on the
   # 2-core CI machine it builds in 9 minutes and runs the unit tests in 7.5 where gcc's Debug build
@@ -72,14 +81,17 @@ if [ "$sanitize" = 1 ] && [ "$fuzz" = 1 ]; then
   fi
   # Line tables are all a sanitizer's report needs (file and line of each frame), and full debug
   # information made every object half as large again and every link slower.
+  # LLVM's linker (lld): its 56 links took 30 CPU-seconds where GNU ld took 89 (the instrumented
+  # static libraries are large), about half a minute of the 2-core CI machine's build.
   cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang \
         -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -gline-tables-only -DNDEBUG" \
         -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -gline-tables-only -DNDEBUG" -DDTFLOP_SANITIZE=ON -DDTFLOP_FUZZ=ON \
-        -DDTFLOP_WITH_CUDA=OFF -DDTFLOP_BUILD_BENCHMARKS=OFF >&2
+        -DCMAKE_EXE_LINKER_FLAGS=-fuse-ld=lld -DDTFLOP_WITH_CUDA=OFF -DDTFLOP_BUILD_BENCHMARKS=OFF \
+        -DDTFLOP_TESTS=sanitized >&2
   cmake --build build-asan -j "$jobs" >&2
 elif [ "$sanitize" = 1 ]; then
   cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DDTFLOP_SANITIZE=ON \
-        -DDTFLOP_WITH_CUDA=OFF -DDTFLOP_BUILD_BENCHMARKS=OFF >&2
+        -DDTFLOP_WITH_CUDA=OFF -DDTFLOP_BUILD_BENCHMARKS=OFF -DDTFLOP_TESTS=sanitized >&2
   cmake --build build-asan -j "$jobs" >&2
 elif [ "$fuzz" = 1 ]; then
   # libFuzzer needs clang; everything is instrumented (fuzzer, ASan, UBSan). Only the fuzz targets
