@@ -40,7 +40,7 @@ function(dtflop_library name)
   endif()
 endfunction()
 
-# dtflop_test(name SOURCES a.cpp ... DEPS lib... [GPU] [SERIAL] [OPTIMISED | OPTIMISED_ONLY])
+# dtflop_test(name SOURCES a.cpp ... DEPS lib... [GPU] [SERIAL] [OPTIMISED | OPTIMISED_ONLY] [COST s])
 # One line adds a GoogleTest executable, linked with our shared main (tests/support).
 # Tests are labelled `unit` or `gpu`; gpu tests skip themselves (GTEST_SKIP) without a device.
 # The tests' own sources are compiled at -O1 in an optimised build: what they test is compiled
@@ -55,6 +55,9 @@ endfunction()
 
 # SERIAL: the tests run with no other test beside them (ctest RUN_SERIAL), for tests that measure
 # every CPU of the machine at once (another test's load would be what they measure).
+# COST: about how many seconds each of its tests runs (ctest COST), for a test far longer than the
+# others: ctest -j starts the costliest first, so that where it has no timings of its own yet (a
+# clean clone, CI) the long test runs beside the short ones, not after them.
 # Which trees build a test (DTFLOP_TESTS, CMakeLists.txt; scripts/test.sh says why):
 #   a unit test                 all, sanitized
 #   OPTIMISED (a unit test)     all, sanitized, optimised: what it asserts in an optimised build
@@ -67,7 +70,7 @@ endfunction()
 # a folder's add_dependencies() and target_*() lines need no condition (and it can be built by
 # name); ctest runs only what the tree builds.
 function(dtflop_test name)
-  cmake_parse_arguments(A "GPU;SERIAL;OPTIMISED;OPTIMISED_ONLY" "" "SOURCES;DEPS" ${ARGN})
+  cmake_parse_arguments(A "GPU;SERIAL;OPTIMISED;OPTIMISED_ONLY" "COST" "SOURCES;DEPS" ${ARGN})
   if(A_GPU OR A_OPTIMISED_ONLY)
     set(trees all optimised)
   elseif(A_OPTIMISED)
@@ -95,5 +98,9 @@ function(dtflop_test name)
   if(A_SERIAL)
     set(serial TRUE)
   endif()
-  gtest_discover_tests(${name} PROPERTIES LABELS ${label} RUN_SERIAL ${serial} DISCOVERY_TIMEOUT 60)
+  set(cost)
+  if(A_COST)
+    set(cost COST ${A_COST})
+  endif()
+  gtest_discover_tests(${name} PROPERTIES LABELS ${label} RUN_SERIAL ${serial} ${cost} DISCOVERY_TIMEOUT 60)
 endfunction()
