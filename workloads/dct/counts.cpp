@@ -131,12 +131,19 @@ std::int64_t field_flops(const FrameShape& s) {
 }
 
 namespace {
+// The device's field kernels, streamed values only, as on the CPU below: a value gathered by a
+// dot's or a triangle's index (a support dot's reference position and displacement; a recovery
+// triangle's dots, gradients and vertex displacements) comes from a table of a few thousand dots'
+// or triangles' size that the multiprocessors' L1 and the L2 hold, and is no device memory traffic.
+// Counted as traffic at the device's bandwidths, FE's 17 values a support entry priced its kernel
+// at 3-4 times what it took (the k_fe kernel ran 6-13 us for 36 000-97 000 entries on an H200, a
+// warp's chain of ceil(entries / 32) dependent gathers a point). MLS: per support entry its dot's
+// index (1); per point its position, radius, support range and field record (8). FE: per support
+// entry its triangle's index and coefficient (2); per point its triangle's 3 dots, 3 shape functions
+// and the field record (8).
 std::int64_t field_values(const FrameShape& s) {
-  // FE: per point its triangle, shape functions and vertex displacements (12) and the output
-  // (8); per support entry the triangle's index and coefficient, its three dots, six gradient
-  // coefficients and six displacements (17).
-  if (s.interp == Interp::fe) return 17 * s.support_entries + 12 * s.points + 8 * s.points;
-  return 5 * s.support_entries + 8 * s.points;
+  if (s.interp == Interp::fe) return 2 * s.support_entries + 14 * s.points;
+  return s.support_entries + 8 * s.points;
 }
 // The same on the CPU, streamed values only: a value gathered by a dot's or a triangle's index
 // (a support dot's reference position and displacement; a recovery triangle's dots, gradients and

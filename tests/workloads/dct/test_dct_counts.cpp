@@ -97,7 +97,7 @@ TEST(DctCounts, CudaMatchesFormulas) {
   const std::int64_t stage = 7'872'240;
   EXPECT_EQ(cuda_centroid_stage_pixels(s), stage);
   EXPECT_EQ(c.N_GG, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + stage + 2'000'000 + 4'500'000 +
-                        6 * 1600 + 5 * 2048 * 60 + 8 * 2048 + rv + 256);
+                        6 * 1600 + 2048 * 60 + 8 * 2048 + rv + 256);
   EXPECT_EQ(c.gpu_pixel_steps, 7'000'000);  // every window pixel classified in its dot's block
   // Six passes over the region, a thread a pixel: histogram, init, union, compress, ids, stats; their
   // values are the first rows of N_GG above and the histogram's read.
@@ -150,13 +150,13 @@ TEST(DctCounts, CudaMatchesFormulas) {
   EXPECT_EQ(f.host_memory, HostMemory::pageable);
   // On the CPU, FE streams a recovery triangle's index and coefficient per support entry and a
   // point's 3 triangle dots, 3 shape functions and 8 outputs; the triangles' dots, gradients and
-  // displacements are gathered from the caches. (On the device every value goes through global
-  // memory: 17 per entry, 20 per point, in N_GG.)
+  // displacements are gathered from the caches. On the device, the same: 2 values a support entry
+  // and 14 a point in N_GG.
   const CostCounts fc = cpu_counts(s, 1);
   EXPECT_EQ(fc.N_CC, (2LL * 20'000'000 + 13LL * 20'000'000 + 10LL * 7'000'000 + 6'500'000 +
                       8 * (2LL * 2048 * 90 + 14LL * 2048)) / 8);
   EXPECT_EQ(f.N_GG, rv + roi + 5 * roi + 2 * 3'000'000 + roi + 1700 + 2 * roi + stage + 2'000'000 + 4'500'000 +
-                        6 * 1600 + 17 * 2048 * 90 + 20 * 2048);
+                        6 * 1600 + 2 * 2048 * 90 + 14 * 2048);
   // 16-bit frames: twice the bytes uploaded.
   s.bytes_per_pixel = 2;
   EXPECT_EQ(cuda_counts(s, HostMemory::pinned).N_CG, 20'000'000 / 2 + 1600);
