@@ -117,6 +117,43 @@ TEST(CalibCupti, EveryGpuBackendsCountsMatchWhatCuptiSees) {
   EXPECT_GE(checked, 2);  // rbe's cuda-seed and cuda-resident at least
 }
 
+// The DCT cuda backend's uploads from pageable memory are timed by the host: the driver stages
+// them, and the host's time in the call (staging and DMA) is what dt_CG prices for pageable copies
+// and the transfer probe times; CUPTI's device-side records hold the staged chunks' DMA alone (on a
+// lent H200, 41-45 us in the call for a 530 KB region against 12 us on the device). Pinned uploads
+// only queue a copy: their CG is CUPTI's.
+TEST(CalibCupti, DctCudaPageableUploadsAreTheHostsTime) {
+  DTFLOP_REQUIRE_GPU();
+  const workload::Workload* dct = nullptr;
+  for (const workload::Workload* w : workload::all())
+    if (w->name() == "dct") dct = w;
+  ASSERT_NE(dct, nullptr);
+  const workload::Backend* cuda = nullptr;
+  for (const auto& b : dct->backends())
+    if (b->name() == "cuda") cuda = b.get();
+  ASSERT_NE(cuda, nullptr);
+  for (const std::string memory : {"pinned", "pageable"}) {
+    SCOPED_TRACE(memory);
+    const workload::Config config =
+        dct->validate({{"size", "1200x900"}, {"dots", 300}, {"points", "16x16"}, {"host-memory", memory}}, *cuda);
+    Protocol protocol;
+    protocol.settings = with_defaults(MeasureSettings{.repetitions = 3}, *dct, *cuda);
+    protocol.profiler = &profiler();
+    const Sample s = measure(*dct, *cuda, config, protocol, MachineIdentity{}, dct->key(*cuda, config), "test");
+    const auto* cg = s.find(Component::CG);
+    ASSERT_NE(cg, nullptr);
+    const double device = s.detail["device"]["to_device"].get<double>();
+    ASSERT_GT(device, 0);
+    if (memory == "pageable") {
+      EXPECT_NE(s.timing_note.find("CG: host clock around the phase"), std::string::npos) << s.timing_note;
+      EXPECT_GE(cg->median, device);  // the staging, and the DMA within the call
+    } else {
+      EXPECT_NE(s.timing_note.find("CG: CUPTI device-side durations"), std::string::npos) << s.timing_note;
+      EXPECT_DOUBLE_EQ(cg->median, device);
+    }
+  }
+}
+
 // cuda-resident's chunked split passes (a kernel taller, or wider, than any tile in shared
 // memory: the search-and-rescue team's stretched steps) launch the kernels and copy what its
 // counts declare.

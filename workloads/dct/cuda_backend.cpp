@@ -259,7 +259,9 @@ class CudaBackend final : public Backend {
     }
     const double t_host_match = host_now() - t2;
     ev_.record(6, stream_);
+    const double u0 = host_now();
     DTFLOP_CUDA(cudaMemcpyAsync(d_match_.ensure(nf), match_.data(), nf * sizeof(int), cudaMemcpyHostToDevice, stream_));
+    const double t_match_upload = host_now() - u0;
     ev_.record(7, stream_);
     launch_displacement(static_cast<int>(nf), d_ref_.get(), d_cx_now_, d_cy_now_, d_match_.get(), d_U_.ensure(nf),
                         d_valid_.ensure(nf), stream_);
@@ -297,6 +299,12 @@ class CudaBackend final : public Backend {
     out.seconds["host_records"] = f.host_seconds;
     out.seconds["host_match_table"] = t_host_match;
     out.seconds["host_fields"] = t4 - t3;
+    // The host's time in the two upload calls. From pageable memory a call returns once the driver
+    // has staged the bytes (the stream is idle before each: the frame's first copy, and the match
+    // table after the records' wait), so this is the copy as the model prices it and the probe
+    // times it, staging included; CUPTI's device-side records see only the staged chunks' DMA.
+    // From pinned memory a call only queues the copy (its time is CUPTI's then).
+    out.seconds["host_upload"] = f.upload_seconds + t_match_upload;
     // Device-side durations between events (copies and kernels apart).
     if (ev_.on) {
       out.seconds["device_upload"] = ev_.between(0, 1) + ev_.between(6, 7);
@@ -322,7 +330,8 @@ class CudaBackend final : public Backend {
     AnalysisStats stats;
     std::int64_t foreground = 0;
     bool pinned = false;
-    double host_seconds = 0;  // the host's loop over the components' records
+    double host_seconds = 0;    // the host's loop over the components' records
+    double upload_seconds = 0;  // the host's time in the region's upload call
   };
 
   template <class T>
@@ -353,12 +362,14 @@ class CudaBackend final : public Backend {
     // bytes unless the row is a power of two (on a lent H100, 686 x 680 8-bit: 332 us against
     // 51 us; 2574 x 2258: 1578 against 492 us; docs/PERFORMANCE.md).
     const std::size_t row = static_cast<std::size_t>(r.width) * sizeof(Pix);
+    const double u0 = host_now();
     if (row == image.step[0])
       DTFLOP_CUDA(cudaMemcpyAsync(d_img, image.ptr<Pix>(r.y), row * static_cast<std::size_t>(r.height),
                                   cudaMemcpyHostToDevice, stream_));
     else
       DTFLOP_CUDA(cudaMemcpy2DAsync(d_img, row, image.ptr<Pix>(r.y) + r.x, image.step[0], row, r.height,
                                     cudaMemcpyHostToDevice, stream_));
+    f.upload_seconds = host_now() - u0;
     ev_.record(1, stream_);
     int* L = d_labels_.ensure(static_cast<std::size_t>(n));
     const int dark = options().analysis.polarity == Polarity::dark_dots;

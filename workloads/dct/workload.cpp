@@ -139,20 +139,26 @@ class Run final : public wl::Run {
   wl::PhaseTimes repeat() override {
     wl::PhaseTimes t;
     const auto t0 = std::chrono::steady_clock::now();
-    double host = 0, kernels = 0;
+    double host = 0, kernels = 0, uploads = 0;
     for (std::int64_t i = 0; i < steps_; ++i) {
       // The last frame times its device stages (its seconds are the ones shown); the others run as
       // a deployment would, without the events (Backend::time_device_stages).
       pipe_->time_device_stages(i + 1 == steps_);
       last_ = pipe_->process(frame_);
-      if (kind_.needs_gpu) host += last_.seconds.at("host");
+      if (kind_.needs_gpu) {
+        host += last_.seconds.at("host");
+        uploads += last_.seconds.at("host_upload");
+      }
     }
     if (kind_.needs_gpu && steps_ > 0) kernels = last_.seconds.at("device_kernels") * static_cast<double>(steps_);
     t.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (kind_.needs_gpu) {
       // Copies and kernels are not bracketed from the host (they interleave on the stream): the
-      // protocol takes CG, GC and G from CUPTI; G_events (used where CUPTI is not) is the last
-      // frame's kernels between events, times the frames.
+      // protocol takes GC and G from CUPTI; G_events (used where CUPTI is not) is the last frame's
+      // kernels between events, times the frames. CG too for pinned frames; pageable uploads are
+      // the host's (its time in the upload calls, staging included: what dt_CG prices for them and
+      // the probe times; CUPTI's device-side records of a staged copy hold its DMA alone).
+      if (!opt_.pinned_frames) t.CG = uploads;
       // C is the host's own work (matching, the component records, the fields' conversion), of
       // which the counts price the matching's steps (match_steps, tree_steps; N_C = 0).
       t.C = host;
