@@ -156,4 +156,46 @@ class PointGrid {
   std::vector<std::uint32_t> index_;    // their indices in the set given
 };
 
+// Why a query of a matching pass found no point (none: it did).
+enum class MatchLoss : std::uint8_t { none = 0, nothing_near, ambiguous, claimed_by_other };
+
+// One pass of the DCT workload's matching over a grid of the frame's points (the workload's
+// Matcher and the cpu-match probe run this one source): each listed query q, at where[q], proposes
+// its nearest point within the grid's radius, unless a second point lies within `ambiguity` times
+// that distance (ambiguous); a point two queries propose goes to the nearer, and the other query is
+// lost (claimed_by_other). Query which[q]'s match goes to match[which[q]] (a point's index, or -1)
+// and its outcome to loss[which[q]]; owner[k] and owner_d[k] (one per point of the grid, -1 and 0
+// before the first pass) hold the query that has point k and its distance. One step a query.
+template <class P>
+void match_pass(const PointGrid& grid, const int* which, const P* where, std::size_t n, double ambiguity, int* match,
+                MatchLoss* loss, int* owner, double* owner_d) {
+  GridHit hit[2];
+  for (std::size_t q = 0; q < n; ++q) {
+    const int j = which[q];
+    const int found = grid.nearest_two(where[q].x, where[q].y, hit);
+    if (found == 0) {
+      loss[j] = MatchLoss::nothing_near;
+      continue;
+    }
+    const double d1 = std::sqrt(hit[0].d2);
+    if (found > 1 && std::sqrt(hit[1].d2) < ambiguity * d1) {
+      loss[j] = MatchLoss::ambiguous;
+      continue;
+    }
+    const int k = static_cast<int>(hit[0].index);
+    if (owner[k] >= 0) {
+      if (owner_d[k] <= d1) {
+        loss[j] = MatchLoss::claimed_by_other;
+        continue;
+      }
+      match[owner[k]] = -1;
+      loss[owner[k]] = MatchLoss::claimed_by_other;
+    }
+    owner[k] = j;
+    owner_d[k] = d1;
+    match[j] = k;
+    loss[j] = MatchLoss::none;
+  }
+}
+
 }  // namespace dtflop::kernels

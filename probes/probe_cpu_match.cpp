@@ -1,11 +1,12 @@
 // The host's grid matching (L_match): the cost of one step of the DCT workload's matching on one
-// thread, a point binned into a grid of cells or a query answered from it
-// (kernels/point_grid.hpp, the one source the workload runs). Measured as the matching does it:
-// the dots of a 64 x 64 pattern (a pitch of 20 px, each dot moved by up to 3 px, in raster order
-// as an analysis finds them) binned for a search radius of 0.4 pitches, then each dot of the
-// pattern moved again by up to 2 px asks for its nearest two within the radius. The time of a
-// repetition over its steps (one per dot binned, one per query) gives L_match: the median over
-// several placements of the thread (probes/placements.hpp), whose spread is the parameter's.
+// thread, a point binned into a grid of cells or a query answered from it with the matching's
+// checks (kernels/point_grid.hpp: PointGrid and match_pass, the one source the workload runs).
+// Measured as the matching does it: the dots of a 64 x 64 pattern (a pitch of 20 px, each dot
+// moved by up to 3 px, in raster order as an analysis finds them) binned for a search radius of
+// 0.4 pitches, each point's owner cleared, then each dot of the pattern moved again by up to 2 px
+// proposes its nearest within the radius (unambiguous, unclaimed). The time of a repetition over
+// its steps (one per dot binned, one per query) gives L_match: the median over several placements
+// of the thread (probes/placements.hpp), whose spread is the parameter's.
 #include <cstdint>
 #include <random>
 #include <vector>
@@ -49,24 +50,36 @@ ProbeReport run(const ProbeOptions& o) {
   // One placement: a warm-up pass, then the median of `reps` timed passes, a step each. Each pass
   // builds the grid afresh, as the matching does every frame.
   auto one_placement = [&] {
-    kernels::PointGrid grid;  // kept between one placement's passes, as the workload's Matcher keeps its own
+    // Kept between one placement's passes, as the workload's Matcher keeps its own.
+    kernels::PointGrid grid;
+    std::vector<int> which(static_cast<std::size_t>(n)), match, owner;
+    std::vector<kernels::MatchLoss> loss;
+    std::vector<double> owner_d;
+    for (std::size_t i = 0; i < which.size(); ++i) which[i] = static_cast<int>(i);
     return median_seconds_per_step(reps, steps, [&](bool warm_up) {
-      kernels::GridHit hit[2];
       grid.build(dots.data(), dots.size(), radius);
-      std::int64_t own = 0;
-      for (std::size_t i = 0; i < dots.size(); ++i)
-        own += grid.nearest_two(queries[i].x, queries[i].y, hit) == 1 && hit[0].index == static_cast<std::uint32_t>(i);
-      // Every query must find its own dot and no other: the grid was built and searched.
-      if (own != n && warm_up)
-        throw ValidationError(fmt::format("{} of {} grid searches found the dot they started from alone", own, n));
+      match.assign(dots.size(), -1);
+      loss.assign(dots.size(), kernels::MatchLoss::nothing_near);
+      owner.assign(dots.size(), -1);
+      owner_d.assign(dots.size(), 0);
+      kernels::match_pass(grid, which.data(), queries.data(), queries.size(), 1.5, match.data(), loss.data(),
+                          owner.data(), owner_d.data());
+      if (warm_up) {
+        // Every query must find its own dot, unambiguous: the grid was built and searched.
+        std::int64_t own = 0;
+        for (std::size_t i = 0; i < dots.size(); ++i)
+          own += match[i] == static_cast<int>(i) && loss[i] == kernels::MatchLoss::none;
+        if (own != n)
+          throw ValidationError(fmt::format("{} of {} grid matches found the dot they started from", own, n));
+      }
     });
   };
   const Placed at = on_placements(latency_placements(o.effort), one_placement);
   r.measurements.push_back(step_measurement(
       o, at, reps, "match", "one step of the grid matching (a dot binned or a query answered, one thread)",
       Param::L_match,
-      fmt::format("kernels/point_grid.hpp: {} dots of a {}x{} pattern binned and each queried for its nearest two "
-                  "within {} px, {} steps", n, kSide, kSide, radius, steps),
+      fmt::format("kernels/point_grid.hpp: {} dots of a {}x{} pattern binned and each matched (nearest within {} px, "
+                  "unambiguous, unclaimed), {} steps", n, kSide, kSide, radius, steps),
       "grid matching step"));
   return r;
 }

@@ -139,28 +139,9 @@ Matches Matcher::match(const std::vector<Vec2>& reference, const std::vector<Vec
   // One pass: each listed reference dot proposes its nearest deformed dot; conflicts go to
   // the nearer proposer and the other is lost (claimed).
   auto pass = [&](const std::vector<int>& which, const std::vector<Vec2>& where) {
-    kernels::GridHit hit[2];
-    for (std::size_t q = 0; q < which.size(); ++q) {
-      const int j = which[q];
-      const int found = grid_.nearest_two(where[q].x, where[q].y, hit);
-      ++m.match_steps;
-      if (found == 0) { m.lost_reason[j] = LostReason::nothing_near; continue; }
-      const double d1 = std::sqrt(hit[0].d2);
-      if (found > 1 && std::sqrt(hit[1].d2) < o.ambiguity * d1) {
-        m.lost_reason[j] = LostReason::ambiguous;
-        continue;
-      }
-      const int k = static_cast<int>(hit[0].index);
-      if (owner[k] >= 0) {
-        if (owner_d[k] <= d1) { m.lost_reason[j] = LostReason::claimed_by_other; continue; }
-        m.ref_to_def[owner[k]] = -1;
-        m.lost_reason[owner[k]] = LostReason::claimed_by_other;
-      }
-      owner[k] = j;
-      owner_d[k] = d1;
-      m.ref_to_def[j] = k;
-      m.lost_reason[j] = LostReason::none;
-    }
+    kernels::match_pass(grid_, which.data(), where.data(), which.size(), o.ambiguity, m.ref_to_def.data(),
+                        m.lost_reason.data(), owner.data(), owner_d.data());
+    m.match_steps += static_cast<std::int64_t>(which.size());
   };
   which_.resize(n);
   where_.resize(n);

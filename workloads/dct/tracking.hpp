@@ -45,7 +45,7 @@ struct MatchOptions {
   int refine_neighbours = 6;  // second pass: predict lost dots from this many matched neighbours
 };
 
-enum class LostReason : std::uint8_t { none = 0, nothing_near, ambiguous, claimed_by_other };
+using LostReason = kernels::MatchLoss;  // none, nothing_near, ambiguous, claimed_by_other
 
 struct Matches {
   std::vector<int> ref_to_def;          // per reference dot: deformed index, or -1
