@@ -150,16 +150,24 @@ void threshold_into(const cv::Mat& image, const AnalysisOptions& o, AnalysisBuff
 
 namespace {
 
-// Restores OpenCV's thread count on scope exit.
+// Sets OpenCV's thread count for a frame and restores it on scope exit; where it already is the
+// frame's, neither. cv::setNumThreads rebuilds OpenCV's thread pool (a TBB arena in Debian's
+// build) even for the count it has: on a lent H200's 16-thread host that was 112 us of a 0.36 MP
+// cpu-par frame's 961 us analysis, twice a frame, work the cpu-pixel probe (which sets the count
+// once) does not do (docs/PERFORMANCE.md).
 class ThreadScope {
  public:
-  explicit ThreadScope(int n) : old_(cv::getNumThreads()) { cv::setNumThreads(n); }
-  ~ThreadScope() { cv::setNumThreads(old_); }
+  explicit ThreadScope(int n) : old_(cv::getNumThreads()), n_(n) {
+    if (n_ != old_) cv::setNumThreads(n_);
+  }
+  ~ThreadScope() {
+    if (n_ != old_) cv::setNumThreads(old_);
+  }
   ThreadScope(const ThreadScope&) = delete;
   ThreadScope& operator=(const ThreadScope&) = delete;
 
  private:
-  int old_;
+  int old_, n_;
 };
 
 std::mutex opencv_threads_mutex;  // cv::setNumThreads is process-wide
