@@ -138,9 +138,10 @@ namespace {
 // Counted as traffic at the device's bandwidths, FE's 17 values a support entry priced its kernel
 // at 3-4 times what it took (the k_fe kernel ran 6-13 us for 36 000-97 000 entries on an H200, a
 // warp's chain of ceil(entries / 32) dependent gathers a point). MLS: per support entry its dot's
-// index (1); per point its position, radius, support range and field record (8). FE: per support
-// entry its triangle's index and coefficient (2); per point its triangle's 3 dots, 3 shape functions
-// and the field record (8).
+// index (1); FE: its triangle's index and coefficient (2). Per point the figures the fields were
+// counted with before (MLS 8, FE 14: a point's inputs and its field record, which on the device is
+// 7 values and, with a double position and its support range, comes nearer 15); that difference is
+// a few KB a frame, beside the megabytes of a frame's passes, and is left as it was.
 std::int64_t field_values(const FrameShape& s) {
   if (s.interp == Interp::fe) return 2 * s.support_entries + 14 * s.points;
   return s.support_entries + 8 * s.points;

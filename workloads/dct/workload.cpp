@@ -156,9 +156,11 @@ class Run final : public wl::Run {
       // Copies and kernels are not bracketed from the host (they interleave on the stream): the
       // protocol takes GC and G from CUPTI; G_events (used where CUPTI is not) is the last frame's
       // kernels between events, times the frames. CG too for pinned frames; pageable uploads are
-      // the host's (its time in the upload calls, staging included: what dt_CG prices for them and
-      // the probe times; CUPTI's device-side records of a staged copy hold its DMA alone).
-      if (!opt_.pinned_frames) t.CG = uploads;
+      // the host's (its time in the upload calls: the driver's staging and the DMA of every chunk
+      // but the last, which may finish after the call returns; CUPTI's device-side records of a
+      // staged copy hold its DMA alone, and dt_CG prices the whole staged copy, as the probe times
+      // it). The frame's own counts say which kind of memory it came from.
+      if (last_.counts.host_memory == HostMemory::pageable) t.CG = uploads;
       // C is the host's own work (matching, the component records, the fields' conversion), of
       // which the counts price the matching's steps (match_steps, tree_steps; N_C = 0).
       t.C = host;
