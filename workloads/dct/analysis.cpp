@@ -172,6 +172,16 @@ class ThreadScope {
 
 std::mutex opencv_threads_mutex;  // cv::setNumThreads is process-wide
 
+}  // namespace
+
+void with_opencv_threads(int threads, const std::function<void()>& work) {
+  std::unique_lock lock(opencv_threads_mutex);
+  ThreadScope scope(std::max(1, threads));
+  work();
+}
+
+namespace {
+
 template <class Img>
 void centroid_of(const cv::Mat& img, const cv::Mat& labels, cv::Rect roi, int id, cv::Rect box, bool dark,
                  int margin, DotObservation& out, DotRejection& why, AnalysisStats& st, std::int64_t& first) {

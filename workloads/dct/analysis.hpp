@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -97,6 +98,12 @@ AnalysisResult analyze(const cv::Mat& image, const AnalysisOptions& o, int threa
                        AnalysisBuffers* buffers = nullptr);
 
 // The binary mask (255 = dot pixel) and the threshold used, for inspection and tests.
+// Runs `work` with OpenCV's thread count (process-wide) at `threads`, under the lock the analysis
+// holds for it, and restores the count after; the count is set only where it differs (setting it
+// rebuilds OpenCV's thread pool). The fields' parallel loops run in it, so that cpu-par with
+// --threads k below the CPUs there are runs them on the k threads its counts price.
+void with_opencv_threads(int threads, const std::function<void()>& work);
+
 cv::Mat threshold_image(const cv::Mat& image, const AnalysisOptions& o, double* used = nullptr);
 // The same into `b.mask` (b.wide holds a 16-bit frame's 8-bit copy for the adaptive threshold);
 // Otsu's histogram, and a 16-bit frame's comparison, in a stripe of rows a thread on `threads`

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "model/errors.hpp"
+#include "workloads/dct/analysis.hpp"
 #include "workloads/dct/tracking.hpp"
 
 namespace dtflop::dct {
@@ -181,7 +182,8 @@ std::vector<FieldValue<double>> evaluate_mls(const MlsTable& t, const std::vecto
   const kernels::MlsSettings settings{o.weight, o.min_dots, o.min_pivot_ratio};
   // The loop the cpu-mls probe times (kernels/point_fields.hpp).
   auto work = [&](const cv::Range& r) { kernels::mls_fields(supports, dots, settings, r.start, r.end, out.data()); };
-  if (threads > 1) cv::parallel_for_(cv::Range(0, static_cast<int>(n)), work);
+  if (threads > 1)
+    with_opencv_threads(threads, [&] { cv::parallel_for_(cv::Range(0, static_cast<int>(n)), work); });
   else work(cv::Range(0, static_cast<int>(n)));
   return out;
 }
@@ -414,7 +416,8 @@ std::vector<FieldValue<double>> evaluate_fe(const FeTable& t, const std::vector<
       f = fp.field();
     }
   };
-  if (threads > 1) cv::parallel_for_(cv::Range(0, static_cast<int>(n)), work);
+  if (threads > 1)
+    with_opencv_threads(threads, [&] { cv::parallel_for_(cv::Range(0, static_cast<int>(n)), work); });
   else work(cv::Range(0, static_cast<int>(n)));
   return out;
 }

@@ -379,3 +379,20 @@ TEST(DctRecords, OrderRecordsTalliesEveryRecordAndHandsOnTheKeptInRootOrder) {
 
 }  // namespace
 }  // namespace dtflop::dct
+
+// The fields' parallel loops run with OpenCV's thread count at the backend's (cpu-par --threads
+// k), set only where it differs, and the count the process had is back after.
+TEST(DctThreads, WorkRunsWithTheGivenOpenCvThreadCountAndTheCountIsRestored) {
+  const int before = cv::getNumThreads();
+  int inside = -1;
+  dtflop::dct::with_opencv_threads(1, [&] { inside = cv::getNumThreads(); });
+  EXPECT_EQ(inside, 1);
+  EXPECT_EQ(cv::getNumThreads(), before);
+  dtflop::dct::with_opencv_threads(before, [&] { inside = cv::getNumThreads(); });
+  EXPECT_EQ(inside, before);
+  EXPECT_EQ(cv::getNumThreads(), before);
+  // A count below one runs on one thread, as the analysis does.
+  dtflop::dct::with_opencv_threads(0, [&] { inside = cv::getNumThreads(); });
+  EXPECT_EQ(inside, 1);
+  EXPECT_EQ(cv::getNumThreads(), before);
+}
