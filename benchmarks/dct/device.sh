@@ -9,7 +9,7 @@
 # held-out set (random:50, the default seed: none of its configurations is in the training set);
 # then calibrate and validate per host memory kind of the frames (a pageable upload is another
 # bandwidth). The seed plans' frames are pinned, so the pageable fit has only the random plan's
-# frames: 30 of them (random:60, about half pageable; random:30 gave 15, too few for a 5-fold
+# frames: random:60 gave 32 on 2026-11-29 (random:30 gave 15, too few for a 5-fold
 # cross-validation of 13 parameters). Each sweep is resumable and bounded in time; what was
 # measured lands in $OUT/dct/.
 set -uo pipefail

@@ -125,14 +125,8 @@ TEST(CalibCupti, EveryGpuBackendsCountsMatchWhatCuptiSees) {
 // only queue a copy: their CG is CUPTI's.
 TEST(CalibCupti, DctCudaPageableUploadsAreTheHostsTime) {
   DTFLOP_REQUIRE_GPU();
-  const workload::Workload* dct = nullptr;
-  for (const workload::Workload* w : workload::all())
-    if (w->name() == "dct") dct = w;
-  ASSERT_NE(dct, nullptr);
-  const workload::Backend* cuda = nullptr;
-  for (const auto& b : dct->backends())
-    if (b->name() == "cuda") cuda = b.get();
-  ASSERT_NE(cuda, nullptr);
+  const workload::Workload* dct = &workload::find("dct");
+  const workload::Backend* cuda = &dct->backend("cuda");
   for (const std::string memory : {"pinned", "pageable"}) {
     SCOPED_TRACE(memory);
     const workload::Config config =
@@ -160,14 +154,8 @@ TEST(CalibCupti, DctCudaPageableUploadsAreTheHostsTime) {
 // counts declare.
 TEST(CalibCupti, CudaResidentChunkedPassesMatchWhatCuptiSees) {
   DTFLOP_REQUIRE_GPU();
-  const workload::Workload* rbe = nullptr;
-  for (const workload::Workload* w : workload::all())
-    if (w->name() == "rbe") rbe = w;
-  ASSERT_NE(rbe, nullptr);
-  const workload::Backend* resident = nullptr;
-  for (const auto& b : rbe->backends())
-    if (b->name() == "cuda-resident") resident = b.get();
-  ASSERT_NE(resident, nullptr);
+  const workload::Workload* rbe = &workload::find("rbe");
+  const workload::Backend* resident = &rbe->backend("cuda-resident");
   // The default layout with a 1499-row kernel (the y-pass in 3 chunks); layout 1024x1x1 with an
   // 801 x 301 kernel (x-pass in 3 chunks, y-pass in 13).
   check_backend(*rbe, *resident, {{"grid", {200, 1500}}, {"kernel", {9, 1499}}});
